@@ -1,0 +1,100 @@
+"""Project-wide test set-up: the GPU adapter check and numpy seeding.
+
+GPU tests
+---------
+The adapter is requested once, when this file is imported. A test module that
+needs the GPU declares it with one module-level line::
+
+    pytestmark = pytest.mark.gpu
+
+(a single test can carry ``@pytest.mark.gpu`` instead; any test that uses the
+session fixture ``device`` gets the marker automatically). Then:
+
+- no adapter, locally: every ``gpu`` test of the module is skipped with
+  "no Vulkan adapter: apt-get install mesa-vulkan-drivers"; the decision is
+  taken once per session, so a module skips as a whole;
+- ``WGBRAGG_EXPECT_LAVAPIPE=1`` (CI): a missing adapter, or one whose name
+  lacks "llvmpipe", makes every ``gpu`` test fail in set-up. They never skip,
+  so a CI image without lavapipe cannot pass silently.
+
+Tests without the marker (pure numpy) run everywhere.
+
+Seeding
+-------
+``np.random.seed(0)`` runs before every test, so tests using the legacy global
+generator are reproducible one by one and in any order.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+
+import numpy as np
+import pytest
+
+# Mesa's window-system probing complains loudly without it; any private dir will do.
+if not os.environ.get("XDG_RUNTIME_DIR"):
+    os.environ["XDG_RUNTIME_DIR"] = tempfile.mkdtemp(prefix="xdg-")
+
+from wgbragg import gpu
+
+NO_ADAPTER = "no Vulkan adapter: apt-get install mesa-vulkan-drivers"
+EXPECT_LAVAPIPE = os.environ.get("WGBRAGG_EXPECT_LAVAPIPE") == "1"
+
+try:
+    gpu.get_device()
+    GPU_INFO: dict | None = gpu.adapter_info()
+    GPU_ERROR: str | None = None
+except Exception as exc:
+    GPU_INFO = None
+    GPU_ERROR = f"{type(exc).__name__}: {exc}"
+
+
+def gpu_problem() -> tuple[str, str] | None:
+    """What to do with ``gpu`` tests: None (run), ("skip", reason) or ("fail", reason)."""
+    if EXPECT_LAVAPIPE:
+        if GPU_INFO is None:
+            return "fail", f"WGBRAGG_EXPECT_LAVAPIPE=1 but {NO_ADAPTER} ({GPU_ERROR})"
+        if not GPU_INFO["is_lavapipe"]:
+            return "fail", f"WGBRAGG_EXPECT_LAVAPIPE=1 but the adapter is {GPU_INFO['name']!r}"
+        return None
+    if GPU_INFO is None:
+        return "skip", f"{NO_ADAPTER} ({GPU_ERROR})"
+    return None
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line("markers", "gpu: needs a wgpu adapter (see tests/conftest.py)")
+
+
+def pytest_report_header(config: pytest.Config) -> str:
+    if GPU_INFO is None:
+        return f"wgbragg adapter: none ({GPU_ERROR})"
+    return f"wgbragg adapter: {GPU_INFO['name']} [{GPU_INFO['backend']}]"
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    problem = gpu_problem()
+    for item in items:
+        if "device" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.gpu)
+        if problem is not None and problem[0] == "skip" and item.get_closest_marker("gpu"):
+            item.add_marker(pytest.mark.skip(reason=problem[1]))
+
+
+def pytest_runtest_setup(item: pytest.Item) -> None:
+    problem = gpu_problem()
+    if problem is not None and problem[0] == "fail" and item.get_closest_marker("gpu"):
+        pytest.fail(problem[1], pytrace=False)
+
+
+@pytest.fixture(scope="session")
+def device():
+    """The process-wide wgpu device (``gpu.get_device()``); implies the ``gpu`` marker."""
+    return gpu.get_device()
+
+
+@pytest.fixture(autouse=True)
+def _seed_numpy() -> None:
+    np.random.seed(0)

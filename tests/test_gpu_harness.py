@@ -1,0 +1,309 @@
+"""Tests of wgbragg.gpu: shader composition, pipelines, dispatch, layouts, timing.
+
+Toy kernels live in ``wgsl/test_kernels/``; include cycles and convention
+violations are built in a temporary shader folder instead, so that no more
+broken files ship than the one compile-error example.
+"""
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from wgbragg import gpu
+
+pytestmark = pytest.mark.gpu
+
+# One more row of workgroups than a 1D dispatch can hold, plus a ragged tail.
+N_2D = 65535 * 64 + 1234
+
+PARAMS_FIELDS = [
+    ("a", "f32"),
+    ("v3", "vec3<f32>"),
+    ("k", "u32"),
+    ("v2", "vec2<f32>"),
+    ("i", "i32"),
+]
+# WGSL uniform layout of PARAMS_FIELDS: vec3 aligns to 16 but is 12 bytes, so
+# the u32 fits into its last 4; vec2 aligns to 8; the size rounds up to 16.
+PARAMS_OFFSETS = {"a": 0, "v3": 16, "k": 28, "v2": 32, "i": 40}
+PARAMS_ITEMSIZE = 48
+
+
+def saxpy_params(a: float) -> np.ndarray:
+    params = np.zeros((), gpu.struct_dtype([("a", "f32")]))
+    params["a"] = a
+    return params
+
+
+@pytest.fixture
+def tmp_shaders(tmp_path, monkeypatch):
+    """A private shader folder holding a copy of harness.wgsl."""
+    shutil.copy(gpu.shader_dir() / "harness.wgsl", tmp_path / "harness.wgsl")
+    monkeypatch.setattr(gpu, "shader_dir", lambda: tmp_path)
+    return tmp_path
+
+
+# ------------------------------------------------------------------ shader loading
+
+
+@pytest.mark.parametrize("name", ["harness.wgsl", "test_kernels/saxpy.wgsl"])
+def test_shader_dir_holds_shaders(name):
+    assert (gpu.shader_dir() / name).is_file()
+
+
+def test_load_shader_inlines_includes_and_maps_lines():
+    source = gpu.load_shader("test_kernels/saxpy.wgsl")
+    lines = source.code.splitlines()
+    assert len(lines) == len(source.line_map)
+    assert "//! include" not in source.code
+    harness = (gpu.shader_dir() / "harness.wgsl").read_text().splitlines()
+    composed = next(i for i, t in enumerate(lines) if t.startswith("fn global_index"))
+    original = next(i for i, t in enumerate(harness) if t.startswith("fn global_index"))
+    assert source.line_map[composed] == ("harness.wgsl", original + 1)
+    saxpy = (gpu.shader_dir() / "test_kernels/saxpy.wgsl").read_text().splitlines()
+    composed = next(i for i, t in enumerate(lines) if t.startswith("fn main"))
+    original = next(i for i, t in enumerate(saxpy) if t.startswith("fn main"))
+    assert source.line_map[composed] == ("test_kernels/saxpy.wgsl", original + 1)
+
+
+def test_include_once(tmp_shaders):
+    (tmp_shaders / "b.wgsl").write_text("const B: f32 = 1.0;\n")
+    (tmp_shaders / "c.wgsl").write_text('//! include "b.wgsl"\nconst C: f32 = B;\n')
+    (tmp_shaders / "a.wgsl").write_text('//! include "b.wgsl"\n//! include "c.wgsl"\n')
+    code = gpu.load_shader("a.wgsl").code
+    assert code.count("const B") == 1
+    assert code.index("const B") < code.index("const C")
+
+
+def test_include_cycle_is_an_error(tmp_shaders):
+    (tmp_shaders / "a.wgsl").write_text('// a\n//! include "b.wgsl"\n')
+    (tmp_shaders / "b.wgsl").write_text('//! include "a.wgsl"\n')
+    with pytest.raises(gpu.ShaderCompileError, match=r"include cycle: a\.wgsl -> b\.wgsl -> a"):
+        gpu.load_shader("a.wgsl")
+
+
+def test_missing_include_names_including_file_and_line(tmp_shaders):
+    (tmp_shaders / "a.wgsl").write_text('//! include "b.wgsl"\n')
+    (tmp_shaders / "b.wgsl").write_text('// b\n\n//! include "nowhere.wgsl"\n')
+    with pytest.raises(gpu.ShaderCompileError) as info:
+        gpu.load_shader("a.wgsl")
+    assert str(info.value).startswith("b.wgsl:3: ")
+    assert "nowhere.wgsl" in str(info.value)
+
+
+def test_missing_shader_is_file_not_found():
+    with pytest.raises(FileNotFoundError):
+        gpu.load_shader("no_such_kernel.wgsl")
+
+
+def test_reloads_when_a_file_changes(tmp_shaders):
+    path = tmp_shaders / "a.wgsl"
+    path.write_text("const A: f32 = 1.0;\n")
+    assert "1.0" in gpu.load_shader("a.wgsl").code
+    path.write_text("const A: f32 = 2.0;\n")
+    os.utime(path, ns=(path.stat().st_atime_ns, path.stat().st_mtime_ns + 10**9))
+    assert "2.0" in gpu.load_shader("a.wgsl").code
+
+
+# ------------------------------------------------------------------ compile errors
+
+
+def test_compile_error_names_included_file_and_line():
+    with pytest.raises(gpu.ShaderCompileError) as info:
+        gpu.compute_pipeline("test_kernels/broken.wgsl")
+    error = info.value
+    assert str(error).startswith("test_kernels/broken_helper.wgsl:5: ")
+    assert (error.file, error.line) == ("test_kernels/broken_helper.wgsl", 5)
+    assert "f32" in error.detail
+
+
+def test_binding_order_is_checked(tmp_shaders):
+    (tmp_shaders / "bad.wgsl").write_text(
+        '//! include "harness.wgsl"\n'
+        "@group(0) @binding(0) var<storage, read_write> out: array<f32>;\n"
+        "@group(0) @binding(1) var<storage, read> x: array<f32>;\n"
+        "@compute @workgroup_size(WORKGROUP_SIZE) fn main() { out[0] = x[0]; }\n"
+    )
+    with pytest.raises(gpu.ShaderCompileError, match="binding convention"):
+        gpu.compute_pipeline("bad.wgsl")
+
+
+def test_unknown_constant_is_rejected():
+    with pytest.raises(ValueError, match="SCALLE"):
+        gpu.compute_pipeline("test_kernels/override_scale.wgsl", constants={"SCALLE": 2.0})
+
+
+# ------------------------------------------------------------------ dispatch
+
+
+def test_saxpy_matches_numpy_beyond_one_dispatch_row():
+    # Integers times 2.5 are exact in float32, so fused multiply-add cannot differ;
+    # y >= 1 keeps every expected value nonzero, so an unwritten element shows.
+    x = np.random.randint(0, 1000, N_2D).astype(np.float32)
+    y = np.random.randint(1, 1000, N_2D).astype(np.float32)
+    kernel = gpu.compute_pipeline("test_kernels/saxpy.wgsl")
+    assert kernel.workgroup_size * 65535 < N_2D
+    (out,) = kernel.run([x, y], [(N_2D, np.float32)], saxpy_params(2.5))
+    assert out.shape == (N_2D,) and out.dtype == np.float32
+    np.testing.assert_array_equal(out, 2.5 * x + y)
+    np.testing.assert_array_equal(out[-1500:], 2.5 * x[-1500:] + y[-1500:])
+
+
+def test_override_constants_change_the_result():
+    x = np.random.standard_normal(1000).astype(np.float32)
+    results = {
+        scale: gpu.compute_pipeline(
+            "test_kernels/override_scale.wgsl", constants={"SCALE": scale}
+        ).run([x], [(x.size, np.float32)])[0]
+        for scale in (2.0, 3.0)
+    }
+    np.testing.assert_array_equal(results[2.0], np.float32(2.0) * x)
+    np.testing.assert_array_equal(results[3.0], np.float32(3.0) * x)
+
+
+def test_workgroup_size_constant_is_honoured():
+    x = np.arange(1000, dtype=np.float32)
+    kernel = gpu.compute_pipeline(
+        "test_kernels/override_scale.wgsl", constants={"WORKGROUP_SIZE": 256, "SCALE": 1.0}
+    )
+    assert kernel.workgroup_size == 256
+    np.testing.assert_array_equal(kernel.run([x], [(x.size, np.float32)])[0], x)
+
+
+def test_pipeline_cache_reuses_compiled_pipelines():
+    name = "test_kernels/override_scale.wgsl"
+    first = gpu.compute_pipeline(name, constants={"SCALE": 5.0})
+    before = gpu.pipeline_cache_info()
+    again = gpu.compute_pipeline(name, constants={"SCALE": 5.0})
+    # Naming the default WORKGROUP_SIZE explicitly is the same pipeline.
+    explicit = gpu.compute_pipeline(name, "main", {"WORKGROUP_SIZE": 64, "SCALE": 5.0})
+    after = gpu.pipeline_cache_info()
+    assert again is first and explicit is first
+    assert after["hits"] == before["hits"] + 2
+    assert after["misses"] == before["misses"]
+    assert after["size"] == before["size"]
+    other = gpu.compute_pipeline(name, constants={"SCALE": 6.0})
+    assert other is not first
+    assert gpu.pipeline_cache_info()["misses"] == before["misses"] + 1
+
+
+def test_zero_count_returns_empty_without_dispatch():
+    kernel = gpu.compute_pipeline("test_kernels/override_scale.wgsl")
+    empty = np.zeros(0, np.float32)
+    (out,) = kernel.run([empty], [(0, np.float32)])
+    assert out.shape == (0,) and out.dtype == np.float32
+    (out,), seconds = kernel.run([empty], [((0, 4), np.float32)], timestamps=True)
+    assert out.shape == (0, 4) and seconds == 0.0
+
+
+def test_bad_arguments_are_rejected():
+    kernel = gpu.compute_pipeline("test_kernels/saxpy.wgsl")
+    x = np.ones(8, np.float32)
+    with pytest.raises(ValueError, match="2 inputs, 1 outputs, params=True"):
+        kernel.run([x], [(8, np.float32)], saxpy_params(1.0))
+    with pytest.raises(TypeError, match="float64"):
+        kernel.run([x, np.ones(8)], [(8, np.float32)], saxpy_params(1.0))
+
+
+# ------------------------------------------------------------------ layouts
+
+
+def test_struct_dtype_follows_wgsl_uniform_layout():
+    dtype = gpu.struct_dtype(PARAMS_FIELDS)
+    assert dtype.itemsize == PARAMS_ITEMSIZE
+    assert {name: dtype.fields[name][1] for name in dtype.names} == PARAMS_OFFSETS
+    assert dtype["v3"].shape == (3,) and dtype["v2"].shape == (2,)
+    assert gpu.struct_dtype([("a", "f32")]).itemsize == 16
+    layout = gpu.struct_dtype([("a", "f32"), ("b", "vec4<f32>"), ("c", "vec3f"), ("d", "f32")])
+    assert [layout.fields[n][1] for n in "abcd"] == [0, 16, 32, 44]
+    assert layout.itemsize == 48
+    with pytest.raises(ValueError, match="f64"):
+        gpu.struct_dtype([("x", "f64")])
+
+
+def test_uniform_fields_round_trip_exactly():
+    params = np.zeros((), gpu.struct_dtype(PARAMS_FIELDS))
+    params["a"] = np.float32(np.pi)
+    params["v3"] = np.random.standard_normal(3)
+    params["k"] = 0xDEADBEEF
+    params["v2"] = np.random.standard_normal(2)
+    params["i"] = -7
+    kernel = gpu.compute_pipeline("test_kernels/params_layout.wgsl")
+    (out,) = kernel.run([], [(8, np.uint32)], params, count=1)
+    expected = np.concatenate(
+        [
+            params["a"].reshape(1).view(np.uint32),
+            params["v3"].view(np.uint32),
+            params["k"].reshape(1),
+            params["v2"].view(np.uint32),
+            params["i"].reshape(1).view(np.uint32),
+        ]
+    )
+    np.testing.assert_array_equal(out, expected)
+
+
+# ------------------------------------------------------------------ timing
+
+
+def test_timestamps_and_benchmark_are_positive_and_finite():
+    n = 1 << 20
+    x = np.ones(n, np.float32)
+    kernel = gpu.compute_pipeline("test_kernels/saxpy.wgsl")
+    (out,), seconds = kernel.run([x, x], [(n, np.float32)], saxpy_params(2.0), timestamps=True)
+    assert out[-1] == 3.0
+    assert np.isfinite(seconds) and seconds > 0
+    median = kernel.benchmark([x, x], [(n, np.float32)], saxpy_params(2.0), repeats=3)
+    assert np.isfinite(median) and median > 0
+
+
+# ------------------------------------------------------------------ adapters
+
+ADAPTERS = [
+    {"device": "llvmpipe (LLVM 15.0.6, 256 bits)", "description": "GL", "backend_type": "OpenGL"},
+    {"device": "NVIDIA GeForce RTX 4090", "description": "", "backend_type": "Vulkan"},
+    {"device": "llvmpipe (LLVM 15.0.6, 256 bits)", "description": "Mesa", "backend_type": "Vulkan"},
+]
+
+
+def test_select_adapter_by_substring_prefers_vulkan():
+    assert gpu.select_adapter(ADAPTERS, "LLVMpipe") == 2
+    assert gpu.select_adapter(ADAPTERS, "rtx") == 1
+    assert gpu.select_adapter(ADAPTERS, "mesa") == 2
+
+
+def test_select_adapter_without_match_lists_adapters():
+    with pytest.raises(RuntimeError, match="no-such-gpu") as info:
+        gpu.select_adapter(ADAPTERS, "no-such-gpu")
+    assert "NVIDIA GeForce RTX 4090" in str(info.value)
+    assert "llvmpipe (LLVM 15.0.6, 256 bits)" in str(info.value)
+
+
+@pytest.mark.skipif(
+    os.environ.get("WGBRAGG_EXPECT_LAVAPIPE") != "1", reason="WGBRAGG_EXPECT_LAVAPIPE is not 1"
+)
+def test_adapter_is_lavapipe_when_expected():
+    info = gpu.adapter_info()
+    assert info["is_lavapipe"], info
+
+
+@pytest.mark.parametrize(("expect", "outcome"), [("0", "1 skipped"), ("1", "1 error")])
+def test_missing_adapter_skips_locally_and_fails_in_ci(expect, outcome):
+    # A name that matches no adapter stands in for a machine without one.
+    env = {**os.environ, "WGBRAGG_ADAPTER": "no-such-adapter", "WGBRAGG_EXPECT_LAVAPIPE": expect}
+    here = Path(__file__).resolve()
+    node = f"{here}::test_zero_count_returns_empty_without_dispatch"
+    result = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", node],
+        cwd=here.parents[1],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert outcome in result.stdout, result.stdout + result.stderr
+    assert (result.returncode == 0) == (expect == "0")

@@ -1,0 +1,117 @@
+"""Input checks shared by every public entry point.
+
+Bad input raises :class:`ValueError` naming the parameter and its accepted range, so that no
+kernel ever sees a value that would make it return NaN.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+
+__all__ = [
+    "BACKENDS",
+    "POLARIZATIONS",
+    "check_angle",
+    "check_backend",
+    "check_count",
+    "check_extinction",
+    "check_index",
+    "check_polarization",
+    "check_thickness",
+    "check_wavelength",
+]
+
+POLARIZATIONS = ("s", "p", "unpolarized")
+BACKENDS = ("numpy", "gpu")
+
+
+def _as_float_array(name: str, value) -> np.ndarray:
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{name} must be a real number or array of real numbers") from error
+    if np.isnan(array).any():
+        raise ValueError(f"{name} contains NaN")
+    return array
+
+
+def _as_float(name: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{name} must be a real number, got {value!r}")
+    value = float(value)
+    if math.isnan(value):
+        raise ValueError(f"{name} is NaN")
+    return value
+
+
+def check_index(name: str, value) -> float:
+    """A real refractive index: finite and > 0."""
+    value = _as_float(name, value)
+    if not (0.0 < value < math.inf):
+        raise ValueError(f"{name} must be a finite refractive index > 0, got {value}")
+    return value
+
+
+def check_extinction(name: str, value) -> float:
+    """An extinction coefficient (imaginary part of an index): finite and >= 0."""
+    value = _as_float(name, value)
+    if not (0.0 <= value < math.inf):
+        raise ValueError(f"{name} must be a finite extinction coefficient >= 0, got {value}")
+    return value
+
+
+def check_thickness(name: str, value) -> float:
+    """A layer thickness in nm: finite and >= 0."""
+    value = _as_float(name, value)
+    if not (0.0 <= value < math.inf):
+        raise ValueError(f"{name} must be a finite thickness in nm >= 0, got {value}")
+    return value
+
+
+MAX_PERIODS = 2**31 - 1
+
+
+def check_count(name: str, value) -> int:
+    """A number of periods: an integer in [1, 2**31 - 1] (integral floats are accepted)."""
+    if isinstance(value, bool):
+        raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+    if isinstance(value, numbers.Integral):
+        count = int(value)
+    elif isinstance(value, numbers.Real) and float(value).is_integer():
+        count = int(value)
+    else:
+        raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+    if not 1 <= count <= MAX_PERIODS:
+        raise ValueError(f"{name} must be an integer in [1, {MAX_PERIODS}], got {count}")
+    return count
+
+
+def check_wavelength(value, name: str = "wavelength_nm") -> np.ndarray:
+    """Wavelengths in nm: finite and > 0."""
+    array = _as_float_array(name, value)
+    if not np.all((array > 0.0) & np.isfinite(array)):
+        raise ValueError(f"{name} must be finite and > 0 (nm)")
+    return array
+
+
+def check_angle(value, name: str = "theta") -> np.ndarray:
+    """Angles of incidence in radians, in [0, pi/2]."""
+    array = _as_float_array(name, value)
+    if not np.all((array >= 0.0) & (array <= np.pi / 2)):
+        raise ValueError(f"{name} must be in [0, pi/2] radians")
+    return array
+
+
+def check_polarization(value) -> str:
+    if value not in POLARIZATIONS:
+        raise ValueError(f"polarization must be one of {POLARIZATIONS}, got {value!r}")
+    return value
+
+
+def check_backend(value) -> str:
+    if value not in BACKENDS:
+        raise ValueError(f"backend must be one of {BACKENDS}, got {value!r}")
+    return value

@@ -1,0 +1,66 @@
+"""Dispatch of the float32 reflectance kernels (``wgsl/bragg_reflectance.wgsl``,
+``wgsl/thin_film_reflectance.wgsl``): the GPU twins of :mod:`wgbragg.optics`.
+
+Pipelines are specialised with WGSL ``override`` constants for what a call needs: the
+polarisation, and whether the host medium equals ``n1`` (then the complex amplitude of
+Appendix D is compiled out).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import gpu
+
+__all__ = ["BRAGG_MIRROR_DTYPE", "THIN_FILM_DTYPE", "bragg_reflectance", "thin_film_reflectance"]
+
+BRAGG_MIRROR_DTYPE = gpu.struct_dtype([
+    ("n1", "f32"), ("n2", "f32"), ("d1_nm", "f32"), ("d2_nm", "f32"),
+    ("host", "f32"), ("periods", "u32"), ("bulk", "u32"), ("_pad", "u32"),
+])
+THIN_FILM_DTYPE = gpu.struct_dtype([
+    ("host", "f32"), ("n_film", "f32"), ("d_nm", "f32"), ("n_base", "f32"), ("k_base", "f32"),
+    ("_pad0", "f32"), ("_pad1", "f32"), ("_pad2", "f32"),
+])
+_POLARIZATION_CODE = {"s": 0, "p": 1, "unpolarized": 2}
+
+
+def _evaluate(shader, constants, params, wavelength_nm, theta):
+    wavelength, angle = np.broadcast_arrays(np.asarray(wavelength_nm), np.asarray(theta))
+    shape = wavelength.shape
+    kernel = gpu.compute_pipeline(shader, constants=constants)
+    (out,) = kernel.run(
+        [np.ascontiguousarray(wavelength, np.float32).ravel(),
+         np.ascontiguousarray(angle, np.float32).ravel()],
+        [(wavelength.size, np.float32)],
+        params,
+    )
+    return out.reshape(shape).astype(np.float64)
+
+
+def bragg_params(n1, n2, d1_nm, d2_nm, N, host) -> np.ndarray:
+    params = np.zeros((), BRAGG_MIRROR_DTYPE)
+    params["n1"], params["n2"], params["d1_nm"], params["d2_nm"] = n1, n2, d1_nm, d2_nm
+    params["host"], params["periods"] = host, N
+    params["bulk"] = int(np.float32(n1) == np.float32(n2) or d2_nm == 0.0)
+    return params
+
+
+def bragg_reflectance(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization, host):
+    """float32 GPU reflectance of a Bragg mirror; arguments as :func:`optics.yeh_reflectance`."""
+    constants = {
+        "POLARIZATION": _POLARIZATION_CODE[polarization],
+        "HOST_MATCHED": bool(np.float32(host) == np.float32(n1)),
+    }
+    params = bragg_params(n1, n2, d1_nm, d2_nm, N, host)
+    return _evaluate("bragg_reflectance.wgsl", constants, params, wavelength_nm, theta)
+
+
+def thin_film_reflectance(host, n_film, d_nm, n_base, k_base, wavelength_nm, theta,
+                          polarization):
+    """float32 GPU reflectance of a thin film; arguments as the :class:`ThinFilm` fields."""
+    params = np.zeros((), THIN_FILM_DTYPE)
+    params["host"], params["n_film"], params["d_nm"] = host, n_film, d_nm
+    params["n_base"], params["k_base"] = n_base, k_base
+    constants = {"POLARIZATION": _POLARIZATION_CODE[polarization]}
+    return _evaluate("thin_film_reflectance.wgsl", constants, params, wavelength_nm, theta)

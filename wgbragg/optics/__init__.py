@@ -1,0 +1,21 @@
+"""Float64 reference optics: Fresnel, Airy thin films, Yeh's Bragg mirrors, transfer matrices.
+
+These are the numpy twins of the float32 kernels in ``wgsl/``; conventions are stated in
+:mod:`wgbragg.optics.fresnel`.
+"""
+
+from .fresnel import fresnel_r, normal_component
+from .thin_film import airy_amplitude, thin_film_reflectance
+from .transfer_matrix import transfer_matrix_reflectance
+from .yeh import bloch_dispersion, cell_coefficients, yeh_reflectance
+
+__all__ = [
+    "airy_amplitude",
+    "bloch_dispersion",
+    "cell_coefficients",
+    "fresnel_r",
+    "normal_component",
+    "thin_film_reflectance",
+    "transfer_matrix_reflectance",
+    "yeh_reflectance",
+]

@@ -1,0 +1,23 @@
+// Entry point: thin-film reflectance R(wavelength[i], theta[i]) by Airy summation.
+//! include "harness.wgsl"
+//! include "numerics.wgsl"
+//! include "complex.wgsl"
+//! include "airy.wgsl"
+
+// 0 = s, 1 = p, 2 = unpolarized.
+override POLARIZATION: u32 = 2u;
+
+@group(0) @binding(0) var<storage, read> wavelength_nm: array<f32>;
+@group(0) @binding(1) var<storage, read> theta: array<f32>;
+@group(0) @binding(2) var<storage, read_write> reflectance: array<f32>;
+@group(0) @binding(3) var<uniform> film: ThinFilm;
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>,
+        @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = global_index(gid, nwg);
+    if (i >= arrayLength(&reflectance)) {
+        return;
+    }
+    reflectance[i] = thin_film_reflectance(film, wavelength_nm[i], theta[i], POLARIZATION);
+}
