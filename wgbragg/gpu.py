@@ -149,7 +149,14 @@ def _adapter_and_device() -> tuple[Any, wgpu.GPUDevice]:
         if adapter is None:
             raise RuntimeError(no_adapter)
     features = [f for f in _OPTIONAL_FEATURES if f in adapter.features]
-    device = adapter.request_device_sync(required_features=features)
+    # The WebGPU default caps workgroups at 256 invocations; software rasterisers such as
+    # lavapipe pay a fixed cost per workgroup, so ask for what the adapter really allows.
+    limits = {
+        name: adapter.limits[name]
+        for name in ("max-compute-invocations-per-workgroup", "max-compute-workgroup-size-x")
+        if name in adapter.limits
+    }
+    device = adapter.request_device_sync(required_features=features, required_limits=limits)
     return adapter, device
 
 

@@ -43,7 +43,7 @@ fn airy_polarized(f: ThinFilm, wavelength_nm: f32, theta: f32, polarization: u32
         q_film = vec2<f32>(0.0, film_q);
         round_trip = vec2<f32>(exp(-4.0 * PI * cycles), 0.0);
     } else {
-        round_trip = c_exp_i(2.0 * PI * (2.0 * cycles - round(2.0 * cycles)));
+        round_trip = c_exp_i(TWO_PI * centered_fraction(2.0 * cycles));
     }
     let q_base = c_sqrt(base2 - vec2<f32>(s * s, 0.0));
     let r12 = fresnel_amplitude(host2, q_host, film2, q_film, polarization);
