@@ -1,0 +1,104 @@
+"""The ``wgbragg`` command line.
+
+``wgbragg info`` shows the adapter and versions; ``wgbragg reflectance`` prints R for one
+mirror; ``wgbragg map`` writes a reflectance map (wavelength x angle) as a PNG.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+import numpy as np
+
+__all__ = ["main"]
+
+
+def _add_mirror_arguments(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("Bragg mirror (thicknesses in nm)")
+    group.add_argument("--n1", type=float, default=1.0)
+    group.add_argument("--n2", type=float, default=1.5)
+    group.add_argument("--d1", type=float, default=125.0)
+    group.add_argument("--d2", type=float, default=375.0)
+    group.add_argument("-N", "--periods", type=int, default=20)
+    group.add_argument("--host", type=float, default=None, help="incident medium (default n1)")
+    parser.add_argument("--polarization", choices=("unpolarized", "s", "p"), default="unpolarized")
+    parser.add_argument("--backend", choices=("gpu", "numpy"), default="gpu")
+
+
+def _mirror(args):
+    from . import BraggMirror
+
+    return BraggMirror(n1=args.n1, n2=args.n2, d1=args.d1, d2=args.d2, N=args.periods,
+                       host=args.host)
+
+
+def _info(_args) -> int:
+    import wgpu
+
+    from . import __version__, gpu
+
+    print(f"wgbragg {__version__}, wgpu {wgpu.__version__}")
+    info = gpu.adapter_info()
+    for key, value in info.items():
+        print(f"  {key}: {value}")
+    print(f"  shaders: {gpu.shader_dir()}")
+    return 0
+
+
+def _reflectance(args) -> int:
+    mirror = _mirror(args)
+    wavelength = np.asarray(args.wavelength, dtype=np.float64)
+    theta = np.radians(np.asarray(args.theta_deg, dtype=np.float64))
+    values = mirror.reflectance(wavelength[:, None], theta[None, :], args.polarization,
+                                args.backend)
+    print("wavelength_nm " + " ".join(f"theta={t:g}deg" for t in args.theta_deg))
+    for w, row in zip(args.wavelength, values, strict=True):
+        print(f"{w:g} " + " ".join(f"{v:.6f}" for v in row))
+    return 0
+
+
+def _map(args) -> int:
+    from .maps import reflectance_map, save_reflectance_map
+
+    mirror = _mirror(args)
+    start = time.perf_counter()
+    result = reflectance_map(mirror, polarization=args.polarization, backend=args.backend)
+    seconds = time.perf_counter() - start
+    title = f"{mirror!r}\n{result.values.size} evaluations ({args.backend}) in {seconds:.3f} s"
+    save_reflectance_map(result, args.output, title)
+    print(args.output)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="wgbragg", description=__doc__.splitlines()[0])
+    commands = parser.add_subparsers(dest="command", required=True)
+    commands.add_parser("info", help="adapter, versions and shader folder").set_defaults(
+        run=_info)
+    reflect = commands.add_parser("reflectance", help="print R(wavelength, theta) of a mirror")
+    _add_mirror_arguments(reflect)
+    reflect.add_argument("--wavelength", type=float, nargs="+", default=[450.0, 550.0, 650.0],
+                         help="wavelengths in nm")
+    reflect.add_argument("--theta-deg", type=float, nargs="+", default=[0.0, 30.0, 60.0],
+                         help="angles of incidence in degrees, 0..90")
+    reflect.set_defaults(run=_reflectance)
+    mapping = commands.add_parser("map", help="reflectance map (wavelength x angle) as a PNG")
+    _add_mirror_arguments(mapping)
+    mapping.add_argument("-o", "--output", default="out/reflectance_map.png")
+    mapping.set_defaults(run=_map)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.run(args)
+    except (ValueError, RuntimeError) as error:
+        print(f"wgbragg: error: {error}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
