@@ -28,14 +28,9 @@ generator are reproducible one by one and in any order.
 from __future__ import annotations
 
 import os
-import tempfile
 
 import numpy as np
 import pytest
-
-# Mesa's window-system probing complains loudly without it; any private dir will do.
-if not os.environ.get("XDG_RUNTIME_DIR"):
-    os.environ["XDG_RUNTIME_DIR"] = tempfile.mkdtemp(prefix="xdg-")
 
 from wgbragg import gpu
 

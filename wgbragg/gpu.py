@@ -54,6 +54,7 @@ import math
 import os
 import re
 import statistics
+import tempfile
 import textwrap
 import time
 import warnings
@@ -135,6 +136,10 @@ def select_adapter(infos: Sequence[Mapping[str, Any]], pattern: str) -> int:
 @functools.cache
 def _adapter_and_device() -> tuple[Any, wgpu.GPUDevice]:
     no_adapter = "no Vulkan adapter found: install mesa-vulkan-drivers (lavapipe)"
+    if not os.environ.get("XDG_RUNTIME_DIR"):
+        # Mesa's window-system probing prints an error per adapter without it; headless compute
+        # needs no real one, so any private folder will do.
+        os.environ["XDG_RUNTIME_DIR"] = tempfile.mkdtemp(prefix="wgbragg-xdg-")
     pattern = os.environ.get("WGBRAGG_ADAPTER", "").strip()
     if pattern:
         adapters = wgpu.gpu.enumerate_adapters_sync()

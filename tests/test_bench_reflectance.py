@@ -1,0 +1,253 @@
+"""Structure and sanity of ``tools/bench_reflectance.py`` in its quick mode.
+
+No speed is asserted here: timings on shared CI machines are noise. The tests check that a quick
+run measures every method, that the markdown section parses, lands between its markers and
+replaces (not duplicates) itself, and that what the tool times is the mirror it claims to time.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib.util
+import io
+import math
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.gpu
+
+TOOL = Path(__file__).resolve().parents[1] / "tools" / "bench_reflectance.py"
+LATER_SECTION = "## A later benchmark\n\n<!-- other:begin -->\nkeep me\n<!-- other:end -->\n"
+
+
+@pytest.fixture(scope="module")
+def bench():
+    """The tool loaded as a module (``tools/`` is not a package)."""
+    spec = importlib.util.spec_from_file_location("bench_reflectance", TOOL)
+    module = importlib.util.module_from_spec(spec)
+    # dataclasses look the module up in sys.modules while the class body runs.
+    sys.modules[spec.name] = module
+    try:
+        spec.loader.exec_module(module)
+        yield module
+    finally:
+        sys.modules.pop(spec.name, None)
+
+
+@pytest.fixture(scope="module")
+def runs(bench, tmp_path_factory):
+    """Two quick runs into one document that already holds an intro and a later section.
+
+    Returns the document after each run and what the first run printed.
+    """
+    path = tmp_path_factory.mktemp("docs") / "benchmarks.md"
+    path.write_text(f"# Benchmarks\n\nIntro text.\n\n{LATER_SECTION}", encoding="utf-8")
+    texts, printed = [], []
+    for _ in range(2):
+        # capsys is function-scoped; these runs are shared by the module's tests.
+        with contextlib.redirect_stdout(io.StringIO()) as capture:
+            status = bench.main(["--quick", "--no-progress", "--output", str(path)])
+        assert status == 0
+        texts.append(path.read_text(encoding="utf-8"))
+        printed.append(capture.getvalue())
+    return texts, printed
+
+
+def _section(bench, text: str) -> str:
+    start, stop = text.index(bench.BEGIN_MARKER), text.index(bench.END_MARKER)
+    return text[start:stop + len(bench.END_MARKER)]
+
+
+def _table_after(section: str, heading: str) -> dict[str, list[str]]:
+    """Rows (label -> cells) of the first markdown table after ``heading``."""
+    lines = section[section.index(heading):].splitlines()[1:]
+    rows: dict[str, list[str]] = {}
+    started = False
+    for line in lines:
+        if line.startswith("|"):
+            started = True
+            cells = [c.strip() for c in line.strip().strip("|").split("|")]
+            if not set(cells[0]) <= set("-"):
+                rows[cells[0]] = cells[1:]
+        elif started:
+            break
+    return rows
+
+
+def _is_placeholder(bench, cell: str) -> bool:
+    return cell.rstrip("¹²") == bench.NOT_MEASURED or cell == bench.NOT_INSTALLED
+
+
+# --------------------------------------------------------------------------- the quick run
+
+
+def test_section_written_once_between_markers(bench, runs):
+    (first, second), _ = runs
+    for text in (first, second):
+        assert text.count(bench.BEGIN_MARKER) == 1
+        assert text.count(bench.END_MARKER) == 1
+        assert text.index(bench.BEGIN_MARKER) < text.index(bench.END_MARKER)
+        # The rest of the document is left alone.
+        assert text.startswith("# Benchmarks\n\nIntro text.\n")
+        assert LATER_SECTION in text
+        assert text.count("## Reflectance throughput") == 1
+
+
+def test_rerun_replaces_section(bench, runs):
+    (first, second), _ = runs
+    outside = [t.replace(_section(bench, t), "") for t in (first, second)]
+    assert outside[0] == outside[1]
+
+
+def test_section_printed(bench, runs):
+    (first, _), (printed, _) = runs
+    assert _section(bench, first) in printed
+
+
+def test_every_method_has_a_rate_row(bench, runs):
+    (text, _), _ = runs
+    rows = _table_after(_section(bench, text), "### Evaluations per second")
+    assert [row for row in rows if row != "method"] == [m.label for m in bench.METHODS]
+    assert len(rows["method"]) == len(bench.N_VALUES) + 1
+    for method in bench.METHODS:
+        cells = rows[method.label][: len(bench.N_VALUES)]
+        installed = cells[0] != bench.NOT_INSTALLED
+        if method.package is None:
+            assert installed, method.key
+        for N, cell in zip(bench.N_VALUES, cells, strict=True):
+            if installed and bench.applicable(method, N):
+                rate = bench.parse_rate(cell)
+                assert math.isfinite(rate) and rate > 0, (method.key, N, cell)
+            else:
+                assert _is_placeholder(bench, cell), (method.key, N, cell)
+
+
+def test_flatness_column_parses(bench, runs):
+    (text, _), _ = runs
+    rows = _table_after(_section(bench, text), "### Evaluations per second")
+    for method in bench.METHODS:
+        cell = rows[method.label][-1]
+        if method.linear or cell == bench.NOT_INSTALLED:
+            assert _is_placeholder(bench, cell)
+        else:
+            assert re.fullmatch(r"\d+(\.\d+)?%", cell), cell
+
+
+def test_ratio_rows_parse(bench, runs):
+    (text, _), _ = runs
+    rows = _table_after(_section(bench, text), "### Speed-up")
+    labels = [f"÷ {bench.METHOD_BY_KEY[k].label}" for k in bench.RATIO_KEYS]
+    assert [row for row in rows if not row.startswith("GPU kernel (s)")] == labels
+    for key, label in zip(bench.RATIO_KEYS, labels, strict=True):
+        method = bench.METHOD_BY_KEY[key]
+        for N, cell in zip(bench.N_VALUES, rows[label], strict=True):
+            if _is_placeholder(bench, cell):
+                assert cell == bench.NOT_INSTALLED or not bench.applicable(method, N)
+                continue
+            ratio = bench.parse_ratio(cell)
+            assert math.isfinite(ratio) and ratio > 0, (key, N, cell)
+
+
+def test_header_facts(bench, runs):
+    (text, _), _ = runs
+    section = _section(bench, text)
+    from wgbragg import gpu
+
+    assert gpu.adapter_info()["name"] in section
+    assert "Command: `python tools/bench_reflectance.py --quick --no-progress --output" in section
+    assert "Quick mode" in section
+    assert "### Targets" in section
+    assert re.search(r"WORKGROUP_SIZE = \d+", section)
+
+
+# --------------------------------------------------------------------------- what is timed
+
+
+def test_evaluators_compute_the_mirror(bench):
+    """Every timed method returns Yeh's reflectance of the same mirror (so the rates compare
+    like with like): float64 methods to 1e-9, the float32 kernel to a loose 1e-2."""
+    from wgbragg import optics
+
+    wavelength, theta = bench.grid(6)
+    N = 5
+    reference = optics.yeh_reflectance(bench.N1, bench.N2, bench.D1_NM, bench.D2_NM, N,
+                                       wavelength.astype(np.float64),
+                                       theta.astype(np.float64), "s")
+    unpolarized = optics.yeh_reflectance(bench.N1, bench.N2, bench.D1_NM, bench.D2_NM, N,
+                                         wavelength.astype(np.float64),
+                                         theta.astype(np.float64), "unpolarized")
+    for key, evaluate in bench.EVALUATORS.items():
+        package = bench.METHOD_BY_KEY[key].package
+        if package is not None and bench._import_optional(package)[0] is None:
+            continue
+        got = np.asarray(evaluate(N, wavelength, theta), np.float64)
+        want = unpolarized if key == "gpu_unpolarized" else reference
+        tolerance = 1e-2 if key.startswith("gpu") else 1e-9
+        np.testing.assert_allclose(got, want, atol=tolerance, err_msg=key)
+
+
+def test_tmm_fast_reported_when_missing(bench, monkeypatch):
+    """A package that cannot be imported becomes "not installed" cells, not a crash."""
+    real = bench._import_optional
+
+    def fake(name):
+        return (None, "ModuleNotFoundError: no tmm_fast") if name == "tmm_fast" else real(name)
+
+    monkeypatch.setattr(bench, "_import_optional", fake)
+    cfg = bench.dataclasses.replace(bench.QUICK, gpu_side=8, yeh_side=8, max_points_linear=16,
+                                    max_calls_tmm=2, max_cells_tmm_fast=64, target_s=0.001)
+    # Only the missing package matters here: keep the run to the cheapest cells.
+    monkeypatch.setattr(bench, "N_VALUES", (1, 20))
+    results = bench.run_benchmarks(cfg, progress=False)
+    assert "tmm_fast" in results.missing
+    assert not any(key == "tmm_fast" for key, _ in results.measurements)
+    section = bench.render_section(results, "python tools/bench_reflectance.py")
+    rows = _table_after(section, "### Evaluations per second")
+    assert rows[bench.METHOD_BY_KEY["tmm_fast"].label][:2] == [bench.NOT_INSTALLED] * 2
+    assert "not installed (ModuleNotFoundError" in section
+
+
+# --------------------------------------------------------------------------- pure helpers
+
+
+@pytest.mark.parametrize("rate", [0.5, 7.0, 999.7, 1234.0, 99_950.0, 3.2e6, 1.5e8, 2e9])
+def test_rate_format_round_trip(bench, rate):
+    text = bench.human_rate(rate)
+    assert re.fullmatch(r"\d+(\.\d+)? [kMGT]?/s", text), text
+    assert bench.parse_rate(text) == pytest.approx(rate, rel=5e-3)
+
+
+@pytest.mark.parametrize("ratio", [0.83, 1.0, 12.46, 431.0, 4312.0, 1_590_479.0])
+def test_ratio_format_round_trip(bench, ratio):
+    assert bench.parse_ratio(bench.human_ratio(ratio)) == pytest.approx(ratio, rel=5e-3)
+
+
+def test_update_document(bench):
+    section = f"{bench.BEGIN_MARKER}\nnew\n{bench.END_MARKER}"
+    created = bench.update_document(None, section)
+    assert created.startswith(bench.DOC_INTRO) and created.endswith(section + "\n")
+    appended = bench.update_document("# Benchmarks\n\nintro\n", section)
+    assert appended == f"# Benchmarks\n\nintro\n\n{section}\n"
+    old = f"head\n{bench.BEGIN_MARKER}\nold\n{bench.END_MARKER}\ntail\n"
+    assert bench.update_document(old, section) == f"head\n{section}\ntail\n"
+    for broken in (f"{bench.BEGIN_MARKER}\nno end\n", f"{bench.END_MARKER}\n{bench.BEGIN_MARKER}",
+                   f"{section}\n{section}\n"):
+        with pytest.raises(ValueError, match="expected one"):
+            bench.update_document(broken, section)
+
+
+def test_output_path(bench, tmp_path):
+    def where(*argv):
+        return bench.output_path(bench.parse_args(list(argv)))
+
+    assert where("--quick") is None
+    assert where() == bench.DEFAULT_OUTPUT
+    assert where("--no-write") is None
+    assert where("--quick", "--no-write") is None
+    assert where("--quick", "--output", str(tmp_path / "b.md")) == tmp_path / "b.md"
+    with pytest.raises(SystemExit):
+        where("--output", "x.md", "--no-write")

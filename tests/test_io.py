@@ -1,0 +1,36 @@
+"""Atomic writes: all or nothing, no temporary left behind, ordinary permissions."""
+
+import os
+
+import pytest
+
+from wgbragg._io import atomic_path, write_text_atomic
+
+
+def test_replaces_whole_and_leaves_no_temporary(tmp_path):
+    path = tmp_path / "sub" / "table.md"
+    write_text_atomic(path, "one\n")
+    write_text_atomic(path, "two\n")
+    assert path.read_text(encoding="utf-8") == "two\n"
+    assert [p.name for p in path.parent.iterdir()] == ["table.md"]
+
+
+def test_failure_keeps_the_old_file(tmp_path):
+    path = tmp_path / "image.png"
+    path.write_bytes(b"old")
+    with pytest.raises(RuntimeError), atomic_path(path) as temporary:
+        temporary.write_bytes(b"half")
+        raise RuntimeError("writer crashed")
+    assert path.read_bytes() == b"old"
+    assert [p.name for p in tmp_path.iterdir()] == ["image.png"]
+
+
+def test_temporary_keeps_the_suffix_and_result_is_readable_by_others(tmp_path):
+    mask = os.umask(0o022)
+    try:
+        with atomic_path(tmp_path / "figure.png") as temporary:
+            assert temporary.suffix == ".png"
+            temporary.write_bytes(b"png")
+    finally:
+        os.umask(mask)
+    assert (tmp_path / "figure.png").stat().st_mode & 0o777 == 0o644

@@ -1,0 +1,977 @@
+"""Reflectance throughput of the GPU kernel against the CPU references and peer packages.
+
+Measures, side by side in one run, how many reflectance evaluations per second each method
+delivers for the Bragg mirror ``(n1, n2, d1, d2) = (1.0, 1.5, 125 nm, 375 nm)`` at
+``N`` in {1, 20, 200, 2000, 10^6} periods, prints a markdown table and writes it into
+``docs/benchmarks.md`` between the markers ``<!-- bench_reflectance:begin -->`` and
+``<!-- bench_reflectance:end -->`` (the rest of the file is left alone).
+
+One *evaluation* is one reflectance value ``R(lambda, theta)`` for one polarisation (s). The
+unpolarized GPU row counts one ``(R_s + R_p) / 2`` value as one evaluation: the kernel shares
+the Bloch dispersion between s and p, so it costs less than two s evaluations.
+
+Methods
+-------
+- GPU kernel: ``wgsl/bragg_reflectance.wgsl`` (float32), GPU seconds from timestamp queries
+  (:meth:`wgbragg.gpu.Kernel.benchmark`), buffers uploaded once.
+- GPU end-to-end: ``BraggMirror.reflectance(..., backend="gpu")``, wall clock, i.e. input
+  conversion, upload, dispatch and readback, what a user of the public API sees.
+- numpy Yeh: :func:`wgbragg.optics.yeh_reflectance`, float64, vectorised.
+- transfer matrices: :func:`wgbragg.optics.transfer_matrix_reflectance`, float64, O(N).
+- ``tmm``: ``tmm.coh_tmm``, one Python call per (lambda, theta), O(N).
+- ``tmm_fast``: ``tmm_fast.coh_tmm`` (torch on the CPU, complex128), vectorised, O(N).
+
+The O(N) methods are measured up to N = 2000 only; N = 10^6 would take hours with them.
+Optional packages that cannot be imported are reported as "not installed".
+
+Usage::
+
+    python tools/bench_reflectance.py                 # full run, rewrites docs/benchmarks.md
+    python tools/bench_reflectance.py --no-write      # full run, print only
+    python tools/bench_reflectance.py --quick         # tiny sizes (< 20 s), print only
+    python tools/bench_reflectance.py --quick --output /tmp/bench.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import datetime
+import importlib
+import importlib.metadata
+import math
+import os
+import platform
+import shlex
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from tqdm import tqdm
+
+from wgbragg._io import write_text_atomic
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_OUTPUT = REPO_ROOT / "docs" / "benchmarks.md"
+
+BEGIN_MARKER = "<!-- bench_reflectance:begin -->"
+END_MARKER = "<!-- bench_reflectance:end -->"
+
+DOC_INTRO = """# Benchmarks
+
+Throughput measurements of wgbragg, each produced by a script under `tools/`. Every section
+sits between a pair of `<!-- NAME:begin -->` / `<!-- NAME:end -->` markers and is rewritten
+whole by the script that owns it, so edit text outside the markers only. Numbers depend on the
+machine: the reference is lavapipe (Mesa's CPU Vulkan driver) on 2 CPU cores, where the "GPU"
+runs on the same two cores as the CPU methods it is compared with.
+"""
+
+# The mirror of the issue: index-matched host (host = n1), n1 substrate.
+N1, N2, D1_NM, D2_NM = 1.0, 1.5, 125.0, 375.0
+N_VALUES = (1, 20, 200, 2000, 1_000_000)
+# O(N) methods stop here: at N = 10^6 one tmm call alone would take hours.
+MAX_N_LINEAR = 2000
+WAVELENGTH_RANGE_NM = (360.0, 830.0)
+THETA_RANGE_DEG = (0.0, 85.0)
+
+TARGET_GPU_RATE = 100e6  # evaluations/s, at every N
+TARGET_FLATNESS = 0.10  # max/min - 1 over N
+TARGET_TMM_FAST_RATIO = 3000.0  # GPU / tmm_fast at N = 20
+
+NOT_MEASURED = "—"
+# Written as an escape: ruff flags a literal multiplication sign as confusable with "x".
+TIMES = "\u00d7"
+NOT_INSTALLED = "not installed"
+
+
+# --------------------------------------------------------------------------- configuration
+
+
+@dataclasses.dataclass(frozen=True)
+class Config:
+    """Problem sizes and repeats of one run.
+
+    Attributes
+    ----------
+    name : str
+        ``"full"`` or ``"quick"``.
+    gpu_side : int
+        The GPU rows evaluate a ``gpu_side x gpu_side`` (lambda, theta) grid.
+    gpu_repeats : int
+        Timed dispatches per GPU measurement (the median is kept).
+    e2e_repeats : int
+        Timed ``BraggMirror.reflectance`` calls (the best is kept).
+    yeh_side : int
+        numpy Yeh evaluates a ``yeh_side x yeh_side`` grid.
+    cpu_repeats : int
+        Timed repeats of each CPU measurement (the best is kept).
+    target_s : float
+        O(N) CPU methods are sized so that one repeat takes about this long.
+    max_points_linear : int
+        Largest grid (points) for the vectorised O(N) methods, whatever ``target_s`` allows.
+    max_cells_tmm_fast : int
+        Cap on points x layers for ``tmm_fast``, which holds a 2x2 complex128 matrix per
+        point and layer (64 bytes each) at once.
+    max_calls_tmm : int
+        Most ``tmm.coh_tmm`` calls per repeat.
+    passes : int
+        Passes over the whole table; each cell keeps its best pass.
+    """
+
+    name: str
+    gpu_side: int
+    gpu_repeats: int
+    e2e_repeats: int
+    yeh_side: int
+    cpu_repeats: int
+    target_s: float
+    max_points_linear: int
+    max_cells_tmm_fast: int
+    max_calls_tmm: int
+    passes: int
+
+
+FULL = Config(
+    name="full", gpu_side=2048, gpu_repeats=10, e2e_repeats=1, yeh_side=1024, cpu_repeats=1,
+    target_s=1.0, max_points_linear=1 << 20, max_cells_tmm_fast=4_000_000, max_calls_tmm=5000,
+    passes=3,
+)
+QUICK = Config(
+    name="quick", gpu_side=128, gpu_repeats=3, e2e_repeats=1, yeh_side=64, cpu_repeats=1,
+    target_s=0.02, max_points_linear=4096, max_cells_tmm_fast=200_000, max_calls_tmm=50,
+    passes=1,
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class Method:
+    """One row of the table.
+
+    Attributes
+    ----------
+    key : str
+        Identifier used in code and tests.
+    label : str
+        Row label in the table.
+    linear : bool
+        Cost grows with N (measured up to :data:`MAX_N_LINEAR` only).
+    package : str or None
+        Optional package the method needs.
+    """
+
+    key: str
+    label: str
+    linear: bool
+    package: str | None = None
+
+
+METHODS = (
+    Method("gpu", "GPU kernel, s (f32)", linear=False),
+    Method("gpu_unpolarized", "GPU kernel, unpolarized (f32)", linear=False),
+    Method("gpu_e2e", "GPU end-to-end, `BraggMirror.reflectance`, s", linear=False),
+    Method("yeh", "numpy Yeh, s (f64)", linear=False),
+    Method("transfer_matrix", "transfer matrices, `wgbragg.optics`, s (f64)", linear=True),
+    Method("tmm", "`tmm.coh_tmm`, one call per point, s (f64)", linear=True, package="tmm"),
+    Method("tmm_fast", "`tmm_fast` (torch CPU), s (c128)", linear=True, package="tmm_fast"),
+)
+METHOD_BY_KEY = {m.key: m for m in METHODS}
+# The ratio rows compare the s-polarised kernel with every other single-polarisation method.
+RATIO_BASE = "gpu"
+RATIO_KEYS = ("gpu_e2e", "yeh", "transfer_matrix", "tmm", "tmm_fast")
+
+
+@dataclasses.dataclass
+class Measurement:
+    """Throughput of one method at one N.
+
+    Attributes
+    ----------
+    rate : float
+        Evaluations per second.
+    points : int
+        Evaluations per call (batch size; for ``tmm``, the number of calls).
+    seconds : float
+        Duration of one timed repeat (median for GPU kernels, best otherwise).
+    calls : int
+        Calls of ``points`` evaluations per timed repeat.
+    """
+
+    rate: float
+    points: int
+    seconds: float
+    calls: int = 1
+
+
+@dataclasses.dataclass
+class Results:
+    """Everything the report needs."""
+
+    config: Config
+    measurements: dict[tuple[str, int], Measurement]
+    missing: dict[str, str]  # method key -> why its package could not be imported
+    environment: dict[str, Any]
+
+
+# --------------------------------------------------------------------------- inputs
+
+
+def grid(side: int) -> tuple[np.ndarray, np.ndarray]:
+    """Flattened ``side x side`` (lambda, theta) grid of float32 inputs.
+
+    Parameters
+    ----------
+    side : int
+        Points along each axis.
+
+    Returns
+    -------
+    wavelength_nm, theta : numpy.ndarray
+        float32, shape ``(side**2,)``: wavelengths in 360..830 nm, angles in 0..85 degrees
+        (in radians), wavelength varying fastest.
+    """
+    wavelength = np.linspace(*WAVELENGTH_RANGE_NM, side, dtype=np.float32)
+    theta = np.deg2rad(np.linspace(*THETA_RANGE_DEG, side)).astype(np.float32)
+    theta_2d, wavelength_2d = np.meshgrid(theta, wavelength, indexing="ij")
+    return wavelength_2d.ravel(), theta_2d.ravel()
+
+
+def stack(N: int) -> tuple[list[float], list[float]]:
+    """Layer indices and thicknesses (nm) of the mirror for the generic solvers.
+
+    Parameters
+    ----------
+    N : int
+        Number of periods.
+
+    Returns
+    -------
+    indices, thicknesses_nm : list of float
+        ``host | (n1 d1, n2 d2) x N | n1`` with ``host = n1``, and ``inf`` for the two
+        semi-infinite media as the ``tmm`` package wants.
+    """
+    indices = [N1, *([N1, N2] * N), N1]
+    thicknesses = [math.inf, *([D1_NM, D2_NM] * N), math.inf]
+    return indices, thicknesses
+
+
+def _import_optional(name: str) -> tuple[Any, str | None]:
+    """(module, None), or (None, reason) when it cannot be imported."""
+    try:
+        return importlib.import_module(name), None
+    except Exception as exc:  # a broken torch raises OSError etc., not only ImportError
+        return None, f"{type(exc).__name__}: {exc}".splitlines()[0]
+
+
+# --------------------------------------------------------------------------- evaluators
+
+# Each evaluator computes R for one method on flat float32 (wavelength_nm, theta) arrays. The
+# timings call the same functions, so the tests can check that what is timed is the mirror.
+
+
+def _bragg_kernel(polarization: str):
+    from wgbragg import gpu, kernels
+
+    constants: dict[str, Any] = {
+        "POLARIZATION": {"s": 0, "p": 1, "unpolarized": 2}[polarization],
+        "HOST_MATCHED": True,
+    }
+    # Time the workgroup size the library dispatches with; wgbragg.kernels may pin one.
+    workgroup_size = getattr(kernels, "WORKGROUP_SIZE", None)
+    if workgroup_size is not None:
+        constants["WORKGROUP_SIZE"] = int(workgroup_size)
+    return gpu.compute_pipeline("bragg_reflectance.wgsl", constants=constants)
+
+
+def _bragg_params(N: int) -> np.ndarray:
+    from wgbragg import kernels
+
+    return kernels.bragg_params(N1, N2, D1_NM, D2_NM, N, N1)
+
+
+def evaluate_gpu(N, wavelength_nm, theta, polarization="s"):
+    """R by the float32 kernel, dispatched directly (no public-API checks)."""
+    kernel = _bragg_kernel(polarization)
+    (out,) = kernel.run([wavelength_nm, theta], [(wavelength_nm.size, np.float32)],
+                        _bragg_params(N))
+    return out
+
+
+def evaluate_gpu_unpolarized(N, wavelength_nm, theta):
+    """Unpolarized R by the float32 kernel."""
+    return evaluate_gpu(N, wavelength_nm, theta, "unpolarized")
+
+
+def evaluate_gpu_e2e(N, wavelength_nm, theta):
+    """R through the public API on the GPU backend."""
+    from wgbragg import BraggMirror
+
+    mirror = BraggMirror(n1=N1, n2=N2, d1=D1_NM, d2=D2_NM, N=N)
+    return mirror.reflectance(wavelength_nm, theta, "s", backend="gpu")
+
+
+def evaluate_yeh(N, wavelength_nm, theta):
+    """R by the float64 numpy closed form."""
+    from wgbragg import optics
+
+    return optics.yeh_reflectance(N1, N2, D1_NM, D2_NM, N, wavelength_nm, theta, "s")
+
+
+def evaluate_transfer_matrix(N, wavelength_nm, theta):
+    """R by the package's own 2x2 transfer matrices."""
+    from wgbragg import optics
+
+    indices, thicknesses = stack(N)
+    return optics.transfer_matrix_reflectance(indices, thicknesses, wavelength_nm, theta, "s")
+
+
+def evaluate_tmm(N, wavelength_nm, theta):
+    """R by ``tmm.coh_tmm``, one call per point, as a user of that package would loop."""
+    import tmm
+
+    indices, thicknesses = stack(N)
+    return np.array([
+        tmm.coh_tmm("s", indices, thicknesses, t, w)["R"]
+        for w, t in zip(wavelength_nm.tolist(), theta.tolist(), strict=True)
+    ])
+
+
+def evaluate_tmm_fast(N, wavelength_nm, theta):
+    """R by ``tmm_fast`` on the product grid of the unique wavelengths and angles.
+
+    tmm_fast computes an (angles x wavelengths) grid natively, so the flat inputs must come
+    from :func:`grid`; the result is flattened back in the same order.
+    """
+    import tmm_fast
+
+    wavelengths = np.unique(wavelength_nm).astype(np.float64)
+    angles = np.unique(theta).astype(np.float64)
+    if wavelengths.size * angles.size != wavelength_nm.size:
+        raise ValueError("evaluate_tmm_fast needs the flat product grid made by grid()")
+    indices, thicknesses = stack(N)
+    # [stacks, layers, wavelengths], non-dispersive; thicknesses and wavelengths in metres.
+    n = np.broadcast_to(np.asarray(indices, np.complex128)[None, :, None],
+                        (1, len(indices), wavelengths.size))
+    d = np.asarray(thicknesses)[None, :] * 1e-9
+    out = tmm_fast.coh_tmm("s", n, d, angles, wavelengths * 1e-9)
+    return np.asarray(out["R"][0]).ravel()
+
+
+EVALUATORS: dict[str, Callable[..., np.ndarray]] = {
+    "gpu": evaluate_gpu,
+    "gpu_unpolarized": evaluate_gpu_unpolarized,
+    "gpu_e2e": evaluate_gpu_e2e,
+    "yeh": evaluate_yeh,
+    "transfer_matrix": evaluate_transfer_matrix,
+    "tmm": evaluate_tmm,
+    "tmm_fast": evaluate_tmm_fast,
+}
+
+
+# --------------------------------------------------------------------------- timing
+
+
+def _best_seconds(fn: Callable[[], Any], repeats: int) -> float:
+    """Shortest wall-clock duration of ``repeats`` calls: the least disturbed by the OS."""
+    best = math.inf
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def _measure_gpu_kernel(N: int, cfg: Config, polarization: str) -> Measurement:
+    wavelength, theta = grid(cfg.gpu_side)
+    kernel = _bragg_kernel(polarization)
+    seconds = kernel.benchmark([wavelength, theta], [(wavelength.size, np.float32)],
+                               _bragg_params(N), repeats=cfg.gpu_repeats)
+    return Measurement(wavelength.size / seconds, wavelength.size, seconds)
+
+
+def _measure_gpu_e2e(N: int, cfg: Config, first: bool) -> Measurement:
+    wavelength, theta = grid(cfg.gpu_side)
+    if first:
+        # The first call compiles the pipeline; users pay that once per process, not per call.
+        evaluate_gpu_e2e(N, wavelength, theta)
+    seconds = _best_seconds(lambda: evaluate_gpu_e2e(N, wavelength, theta), cfg.e2e_repeats)
+    return Measurement(wavelength.size / seconds, wavelength.size, seconds)
+
+
+def _measure_yeh(N: int, cfg: Config, first: bool) -> Measurement:
+    wavelength, theta = grid(cfg.yeh_side)
+    if first:
+        evaluate_yeh(N, wavelength[:16], theta[:16])  # warm imports and caches
+    seconds = _best_seconds(lambda: evaluate_yeh(N, wavelength, theta), cfg.cpu_repeats)
+    return Measurement(wavelength.size / seconds, wavelength.size, seconds)
+
+
+def _calibrated_batch(evaluate: Callable[..., Any], N: int, cfg: Config,
+                      max_points: int) -> tuple[int, int]:
+    """Batch grid side at which ``evaluate`` is fastest, and how many calls fill the target.
+
+    A probe grid doubles its side until one call takes a quarter of ``cfg.target_s``, reaches
+    ``max_points``, or throughput has clearly passed its peak. Vectorised peers are timed at
+    their best batch: tiny batches drown in per-call overhead and big ones fall out of cache
+    (``tmm_fast`` at N = 20 peaks near 10^4 points), and either would flatter the GPU ratios.
+    The sweep runs twice and only the second counts: torch's first calls at new shapes are
+    up to 10x slower for a second or two, which would pick a needlessly small batch.
+
+    Returns
+    -------
+    side, calls : int
+        Grid ``side x side`` per call; ``calls`` calls take about ``cfg.target_s``.
+    """
+    max_points = max(4, min(max_points, cfg.max_points_linear))
+    for _sweep in range(2):
+        side = 2
+        best = (0.0, side, math.inf)  # (rate, side, seconds per call)
+        while True:
+            points = grid(side)
+            seconds = _best_seconds(lambda p=points: evaluate(N, *p), 1)
+            if seconds < cfg.target_s / 10:
+                # Short probes are at the mercy of the scheduler; their best of three is not.
+                seconds = min(seconds, _best_seconds(lambda p=points: evaluate(N, *p), 2))
+            rate = side * side / seconds
+            if rate > best[0]:
+                best = (rate, side, seconds)
+            past_peak = rate < best[0] / 2 and seconds >= cfg.target_s / 20
+            if seconds >= cfg.target_s / 4 or 4 * side * side > max_points or past_peak:
+                break
+            side *= 2
+    _, side, seconds = best
+    return side, max(1, round(cfg.target_s / seconds))
+
+
+def _measure_vectorised_linear(key: str, N: int, cfg: Config, side: int,
+                               calls: int) -> Measurement:
+    wavelength, theta = grid(side)
+    evaluate = EVALUATORS[key]
+
+    def run() -> None:
+        for _ in range(calls):
+            evaluate(N, wavelength, theta)
+
+    seconds = _best_seconds(run, cfg.cpu_repeats)
+    return Measurement(calls * wavelength.size / seconds, wavelength.size, seconds, calls)
+
+
+def _tmm_points(cfg: Config) -> tuple[np.ndarray, np.ndarray]:
+    wavelength, theta = grid(math.isqrt(cfg.max_calls_tmm) + 1)
+    # Spread the calls over the whole grid rather than the first rows (theta near 0).
+    order = np.random.default_rng(0).permutation(wavelength.size)
+    return wavelength[order], theta[order]
+
+
+def _tmm_calls(N: int, cfg: Config) -> int:
+    """Number of ``coh_tmm`` calls that take about ``cfg.target_s``."""
+    wavelength, theta = _tmm_points(cfg)
+    evaluate_tmm(N, wavelength[:1], theta[:1])  # warm-up
+    per_call = _best_seconds(lambda: evaluate_tmm(N, wavelength[1:2], theta[1:2]), 1)
+    return int(min(cfg.max_calls_tmm, max(1, cfg.target_s / max(per_call, 1e-9))))
+
+
+def _measure_tmm(N: int, cfg: Config, calls: int) -> Measurement:
+    """Time a few ``coh_tmm`` calls and extrapolate: its cost per call does not depend on
+    how many calls are made, so the rate of k calls is the rate of any number."""
+    wavelength, theta = _tmm_points(cfg)
+    w, t = wavelength[:calls], theta[:calls]
+    seconds = _best_seconds(lambda: evaluate_tmm(N, w, t), cfg.cpu_repeats)
+    return Measurement(calls / seconds, calls, seconds)
+
+
+def _measure(key: str, N: int, cfg: Config, sizes: dict[tuple[str, int], Any]) -> Measurement:
+    """One pass over one cell; ``sizes`` keeps the problem size chosen on the first pass,
+    so that every pass times the same work."""
+    first = (key, N) not in sizes
+    if key == "gpu":
+        result = _measure_gpu_kernel(N, cfg, "s")
+    elif key == "gpu_unpolarized":
+        result = _measure_gpu_kernel(N, cfg, "unpolarized")
+    elif key == "gpu_e2e":
+        result = _measure_gpu_e2e(N, cfg, first)
+    elif key == "yeh":
+        result = _measure_yeh(N, cfg, first)
+    elif key in ("transfer_matrix", "tmm_fast"):
+        if first:
+            cap = cfg.max_points_linear
+            if key == "tmm_fast":
+                cap = min(cap, cfg.max_cells_tmm_fast // (2 * N + 2))
+            sizes[key, N] = _calibrated_batch(EVALUATORS[key], N, cfg, cap)
+        result = _measure_vectorised_linear(key, N, cfg, *sizes[key, N])
+    elif key == "tmm":
+        if first:
+            sizes[key, N] = _tmm_calls(N, cfg)
+        result = _measure_tmm(N, cfg, sizes[key, N])
+    else:
+        raise KeyError(key)
+    sizes.setdefault((key, N), result.points)
+    return result
+
+
+def applicable(method: Method, N: int) -> bool:
+    """Whether ``method`` is measured at ``N`` (O(N) methods stop at :data:`MAX_N_LINEAR`)."""
+    return not method.linear or N <= MAX_N_LINEAR
+
+
+class _LoadMeter:
+    """CPU time that other processes used since creation, from ``/proc/stat`` (Linux).
+
+    The GPU of lavapipe and the CPU methods share the same few cores with whatever else runs
+    on the machine, so the report says how busy the machine was besides this benchmark.
+    """
+
+    def __init__(self):
+        self._start = (time.perf_counter(), self._busy(), self._own())
+
+    @staticmethod
+    def _busy() -> float | None:
+        try:
+            fields = Path("/proc/stat").read_text().splitlines()[0].split()
+        except (OSError, IndexError):
+            return None
+        # user nice system idle iowait irq softirq steal: busy = all but idle and iowait.
+        user, nice, system, _idle, _iowait, irq, softirq, steal = map(int, fields[1:9])
+        return (user + nice + system + irq + softirq + steal) / os.sysconf("SC_CLK_TCK")
+
+    @staticmethod
+    def _own() -> float:
+        times = os.times()
+        return times.user + times.system
+
+    def background_cores(self) -> float | None:
+        """Average number of cores busy with other processes (or stolen by the hypervisor)."""
+        wall0, busy0, own0 = self._start
+        busy = self._busy()
+        if busy is None or busy0 is None:
+            return None
+        wall = time.perf_counter() - wall0
+        return max(0.0, (busy - busy0 - (self._own() - own0)) / max(wall, 1e-9))
+
+
+def _cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def _version(distribution: str) -> str:
+    # tmm and tmm_fast define no __version__; the installed metadata knows it.
+    try:
+        return importlib.metadata.version(distribution)
+    except importlib.metadata.PackageNotFoundError:
+        return "?"
+
+
+def _environment(modules: dict[str, Any]) -> dict[str, Any]:
+    from wgbragg import __version__, gpu
+
+    info = gpu.adapter_info()
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    env = {
+        "date": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"),
+        "adapter": f"{info['name']} [{info['backend']}]",
+        "cpu": _cpu_model(),
+        "cores": cores,
+        "python": platform.python_version(),
+        "versions": {"wgbragg": __version__, "numpy": np.__version__},
+    }
+    for name in modules:
+        env["versions"][name] = _version(name)
+    if "tmm_fast" in modules:
+        import torch
+
+        env["versions"]["torch"] = torch.__version__
+        env["torch_threads"] = torch.get_num_threads()
+    return env
+
+
+def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
+    """Measure every method at every applicable N.
+
+    Parameters
+    ----------
+    cfg : Config
+        Sizes and repeats (:data:`FULL` or :data:`QUICK`).
+    progress : bool
+        Show a tqdm bar on stderr.
+
+    Returns
+    -------
+    Results
+    """
+    from wgbragg import gpu
+
+    gpu.get_device()  # fail early, before minutes of CPU timings, if there is no adapter
+    modules, missing = {}, {}
+    for method in METHODS:
+        if method.package is not None:
+            module, why = _import_optional(method.package)
+            if module is None:
+                missing[method.key] = why
+            else:
+                modules[method.package] = module
+    cells = [(m.key, N) for m in METHODS if m.key not in missing
+             for N in N_VALUES if applicable(m, N)]
+    # Whole passes over the table rather than repeats of one cell back to back: a burst of load
+    # from other processes on the shared cores then spoils one pass of many cells, not every
+    # repeat of one cell, and the best pass survives.
+    tasks = [cell for _ in range(cfg.passes) for cell in cells]
+    measurements: dict[tuple[str, int], Measurement] = {}
+    sizes: dict[tuple[str, int], Any] = {}
+    load = _LoadMeter()
+    bar = tqdm(tasks, desc="bench_reflectance", unit="cell", disable=not progress,
+               file=sys.stderr)
+    for key, N in bar:
+        bar.set_postfix_str(f"{key} N={N}")
+        result = _measure(key, N, cfg, sizes)
+        if (key, N) not in measurements or result.rate > measurements[key, N].rate:
+            measurements[key, N] = result
+    environment = _environment(modules)
+    environment["workgroup_size"] = _bragg_kernel("s").workgroup_size
+    environment["background_cores"] = load.background_cores()
+    return Results(cfg, measurements, missing, environment)
+
+
+# --------------------------------------------------------------------------- report
+
+_PREFIXES = ((1e12, "T"), (1e9, "G"), (1e6, "M"), (1e3, "k"), (1.0, ""))
+
+
+def human_rate(rate: float) -> str:
+    """Rate with 3 significant digits and an SI prefix, e.g. ``"123 M/s"``, ``"1.10 k/s"``.
+
+    Parameters
+    ----------
+    rate : float
+        Evaluations per second, > 0.
+
+    Returns
+    -------
+    str
+    """
+    for scale, prefix in _PREFIXES:
+        # Round first so that 999.7 k becomes "1.00 M", not "1e+03 k".
+        if float(f"{rate:.3g}") >= scale or scale == 1.0:
+            value = float(f"{rate:.3g}") / scale
+            digits = max(0, 2 - math.floor(math.log10(value))) if value > 0 else 2
+            return f"{value:.{digits}f} {prefix}/s"
+    raise AssertionError("unreachable")
+
+
+def parse_rate(text: str) -> float:
+    """Inverse of :func:`human_rate`.
+
+    Parameters
+    ----------
+    text : str
+        As made by :func:`human_rate`.
+
+    Returns
+    -------
+    float
+    """
+    number, unit = text.strip().split()
+    prefix = unit.removesuffix("/s")
+    scale = dict((p, s) for s, p in _PREFIXES)[prefix]
+    return float(number) * scale
+
+
+def human_ratio(ratio: float) -> str:
+    """Speed-up with 3 significant digits, e.g. ``"4,310×"``, ``"12.5×"``, ``"0.83×"``."""
+    rounded = float(f"{ratio:.3g}")
+    if rounded >= 100:
+        return f"{rounded:,.0f}{TIMES}"
+    digits = max(0, 2 - math.floor(math.log10(rounded))) if rounded > 0 else 2
+    return f"{rounded:.{digits}f}{TIMES}"
+
+
+def parse_ratio(text: str) -> float:
+    """Inverse of :func:`human_ratio`."""
+    return float(text.strip().removesuffix(TIMES).replace(",", ""))
+
+
+def _n_label(N: int) -> str:
+    exponent = math.log10(N)
+    if N >= 10_000 and exponent == int(exponent):
+        return f"N = 10^{int(exponent)}"
+    return f"N = {N}"
+
+
+def flatness(results: Results, key: str) -> float | None:
+    """``max / min - 1`` of a method's rate over the measured N, or None if under two N."""
+    rates = [results.measurements[key, N].rate for N in N_VALUES
+             if (key, N) in results.measurements]
+    if len(rates) < 2:
+        return None
+    return max(rates) / min(rates) - 1.0
+
+
+def _size(measurement: Measurement) -> str:
+    if measurement.calls == 1:
+        return f"{measurement.points:,}"
+    return f"{measurement.points:,} {TIMES} {measurement.calls}"
+
+
+def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join(["---"] * len(header)) + "|"]
+    lines += ["| " + " | ".join(row) + " |" for row in rows]
+    return lines
+
+
+def _targets(results: Results) -> list[list[str]]:
+    m = results.measurements
+    gpu_rates = [m["gpu", N].rate for N in N_VALUES if ("gpu", N) in m]
+    rows = []
+    if gpu_rates:
+        low = min(gpu_rates)
+        rows.append([f"GPU kernel >= {human_rate(TARGET_GPU_RATE)} at every N",
+                     f"min {human_rate(low)}", "yes" if low >= TARGET_GPU_RATE else "no"])
+    flat = flatness(results, "gpu")
+    if flat is not None:
+        rows.append([f"GPU kernel flat in N (max/min - 1 <= {TARGET_FLATNESS:.0%})",
+                     f"{flat:.1%}", "yes" if flat <= TARGET_FLATNESS else "no"])
+    if ("gpu", 20) in m and ("tmm_fast", 20) in m:
+        ratio = m["gpu", 20].rate / m["tmm_fast", 20].rate
+        rows.append([f"GPU kernel >= {TARGET_TMM_FAST_RATIO:,.0f}{TIMES} `tmm_fast` at N = 20",
+                     human_ratio(ratio), "yes" if ratio >= TARGET_TMM_FAST_RATIO else "no"])
+    else:
+        rows.append([f"GPU kernel >= {TARGET_TMM_FAST_RATIO:,.0f}{TIMES} `tmm_fast` at N = 20",
+                     NOT_INSTALLED, "not checked"])
+    return rows
+
+
+def render_section(results: Results, command: str) -> str:
+    """The markdown section, markers included.
+
+    Parameters
+    ----------
+    results : Results
+    command : str
+        The command line that produced ``results``, quoted in the section.
+
+    Returns
+    -------
+    str
+        Starts with :data:`BEGIN_MARKER`, ends with :data:`END_MARKER` (no trailing newline).
+    """
+    cfg, m, env = results.config, results.measurements, results.environment
+    n_header = [_n_label(N) for N in N_VALUES]
+    out = [BEGIN_MARKER, "## Reflectance throughput (`tools/bench_reflectance.py`)", ""]
+    out.append("_Generated by the command below; do not edit between the markers._")
+    if cfg.name == "quick":
+        out.append("")
+        out.append("**Quick mode: tiny problem sizes, the numbers are not meaningful.**")
+    versions = ", ".join(f"{k} {v}" for k, v in env["versions"].items())
+    cores_busy = env.get("background_cores")
+    background = ("unknown (no /proc/stat)" if cores_busy is None else
+                  f"{cores_busy:.2f} cores busy on average (from /proc/stat)")
+    threads = f", torch threads {env['torch_threads']}" if "torch_threads" in env else ""
+    out += [
+        "",
+        f"- Command: `{command}`",
+        f"- Date: {env['date']}",
+        f"- Adapter: {env['adapter']}",
+        f"- CPU: {env['cpu']}, {env['cores']} cores available{threads}",
+        f"- Other processes on the machine during the run: {background}",
+        f"- Python {env['python']}; {versions}",
+        f"- Mirror: (n1, n2, d1, d2) = ({N1}, {N2}, {D1_NM:g} nm, {D2_NM:g} nm), host = n1; "
+        f"float32 inputs, wavelength {WAVELENGTH_RANGE_NM[0]:g} to {WAVELENGTH_RANGE_NM[1]:g} nm "
+        f"by angle {THETA_RANGE_DEG[0]:g} to {THETA_RANGE_DEG[1]:g}°.",
+        "- One evaluation = one reflectance value R(λ, θ) for s polarisation; in the "
+        "unpolarized row, one (R_s + R_p) / 2 value (the kernel shares work between s and p).",
+        "",
+        "### Evaluations per second",
+        "",
+    ]
+    rows = []
+    for method in METHODS:
+        cells = []
+        for N in N_VALUES:
+            if method.key in results.missing:
+                cells.append(NOT_INSTALLED)
+            elif (method.key, N) in m:
+                cells.append(human_rate(m[method.key, N].rate))
+            else:
+                cells.append(NOT_MEASURED + "¹")
+        flat = None if method.linear else flatness(results, method.key)
+        cells.append(NOT_MEASURED + "²" if flat is None else f"{flat:.1%}")
+        rows.append([method.label, *cells])
+    out += _table(["method", *n_header, "flatness (max/min - 1)"], rows)
+
+    base = METHOD_BY_KEY[RATIO_BASE].label
+    out += ["", f"### Speed-up of the {base}", ""]
+    rows = []
+    for key in RATIO_KEYS:
+        cells = []
+        for N in N_VALUES:
+            if key in results.missing:
+                cells.append(NOT_INSTALLED)
+            elif (key, N) in m and (RATIO_BASE, N) in m:
+                cells.append(human_ratio(m[RATIO_BASE, N].rate / m[key, N].rate))
+            else:
+                cells.append(NOT_MEASURED + "¹")
+        rows.append([f"÷ {METHOD_BY_KEY[key].label}", *cells])
+    out += _table(["GPU kernel (s) / …", *n_header], rows)
+
+    out += ["", "### Targets (lavapipe, 2 cores)", ""]
+    out += _table(["target", "measured", "met"], _targets(results))
+
+    out += ["", f"### Sizes (evaluations per call {TIMES} calls per timed repeat)", ""]
+    rows = []
+    for method in METHODS:
+        cells = [_size(m[method.key, N]) if (method.key, N) in m else NOT_MEASURED
+                 for N in N_VALUES]
+        rows.append([method.label, *cells])
+    out += _table(["method", *n_header], rows)
+
+    out += ["", "Notes:", ""]
+    linear = [mm for mm in METHODS if mm.linear and mm.key not in results.missing]
+    extrapolated = []
+    for method in linear:
+        if (method.key, MAX_N_LINEAR) in m:
+            # Cost is O(N): the rate at N scales as MAX_N_LINEAR / N (extrapolation, not timed).
+            rate = m[method.key, MAX_N_LINEAR].rate * MAX_N_LINEAR / N_VALUES[-1]
+            extrapolated.append(f"{method.label} ≈ {human_rate(rate)}")
+    out.append(
+        f"1. Not measured: the cost of the O(N) methods grows with N and N = 10^6 would take "
+        f"hours. Extrapolated linearly from N = {MAX_N_LINEAR} (not timed): "
+        + ("; ".join(extrapolated) if extrapolated else "none measured") + "."
+    )
+    out.append("2. Flatness is only meaningful for the O(1) closed forms.")
+    out.append(
+        f"3. GPU kernel rows: `bragg_reflectance.wgsl` with POLARIZATION = 0 (s) or 2 "
+        f"(unpolarized), HOST_MATCHED = true, WORKGROUP_SIZE = {env['workgroup_size']}; "
+        f"{cfg.gpu_side}{TIMES}{cfg.gpu_side} grid, median of {cfg.gpu_repeats} dispatches "
+        "timed by GPU timestamp queries, buffers uploaded once (`Kernel.benchmark`)."
+    )
+    out.append(
+        "4. GPU end-to-end: `BraggMirror(...).reflectance(wl, theta, 's', backend='gpu')` on the "
+        "same grid, wall clock, one call per pass after one warm-up call (pipeline "
+        "compilation excluded): input checks, float conversion, upload, dispatch, readback."
+    )
+    out.append(
+        "5. CPU rows: wall clock (`time.perf_counter`), one timed run per pass. numpy Yeh "
+        f"on a {cfg.yeh_side}{TIMES}{cfg.yeh_side} grid. Transfer matrices and `tmm_fast` "
+        "at the batch size where they are fastest (found by doubling a probe grid), called "
+        f"repeatedly to fill about {cfg.target_s:g} s per run. `tmm.coh_tmm` timed over "
+        "the number of calls in the sizes table and reported as calls per second (its cost per "
+        "call is fixed, so the rate extrapolates to any number of calls)."
+    )
+    out.append(
+        f"6. Every cell is the best of {cfg.passes} pass(es) over the whole table. The passes are "
+        "spread in time because lavapipe and the CPU methods share the machine's cores with "
+        "anything else running (see 'Other processes' above): a burst of outside load then "
+        "spoils one pass, not every repeat of a cell."
+    )
+    for key, why in results.missing.items():
+        out.append(f"- {METHOD_BY_KEY[key].label}: not installed ({why}); "
+                   "`pip install -e '.[bench]'` adds it.")
+    out.append(END_MARKER)
+    return "\n".join(out)
+
+
+def update_document(text: str | None, section: str) -> str:
+    """Put ``section`` into a benchmarks document, replacing an earlier version of it.
+
+    Parameters
+    ----------
+    text : str or None
+        Current document, or None if it does not exist yet.
+    section : str
+        As made by :func:`render_section`, markers included.
+
+    Returns
+    -------
+    str
+        ``text`` with the part from :data:`BEGIN_MARKER` to :data:`END_MARKER` replaced by
+        ``section``; ``section`` appended if ``text`` has no markers; the intro followed by
+        ``section`` if ``text`` is None.
+
+    Raises
+    ------
+    ValueError
+        If the markers are unpaired, repeated or out of order: rewriting then could eat
+        someone else's section.
+    """
+    if text is None:
+        return f"{DOC_INTRO}\n{section}\n"
+    begins, ends = text.count(BEGIN_MARKER), text.count(END_MARKER)
+    if begins == ends == 0:
+        return f"{text.rstrip()}\n\n{section}\n"
+    start, stop = text.find(BEGIN_MARKER), text.find(END_MARKER)
+    if begins != 1 or ends != 1 or stop < start:
+        raise ValueError(
+            f"expected one {BEGIN_MARKER} followed by one {END_MARKER}; found {begins} and "
+            f"{ends}: fix the document by hand"
+        )
+    return text[:start] + section + text[stop + len(END_MARKER):]
+
+
+# --------------------------------------------------------------------------- CLI
+
+
+def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
+    """Parse the command line (``argv`` without the program name)."""
+    parser = argparse.ArgumentParser(
+        prog="bench_reflectance.py",
+        description="Reflectance evaluations/s: GPU kernel vs numpy Yeh, transfer matrices, "
+                    "tmm and tmm_fast.",
+    )
+    parser.add_argument("--quick", action="store_true",
+                        help="tiny sizes and repeats (< 20 s); writes nothing unless --output")
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--output", type=Path, default=None,
+                       help=f"markdown file to update (full mode default: {DEFAULT_OUTPUT})")
+    where.add_argument("--no-write", action="store_true", help="print the table only")
+    parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    return parser.parse_args(argv)
+
+
+def output_path(args: argparse.Namespace) -> Path | None:
+    """Where the section goes: ``--output``, else docs/benchmarks.md in full mode only."""
+    if args.no_write:
+        return None
+    if args.output is not None:
+        return args.output
+    return None if args.quick else DEFAULT_OUTPUT
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the benchmark, print the section and write it where :func:`output_path` says.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Arguments without the program name; default ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        Exit status.
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = parse_args(argv)
+    results = run_benchmarks(QUICK if args.quick else FULL, progress=not args.no_progress)
+    section = render_section(results, shlex.join(["python", "tools/bench_reflectance.py",
+                                                  *argv]))
+    print(section)
+    path = output_path(args)
+    if path is not None:
+        current = path.read_text(encoding="utf-8") if path.exists() else None
+        write_text_atomic(path, update_document(current, section))
+        print(f"wrote {path}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
