@@ -29,10 +29,15 @@ BACKENDS = ("numpy", "gpu")
 
 
 def _as_float_array(name: str, value) -> np.ndarray:
+    message = f"{name} must be a real number or array of real numbers"
     try:
-        array = np.asarray(value, dtype=np.float64)
+        raw = np.asarray(value)
     except (TypeError, ValueError) as error:
-        raise ValueError(f"{name} must be a real number or array of real numbers") from error
+        raise ValueError(message) from error
+    # Strings would convert ("500" -> 500.0); refuse them rather than guess.
+    if raw.dtype.kind not in "biuf":
+        raise ValueError(f"{message}, got dtype {raw.dtype}")
+    array = raw.astype(np.float64)
     if np.isnan(array).any():
         raise ValueError(f"{name} contains NaN")
     return array

@@ -65,7 +65,7 @@ class BraggMirror:
     Examples
     --------
     >>> m = BraggMirror(n1=1.0, n2=1.5, d1=125.0, d2=375.0, N=20)
-    >>> float(m.reflectance(620.0, 0.0)) > 0.99   # inside the first band gap
+    >>> float(m.reflectance(687.5, 0.0)) > 0.99   # inside the gap at 651.6-732.2 nm
     True
     """
 

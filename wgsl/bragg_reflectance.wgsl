@@ -2,6 +2,7 @@
 //! include "harness.wgsl"
 //! include "numerics.wgsl"
 //! include "complex.wgsl"
+//! include "layer.wgsl"
 //! include "yeh.wgsl"
 
 // 0 = s, 1 = p, 2 = unpolarized.

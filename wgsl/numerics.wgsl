@@ -23,19 +23,30 @@ fn asinh_accurate(y: f32) -> f32 {
     return log(y + sqrt(y * y + 1.0));
 }
 
-// (sin x, cos x) for |x| <= pi/2: Taylor series to x^13 / x^14 (truncation < 1e-9), in
+// (sin(x) / x, cos x) for |x| <= pi/2: Taylor series to x^13 / x^14 (truncation < 1e-9), in
 // Estrin form: lavapipe runs one SIMD vector per thread, so Horner's dependent chain is
 // latency-bound while Estrin's independent pairs are not.
-fn sin_cos_reduced(x: f32) -> vec2<f32> {
+fn sinc_cos_reduced(x: f32) -> vec2<f32> {
     let u = x * x;
     let u2 = u * u;
     let u4 = u2 * u2;
-    let sin_poly = (1.0 - u * (1.0 / 6.0)) + u2 * ((1.0 / 120.0) - u * (1.0 / 5040.0))
+    let sinc = (1.0 - u * (1.0 / 6.0)) + u2 * ((1.0 / 120.0) - u * (1.0 / 5040.0))
         + u4 * (((1.0 / 362880.0) - u * (1.0 / 39916800.0)) + u2 * (1.0 / 6227020800.0));
-    let cos_poly = (1.0 - u * 0.5) + u2 * ((1.0 / 24.0) - u * (1.0 / 720.0))
+    let cosine = (1.0 - u * 0.5) + u2 * ((1.0 / 24.0) - u * (1.0 / 720.0))
         + u4 * (((1.0 / 40320.0) - u * (1.0 / 3628800.0))
         + u2 * ((1.0 / 479001600.0) - u * (1.0 / 87178291200.0)));
-    return vec2<f32>(x * sin_poly, cos_poly);
+    return vec2<f32>(sinc, cosine);
+}
+
+fn sin_cos_reduced(x: f32) -> vec2<f32> {
+    let sc = sinc_cos_reduced(x);
+    return vec2<f32>(x * sc.x, sc.y);
+}
+
+// sinh(y) / y for 0 <= y <= 1/2 (truncation < 1e-9).
+fn sinhc_small(y: f32) -> f32 {
+    let u = y * y;
+    return 1.0 + u * ((1.0 / 6.0) + u * ((1.0 / 120.0) + u * ((1.0 / 5040.0) + u * (1.0 / 362880.0))));
 }
 
 // Fractional part of cycles in [-1/2, 1/2]: the turn is exact, so phases of any size reduce

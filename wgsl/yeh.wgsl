@@ -1,5 +1,5 @@
 // Yeh's closed-form Bragg-mirror reflectance in float32: the twin of wgbragg/optics/yeh.py.
-// Stack: host | (n1 d1, n2 d2) x N | n1. Requires numerics.wgsl and complex.wgsl. No bindings.
+// Stack: host | (n1 d1, n2 d2) x N | n1. Requires numerics, complex and layer.wgsl. No bindings.
 //
 // The cell matrix is written A = e^{-i delta1} (P + i Q), C = e^{i delta1} i W with real P, Q, W,
 // so cos(K Lambda) = Re(A) and |C|^2 = W^2 need no complex arithmetic. 1 - cos^2(K Lambda) is a
@@ -19,24 +19,18 @@ struct BraggMirror {
     _pad: u32,
 }
 
-// Evanescent n2 layers decaying by more than this many e-folds transmit < e^-40, so R rounds
-// to 1 in float32; clamping keeps the cosh/sinh products finite.
-const MAX_DECAY: f32 = 20.0;
-// Caps |C|^2 so products with it stay finite; R has rounded to 1 long before.
-const MAX_SQUARE: f32 = 1e18;
+// Caps |C| so products with it stay finite; R has rounded to 1 long before.
+const MAX_AMPLITUDE: f32 = 1e9;
 
 // Quantities shared by both polarisations at one (wavelength, angle).
 struct CellGeometry {
     s: f32,             // Snell invariant host sin(theta)
     cos_theta: f32,
     q1: f32,            // n1 cos(theta_1), 0 at grazing
-    q2: f32,            // |n2^2 - s^2|^(1/2)
-    inv_q1q2: f32,      // 1 / (q1 q2): the one division the cell terms need
-    evanescent: bool,   // n2^2 < s^2
+    q2sq: f32,          // n2^2 - s^2, < 0 when n2 is evanescent
     sa: f32,            // sin(delta1 / 2), reduced
     ca: f32,            // cos(delta1 / 2), reduced
-    sb: f32,            // sin(delta2 / 2), or sinh(kappa / 2) when evanescent
-    cb: f32,            // cos(delta2 / 2), or cosh(kappa / 2) when evanescent
+    half2: HalfPhase,   // delta2 / 2 of the n2 layer
     delta1_cycles: f32,
 }
 
@@ -47,29 +41,20 @@ fn cell_geometry(m: BraggMirror, wavelength_nm: f32, theta: f32) -> CellGeometry
     g.cos_theta = sc.y;
     // (n - s)(n + s) instead of n^2 - s^2: no cancellation near the critical angle.
     g.q1 = select(sqrt(max((m.n1 - g.s) * (m.n1 + g.s), 0.0)), m.n1 * sc.y, m.host == m.n1);
-    let q2sq = (m.n2 - g.s) * (m.n2 + g.s);
-    g.evanescent = q2sq < 0.0;
-    g.q2 = sqrt(abs(q2sq));
-    g.inv_q1q2 = 1.0 / (g.q1 * g.q2);
+    g.q2sq = (m.n2 - g.s) * (m.n2 + g.s);
     let inv_wavelength = 1.0 / wavelength_nm;
     g.delta1_cycles = g.q1 * m.d1_nm * inv_wavelength;
     let sc_a = half_phase_sin_cos(g.delta1_cycles);
     g.sa = sc_a.x;
     g.ca = sc_a.y;
-    let cycles2 = g.q2 * m.d2_nm * inv_wavelength;
-    if (g.evanescent) {
-        let e = exp(min(PI * cycles2, 0.5 * MAX_DECAY));
-        g.sb = 0.5 * (e - 1.0 / e);
-        g.cb = 0.5 * (e + 1.0 / e);
-    } else {
-        let sc_b = half_phase_sin_cos(cycles2);
-        g.sb = sc_b.x;
-        g.cb = sc_b.y;
-    }
+    g.half2 = layer_half_phase(sqrt(abs(g.q2sq)), g.q2sq < 0.0, m.d2_nm * inv_wavelength);
     return g;
 }
 
-// Real coefficients of the cell matrix for one polarisation, and 1 - x^2.
+// Real coefficients of the cell matrix for one polarisation, and 1 - x^2. With admittances
+// eta = q (s) or q / n^2 (p), S = sin(delta2) / eta2 and eta2^2 real (negative when n2 is
+// evanescent), one formula holds at every angle, including q2 = 0:
+//   P = cos(delta2), Q = -(eta2^2 + eta1^2) S / (2 eta1), W = (eta2^2 - eta1^2) S / (2 eta1).
 struct CellTerms {
     P: f32,
     Q: f32,
@@ -82,40 +67,33 @@ fn cell_terms(m: BraggMirror, g: CellGeometry, polarization: u32) -> CellTerms {
     var t: CellTerms;
     let n1s = m.n1 * m.n1;
     let n2s = m.n2 * m.n2;
-    // ratio = q2/q1 (s) or n1^2 q2 / (n2^2 q1) (p), times i when n2 is evanescent. gamma =
-    // (ratio - 1/ratio) / 2 is taken from the indices: exact differences, an exact Brewster zero.
-    var ratio = g.q2 * g.q2 * g.inv_q1q2;
-    var inv_ratio = g.q1 * g.q1 * g.inv_q1q2;
-    var gamma = 0.5 * (n2s - n1s) * g.inv_q1q2;
+    var eta1 = g.q1;
+    var eta2_squared = g.q2sq;
+    var s_half = g.half2.s_over_q;      // sin(delta2 / 2) / eta2
+    // eta2^2 - eta1^2 from the indices: exact differences, an exact zero at Brewster's angle.
+    var difference = n2s - n1s;
     if (polarization == 1u) {
-        ratio = ratio * (n1s / n2s);
-        inv_ratio = inv_ratio * (n2s / n1s);
-        gamma = 0.5 * (n1s - n2s) * (n1s * n2s - g.s * g.s * (n1s + n2s)) * g.inv_q1q2
-            / (n1s * n2s);
+        eta1 = g.q1 / n1s;
+        eta2_squared = g.q2sq / (n2s * n2s);
+        s_half = s_half * n2s;
+        difference = (n1s - n2s) * (n1s * n2s - g.s * g.s * (n1s + n2s)) / (n1s * n1s * n2s * n2s);
     }
+    let inv_eta1 = 1.0 / eta1;
+    let sb = g.half2.s;
+    let cb = g.half2.c;
+    let evanescent = g.q2sq < 0.0;
+    let S = 2.0 * cb * s_half;
+    t.P = select((cb - sb) * (cb + sb), cb * cb + sb * sb, evanescent);
+    t.Q = -0.5 * (eta2_squared + eta1 * eta1) * S * inv_eta1;
+    t.W = 0.5 * difference * S * inv_eta1;
+    let ratio_term = eta2_squared * inv_eta1;
+    let f1 = eta1 * g.ca * s_half + g.sa * cb;
+    let f2 = g.sa * cb + ratio_term * g.ca * s_half;
+    let f3 = g.ca * cb - eta1 * g.sa * s_half;
+    let f4 = g.ca * cb - ratio_term * g.sa * s_half;
+    t.sin2 = 4.0 * f1 * f2 * f3 * f4;
     let sin_d1 = 2.0 * g.sa * g.ca;
     let cos_d1 = (g.ca - g.sa) * (g.ca + g.sa);
-    if (g.evanescent) {
-        let sinh_k = 2.0 * g.sb * g.cb;
-        t.P = g.cb * g.cb + g.sb * g.sb;
-        t.Q = 0.5 * (ratio - inv_ratio) * sinh_k;
-        t.W = -0.5 * (ratio + inv_ratio) * sinh_k;
-        let f1 = g.ca * g.sb * inv_ratio + g.sa * g.cb;
-        let f2 = g.sa * g.cb - ratio * g.ca * g.sb;
-        let f3 = g.ca * g.cb - g.sa * g.sb * inv_ratio;
-        let f4 = g.ca * g.cb + ratio * g.sa * g.sb;
-        t.sin2 = 4.0 * f1 * f2 * f3 * f4;
-    } else {
-        let sin_d2 = 2.0 * g.sb * g.cb;
-        t.P = (g.cb - g.sb) * (g.cb + g.sb);
-        t.Q = -sqrt(1.0 + gamma * gamma) * sin_d2;
-        t.W = gamma * sin_d2;
-        let f1 = g.ca * g.sb * inv_ratio + g.sa * g.cb;
-        let f2 = g.sa * g.cb + ratio * g.ca * g.sb;
-        let f3 = g.ca * g.cb - g.sa * g.sb * inv_ratio;
-        let f4 = g.ca * g.cb - ratio * g.sa * g.sb;
-        t.sin2 = 4.0 * f1 * f2 * f3 * f4;
-    }
     t.x = cos_d1 * t.P + sin_d1 * t.Q;
     return t;
 }
@@ -124,7 +102,8 @@ fn cell_terms(m: BraggMirror, g: CellGeometry, polarization: u32) -> CellTerms {
 // quotient that never overflows. Pass band: U = sin(N phi) / sin(phi), sin^2(phi) = sin2.
 // Gap: 1/U = sinh(mu) / sinh(N mu) with sinh(mu) = sqrt(-sin2), scaled by e^{-N mu}.
 fn matched_reflectance(w: f32, x: f32, sin2: f32, periods: u32) -> f32 {
-    let w2 = min(w * w, MAX_SQUARE);
+    let w_capped = min(abs(w), MAX_AMPLITUDE);
+    let w2 = w_capped * w_capped;
     let n = f32(periods);
     let root = sqrt(abs(sin2));
     var numerator: f32;

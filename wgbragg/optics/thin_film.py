@@ -4,24 +4,36 @@ from __future__ import annotations
 
 import numpy as np
 
-from .fresnel import fresnel_r, normal_component
+from .fresnel import normal_component
 
 __all__ = ["airy_amplitude", "thin_film_reflectance"]
+
+# Beyond this many e-folds an evanescent film is opaque: e^-70 of the field reaches the base.
+_OPAQUE_DECAY = 35.0
 
 
 def airy_amplitude(n_host, n_film, d_film_nm, n_base, wavelength_nm, theta, polarization):
     """Complex reflection amplitude of a film, summed over all internal reflections.
 
-    ``r = (r12 + r23 e^{2 i delta}) / (1 + r12 r23 e^{2 i delta})`` with
-    ``delta = 2 pi q_film d / lambda`` the film's one-way phase (``q_film = n_film cos theta_2``:
-    the path difference uses the refracted angle, not the incident one).
+    Equal to ``(r12 + r23 e^{2 i delta}) / (1 + r12 r23 e^{2 i delta})`` with
+    ``delta = 2 pi q_film d / lambda`` (the path difference uses the refracted angle), written
+    with admittances ``eta = q`` (s) or ``q / n^2`` (p) as
+
+    ``r = [c (eta0 - eta2) + i S (eta1^2 - eta0 eta2)] / [c (eta0 + eta2) - i S (eta1^2 + eta0 eta2)]``
+
+    with ``c = cos(delta)`` and ``S = sin(delta) / eta1`` in sinc form, which stays finite where
+    the film turns evanescent (``q_film = 0``) and real beyond (``cos, sin -> cosh, sinh``).
 
     Parameters
     ----------
-    n_host, n_film, n_base : complex
-        Indices of the incident medium, the film and the base (``n + i k``).
+    n_host : float
+        Real index of the incident medium.
+    n_film : float
+        Real index of the film.
     d_film_nm : float
         Film thickness in nm.
+    n_base : complex
+        Index ``n + i k`` of the base.
     wavelength_nm, theta : array_like
         Vacuum wavelength (nm) and angle of incidence in the host (radians).
     polarization : {"s", "p"}
@@ -32,17 +44,44 @@ def airy_amplitude(n_host, n_film, d_film_nm, n_base, wavelength_nm, theta, pola
 
     References
     ----------
-    Belcour & Barla 2017, eq. 3; Fourneau et al. 2024, eq. 10 (the slab ``n1 | n2 | n1``).
+    Belcour & Barla 2017, eq. 3; Fourneau et al. 2024, eq. 10 (the slab ``n1 | n2 | n1``);
+    Macleod, *Thin-Film Optical Filters*, ch. 2 (characteristic matrix).
     """
-    s = np.real(n_host) * np.sin(theta)
-    q_host = normal_component(n_host, s)
-    q_film = normal_component(n_film, s)
+    wavelength, theta = np.broadcast_arrays(
+        np.asarray(wavelength_nm, np.float64), np.asarray(theta, np.float64)
+    )
+    n_host = float(np.real(n_host))
+    n_film = float(np.real(n_film))
+    s = n_host * np.sin(theta)
+    q_host = normal_component(n_host, s).real  # exactly 0 at grazing, as in the stack solvers
+    q_film_sq = (n_film - s) * (n_film + s)
+    evanescent = q_film_sq < 0
+    q_film = np.sqrt(np.abs(q_film_sq))
     q_base = normal_component(n_base, s)
-    r12 = fresnel_r(n_host, q_host, n_film, q_film, polarization)
-    r23 = fresnel_r(n_film, q_film, n_base, q_base, polarization)
-    # Im(delta) >= 0, so exp(2 i delta) decays for evanescent films instead of overflowing.
-    phase = np.exp(2j * (2.0 * np.pi / wavelength_nm) * q_film * d_film_nm)
-    return (r12 + r23 * phase) / (1.0 + r12 * r23 * phase)
+    if polarization == "s":
+        eta0, eta2, eta1_squared, film_factor = q_host, q_base, q_film_sq, 1.0
+    else:
+        eta0 = q_host / n_host**2
+        eta2 = q_base / np.asarray(n_base, np.complex128) ** 2
+        eta1_squared = q_film_sq / n_film**4
+        film_factor = n_film**2
+    k0 = 2.0 * np.pi / wavelength
+    phase = k0 * q_film * d_film_nm
+    opaque = evanescent & (phase > _OPAQUE_DECAY)
+    phase = np.where(opaque, _OPAQUE_DECAY, phase)
+    small = phase < 1e-4
+    safe = np.where(small, 1.0, phase)
+    decay = np.where(evanescent, safe, 0.0)  # hyperbolic functions see only clamped decays
+    sine = np.where(evanescent, np.sinh(decay), np.sin(safe))
+    sinc = np.where(small, 1.0 + np.where(evanescent, 1.0, -1.0) * phase**2 / 6.0, sine / safe)
+    c = np.where(evanescent, np.cosh(np.where(evanescent, phase, 0.0)), np.cos(phase))
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        # S = sin(delta) / eta1; where the decay is clamped q_film is far from 0.
+        S = film_factor * np.where(opaque, sine / q_film, k0 * d_film_nm * sinc)
+    top = c * (eta0 - eta2) + 1j * S * (eta1_squared - eta0 * eta2)
+    bottom = c * (eta0 + eta2) - 1j * S * (eta1_squared + eta0 * eta2)
+    matched = bottom == 0  # host, film and base index-matched at grazing incidence
+    return np.where(matched, 0.0, top / np.where(matched, 1.0, bottom))
 
 
 def thin_film_reflectance(n_host, n_film, d_film_nm, n_base, wavelength_nm, theta,

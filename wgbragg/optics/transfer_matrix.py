@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._validation import check_angle, check_polarization, check_wavelength
-from .fresnel import fresnel_r, normal_component
+from .fresnel import normal_component
 
 __all__ = ["transfer_matrix_reflectance"]
 
@@ -69,26 +69,42 @@ def transfer_matrix_reflectance(indices, thicknesses_nm, wavelength_nm, theta,
     return _reflectance(indices, thicknesses, wavelength, angle, polarization)
 
 
+def _sinc(z):
+    """``sin(z) / z`` for complex ``z``, 1 at 0."""
+    small = np.abs(z) < 1e-4
+    safe = np.where(small, 1.0, z)
+    return np.where(small, 1.0 - z * z / 6.0, np.sin(safe) / safe)
+
+
 def _reflectance(indices, thicknesses, wavelength, angle, polarization):
+    # Characteristic matrices M_j = [[cos d, -i S], [-i eta^2 S, cos d]] with admittance
+    # eta = q (s) or q / n^2 (p) and S = sin(d) / eta in sinc form: finite where a layer turns
+    # evanescent (q = 0), where interface matrices would be singular.
     wavelength, angle = np.broadcast_arrays(wavelength, angle)
     s = indices[0].real * np.sin(angle)
     k0 = 2.0 * np.pi / wavelength
     q = [normal_component(n, s) for n in indices]
-    # M = I_{01} P_1 I_{12} ... P_{L-2} I_{L-2,L-1}; only M10 / M00 is needed, so each partial
-    # product is renormalised to keep it finite whatever the number of layers.
-    m00 = np.ones(wavelength.shape, np.complex128)
-    m01 = np.zeros_like(m00)
-    m10 = np.zeros_like(m00)
-    m11 = np.ones_like(m00)
-    for layer in range(len(indices) - 1):
-        if layer > 0:
-            delta = k0 * q[layer] * thicknesses[layer - 1]
-            delta = delta.real + 1j * np.minimum(delta.imag, _OPAQUE_PHASE)
-            back, forward = np.exp(-1j * delta), np.exp(1j * delta)
-            m00, m01, m10, m11 = m00 * back, m01 * forward, m10 * back, m11 * forward
-        r = fresnel_r(indices[layer], q[layer], indices[layer + 1], q[layer + 1], polarization)
-        m00, m01, m10, m11 = m00 + m01 * r, m00 * r + m01, m10 + m11 * r, m10 * r + m11
-        scale = np.maximum(np.abs(m00), np.abs(m10))
+    factor = [1.0 if polarization == "s" else n * n for n in indices]
+    eta = [q_j / f for q_j, f in zip(q, factor, strict=True)]
+    B = np.ones(wavelength.shape, np.complex128)
+    C = eta[-1] * B
+    for layer in range(len(indices) - 2, 0, -1):
+        delta = k0 * q[layer] * thicknesses[layer - 1]
+        opaque = delta.imag > _OPAQUE_PHASE
+        delta = delta.real + 1j * np.minimum(delta.imag, _OPAQUE_PHASE)
+        cos_d = np.cos(delta)
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            # Where clamped, q is far from 0 (the layer decays by > 35 e-folds).
+            S = factor[layer] * np.where(opaque, np.sin(delta) / q[layer],
+                                         k0 * thicknesses[layer - 1] * _sinc(delta))
+        eta_squared = q[layer] ** 2 / factor[layer] ** 2
+        B, C = cos_d * B - 1j * S * C, -1j * eta_squared * S * B + cos_d * C
+        scale = np.maximum(np.abs(B), np.abs(C))
         scale = np.where(scale > 0, scale, 1.0)
-        m00, m01, m10, m11 = m00 / scale, m01 / scale, m10 / scale, m11 / scale
-    return np.clip(np.abs(m10 / m00) ** 2, 0.0, 1.0)
+        B, C = B / scale, C / scale
+    top, bottom = eta[0] * B - C, eta[0] * B + C
+    matched = bottom == 0  # grazing onto a stack that is index-matched to the host
+    R = np.abs(top / np.where(matched, 1.0, bottom)) ** 2
+    # Grazing incidence (eta0 = 0) gives r = -C/C: exactly 1 unless nothing reflects.
+    R = np.where(eta[0] == 0, 1.0, R)
+    return np.clip(np.where(matched, 0.0, R), 0.0, 1.0)

@@ -22,8 +22,32 @@ from .fresnel import fresnel_r, normal_component
 __all__ = ["bloch_dispersion", "cell_coefficients", "yeh_reflectance"]
 
 
+# Beyond this many e-folds an evanescent n2 layer is opaque (transmission e^-70, far below
+# float64 resolution of R); clamping keeps cosh/sinh finite for any thickness.
+_OPAQUE_DECAY = 35.0
+
+
+def _sinc(z):
+    """``sin(z)/z`` (1 at 0) for real ``z``; with ``sinh`` for the evanescent half-phases."""
+    small = np.abs(z) < 1e-4
+    safe = np.where(small, 1.0, z)
+    return np.where(small, 1.0 - z * z / 6.0, np.sin(safe) / safe)
+
+
+def _sinhc(z):
+    small = np.abs(z) < 1e-4
+    safe = np.where(small, 1.0, z)
+    return np.where(small, 1.0 + z * z / 6.0, np.sinh(safe) / safe)
+
+
 def cell_coefficients(n1, n2, d1_nm, d2_nm, wavelength_nm, s, polarization):
     """Translation-matrix entries of one cell and its Bloch dispersion.
+
+    The matrix is written with real ``P, Q, W`` as ``A = e^{-i delta1} (P + i Q)`` and
+    ``C = e^{i delta1} i W`` (Fourneau et al. 2024 eqs 4-5 in the convention of the ``tmm``
+    package), using admittances ``eta = q`` (s) or ``q / n^2`` (p) and
+    ``S = sin(delta2) / eta2`` in sinc form: finite where n2 turns evanescent (``q2 = 0``), and
+    real for evanescent n2 too (``sin -> sinh``), so one formula covers every angle.
 
     Parameters
     ----------
@@ -34,37 +58,66 @@ def cell_coefficients(n1, n2, d1_nm, d2_nm, wavelength_nm, s, polarization):
     wavelength_nm : array_like
         Vacuum wavelength in nm.
     s : array_like
-        Snell invariant ``host sin(theta)``, ``s < n1`` (n2 may be evanescent).
+        Snell invariant ``host sin(theta)`` with ``s < n1`` (n2 may be evanescent).
     polarization : {"s", "p"}
 
     Returns
     -------
     A, C : numpy.ndarray, complex
-        Entries of the cell matrix ``[[A, B], [C, D]]`` (Fourneau et al. 2024 eqs 4-5, in the
-        convention of the ``tmm`` package).
     x : numpy.ndarray
         ``cos(K Lambda)`` (eq 8).
     sin2 : numpy.ndarray
-        ``sin^2(K Lambda) = 1 - x^2``, accurate near band edges; negative inside band gaps.
+        ``sin^2(K Lambda) = 1 - x^2`` as a product of four factors that each vanish at one
+        kind of band edge (accurate there); negative inside band gaps.
     """
-    k0 = 2.0 * np.pi / np.asarray(wavelength_nm, dtype=np.float64)
-    q1 = normal_component(n1, s)
-    q2 = normal_component(n2, s)
+    wavelength = np.asarray(wavelength_nm, dtype=np.float64)
+    s = np.asarray(s, dtype=np.float64)
+    k0 = 2.0 * np.pi / wavelength
+    n1s, n2s = n1 * n1, n2 * n2
+    q1 = np.sqrt(np.maximum((n1 - s) * (n1 + s), 0.0))
+    q2sq = (n2 - s) * (n2 + s)
+    evanescent = q2sq < 0
+    q2 = np.sqrt(np.abs(q2sq))
+    if polarization == "s":
+        eta1, eta2_factor = q1, 1.0
+        eta2_squared = q2sq
+        # eta2^2 - eta1^2 from the indices: exact, and exactly 0 at Brewster's angle for p.
+        difference = np.full_like(q1, n2s - n1s)
+    else:
+        eta1, eta2_factor = q1 / n1s, n2s
+        eta2_squared = q2sq / (n2s * n2s)
+        difference = (n1s - n2s) * (n1s * n2s - s * s * (n1s + n2s)) / (n1s * n1s * n2s * n2s)
     delta1 = k0 * q1 * d1_nm
-    delta2 = k0 * q2 * d2_nm
-    r = fresnel_r(n1, q1, n2, q2, polarization)
-    one_minus_r2 = 1.0 - r * r
-    A = np.exp(-1j * delta1) * (np.exp(-1j * delta2) - r * r * np.exp(1j * delta2)) / one_minus_r2
-    C = np.exp(1j * delta1) * (-2j * r * np.sin(delta2)) / one_minus_r2
-    half_sum, half_diff = 0.5 * (delta1 + delta2), 0.5 * (delta1 - delta2)
-    x = np.real((np.cos(delta1 + delta2) - r * r * np.cos(delta1 - delta2)) / one_minus_r2)
-    # 1 - x = 2 (s+^2 - r^2 s-^2) / (1 - r^2) and 1 + x = 2 (c+^2 - r^2 c-^2) / (1 - r^2)
-    sin_sum, sin_diff = np.sin(half_sum), np.sin(half_diff)
-    cos_sum, cos_diff = np.cos(half_sum), np.cos(half_diff)
-    sin2 = np.real(
-        4.0 * (sin_sum - r * sin_diff) * (sin_sum + r * sin_diff)
-        * (cos_sum - r * cos_diff) * (cos_sum + r * cos_diff) / one_minus_r2**2
-    )
+    phase2 = k0 * q2 * d2_nm  # delta2, or the decay kappa when evanescent
+    opaque = evanescent & (phase2 > _OPAQUE_DECAY)
+    phase2 = np.where(opaque, _OPAQUE_DECAY, phase2)
+    half = 0.5 * phase2
+    decay = np.where(evanescent, phase2, 0.0)  # hyperbolic functions see only clamped decays
+    cos2 = np.where(evanescent, np.cosh(decay), np.cos(phase2))
+    cos_half2 = np.where(evanescent, np.cosh(0.5 * decay), np.cos(half))
+    # S = sin(delta2)/eta2 and S_half = sin(delta2/2)/eta2, with q2 cancelled analytically
+    # (sinc form); where the decay is clamped q2 is far from 0 and is divided directly.
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        S = eta2_factor * np.where(
+            opaque, np.sinh(decay) / q2,
+            k0 * d2_nm * np.where(evanescent, _sinhc(phase2), _sinc(phase2)))
+        S_half = eta2_factor * np.where(
+            opaque, np.sinh(0.5 * decay) / q2,
+            0.5 * k0 * d2_nm * np.where(evanescent, _sinhc(half), _sinc(half)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        P = cos2
+        Q = -(eta2_squared + eta1 * eta1) * S / (2.0 * eta1)
+        W = difference * S / (2.0 * eta1)
+        sa, ca = np.sin(0.5 * delta1), np.cos(0.5 * delta1)
+        ratio_term = eta2_squared / eta1
+        f1 = eta1 * ca * S_half + sa * cos_half2
+        f2 = sa * cos_half2 + ratio_term * ca * S_half
+        f3 = ca * cos_half2 - eta1 * sa * S_half
+        f4 = ca * cos_half2 - ratio_term * sa * S_half
+    x = np.cos(delta1) * P + np.sin(delta1) * Q
+    sin2 = 4.0 * f1 * f2 * f3 * f4
+    A = np.exp(-1j * delta1) * (P + 1j * Q)
+    C = np.exp(1j * delta1) * 1j * W
     return A, C, x, sin2
 
 
@@ -112,12 +165,15 @@ def _yeh_polarized(n1, n2, d1, d2, N, wavelength, theta, polarization, host):
         np.asarray(wavelength, np.float64), np.asarray(theta, np.float64)
     )
     s = host * np.sin(theta)
+    q_h, q_1 = normal_component(host, s), normal_component(n1, s)
+    r_h1 = fresnel_r(host, q_h, n1, q_1, polarization)
     if n1 == n2 or d2 == 0.0:
         # No n2 layer: the stack is bulk n1 under the host.
-        q_h, q_1 = normal_component(host, s), normal_component(n1, s)
-        return np.clip(np.abs(fresnel_r(host, q_h, n1, q_1, polarization)) ** 2, 0.0, 1.0)
-    beyond_critical = s >= n1  # evanescent in n1 and in the n1 substrate: nothing transmits
-    s_safe = np.where(beyond_critical, 0.0, s)
+        return np.clip(np.abs(r_h1) ** 2, 0.0, 1.0)
+    # s >= n1: evanescent in n1 and in the n1 substrate, nothing is transmitted; with a
+    # matched host that is grazing incidence, where r12 = -1 reflects everything.
+    total = s >= n1
+    s_safe = np.where(total, 0.0, s)
     A, C, x, sin2 = cell_coefficients(n1, n2, d1, d2, wavelength, s_safe, polarization)
     in_gap, u1, u0, inv_u1_squared = _chebyshev_ratio_terms(x, sin2, N)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
@@ -125,16 +181,12 @@ def _yeh_polarized(n1, n2, d1, d2, N, wavelength, theta, polarization, host):
             # Eqs 2 and 9: R = |C|^2 U^2 / (1 + |C|^2 U^2).
             c2 = np.abs(C) ** 2
             c2u2 = c2 * u1 * u1
-            R = np.where(in_gap, 1.0 / (1.0 + inv_u1_squared / c2), c2u2 / (1.0 + c2u2))
-            grazing = ~np.isfinite(c2)  # q1 = 0: r12 = -1, the mirror reflects everything
-            R = np.where(grazing, 1.0, R)
+            R = np.where(in_gap, c2 / (c2 + inv_u1_squared), c2u2 / (1.0 + c2u2))
         else:
             # Appendix D: r_N = C U_{N-1} / (A U_{N-1} - U_{N-2}), then the host interface.
             r_N = C * u1 / (A * u1 - u0)
-            q_h, q_1 = normal_component(host, s_safe), normal_component(n1, s_safe)
-            r_h1 = fresnel_r(host, q_h, n1, q_1, polarization)
             R = np.abs((r_N + r_h1) / (1.0 + r_h1 * r_N)) ** 2
-    R = np.where(beyond_critical, 1.0, R)
+    R = np.where(total, 1.0, R)
     return np.clip(R, 0.0, 1.0)
 
 

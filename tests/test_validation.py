@@ -1,0 +1,212 @@
+"""Input validation of the public API: bad input raises ValueError naming the parameter."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+import wgbragg
+from wgbragg import BraggMirror, ThinFilm
+from wgbragg.optics import transfer_matrix_reflectance
+
+MAX_INT32 = 2**31 - 1
+GOOD_MIRROR = {"n1": 1.0, "n2": 1.5, "d1": 125.0, "d2": 375.0, "N": 20, "host": 1.0}
+GOOD_FILM = {"n_film": 1.3, "d": 290.0, "n_base": 1.0, "k_base": 0.0, "host": 1.0}
+BAD_INDICES = [0.0, -1.5, math.nan, math.inf, -math.inf, "1.5", 1.5 + 0j, True]
+BAD_THICKNESSES = [-1e-9, -100.0, math.nan, math.inf, "10", None]
+BAD_COUNTS = [0, -3, 2.5, True, False, np.True_, 2**31, 2**40, math.nan, math.inf, "20", None]
+
+
+def with_value(good, name, value):
+    return {**good, name: value}
+
+
+def names(parameter):
+    """A pattern matching the parameter's name as a word in the error message."""
+    return rf"\b{parameter}\b"
+
+
+# --------------------------------------------------------------------------- constructors
+
+
+@pytest.mark.parametrize("value", BAD_INDICES)
+@pytest.mark.parametrize("name", ["n1", "n2", "host"])
+def test_mirror_rejects_bad_indices(name, value):
+    with pytest.raises(ValueError, match=names(name)):
+        BraggMirror(**with_value(GOOD_MIRROR, name, value))
+
+
+@pytest.mark.parametrize("value", BAD_THICKNESSES)
+@pytest.mark.parametrize("name", ["d1", "d2"])
+def test_mirror_rejects_bad_thicknesses(name, value):
+    with pytest.raises(ValueError, match=names(name)):
+        BraggMirror(**with_value(GOOD_MIRROR, name, value))
+
+
+@pytest.mark.parametrize("value", BAD_COUNTS)
+def test_mirror_rejects_bad_period_counts(value):
+    with pytest.raises(ValueError, match=names("N")):
+        BraggMirror(**with_value(GOOD_MIRROR, "N", value))
+
+
+@pytest.mark.parametrize("value", [1, 20, 20.0, np.int64(7), np.float32(3.0), MAX_INT32,
+                                   float(MAX_INT32)])
+def test_mirror_accepts_integral_period_counts(value):
+    mirror = BraggMirror(**with_value(GOOD_MIRROR, "N", value))
+    assert mirror.N == int(value)
+    assert type(mirror.N) is int
+
+
+def test_mirror_accepts_the_edges_of_its_domain():
+    mirror = BraggMirror(n1=1e-3, n2=50.0, d1=0.0, d2=0.0, N=MAX_INT32)
+    assert mirror.host == mirror.n1  # host defaults to n1
+    R = mirror.reflectance([1e-3, 1e6], [0.0, math.pi / 2])
+    assert np.all((R >= 0) & (R <= 1))
+
+
+@pytest.mark.parametrize("value", [*BAD_INDICES, None])
+@pytest.mark.parametrize("name", ["n_film", "n_base", "host"])
+def test_film_rejects_bad_indices(name, value):
+    with pytest.raises(ValueError, match=names(name)):
+        ThinFilm(**with_value(GOOD_FILM, name, value))
+
+
+@pytest.mark.parametrize("value", [-1e-12, -2.0, math.nan, math.inf, "0", None])
+def test_film_rejects_bad_extinction(value):
+    with pytest.raises(ValueError, match=names("k_base")):
+        ThinFilm(**with_value(GOOD_FILM, "k_base", value))
+
+
+@pytest.mark.parametrize("value", BAD_THICKNESSES)
+def test_film_rejects_bad_thickness(value):
+    with pytest.raises(ValueError, match=names("d")):
+        ThinFilm(**with_value(GOOD_FILM, "d", value))
+
+
+@pytest.mark.parametrize("thing", [BraggMirror(**GOOD_MIRROR), ThinFilm(**GOOD_FILM)])
+def test_materials_are_frozen(thing):
+    field = dataclasses.fields(thing)[0].name
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        setattr(thing, field, 2.0)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        thing.host = 1.2
+
+
+# --------------------------------------------------------------------------- reflectance calls
+
+THINGS = [BraggMirror(**GOOD_MIRROR), BraggMirror(1.59, 1.67, 81.6, 78.4, 8),
+          ThinFilm(**GOOD_FILM)]
+BAD_CALLS = [
+    # (wavelength_nm, theta, polarization, backend, parameter named in the message)
+    (0.0, 0.1, "s", "numpy", "wavelength_nm"),
+    (-500.0, 0.1, "s", "numpy", "wavelength_nm"),
+    (math.inf, 0.1, "s", "numpy", "wavelength_nm"),
+    (math.nan, 0.1, "s", "numpy", "wavelength_nm"),
+    ([500.0, math.nan, 600.0], 0.1, "s", "numpy", "wavelength_nm"),
+    ([[500.0], [0.0]], 0.1, "p", "numpy", "wavelength_nm"),
+    (500.0, -1e-12, "s", "numpy", "theta"),
+    (500.0, np.nextafter(math.pi / 2, 4.0), "s", "numpy", "theta"),
+    (500.0, 2.0, "unpolarized", "numpy", "theta"),
+    (500.0, math.nan, "s", "numpy", "theta"),
+    (500.0, [0.1, math.nan], "s", "numpy", "theta"),
+    (500.0, math.inf, "s", "numpy", "theta"),
+    (500.0, 0.1, "x", "numpy", "polarization"),
+    (500.0, 0.1, "S", "numpy", "polarization"),
+    (500.0, 0.1, None, "numpy", "polarization"),
+    (500.0, 0.1, "s", "cuda", "backend"),
+    (500.0, 0.1, "s", None, "backend"),
+    ([500.0, 600.0, 700.0], [0.1, 0.2], "s", "numpy", "broadcast"),
+    (np.ones((3, 4)) * 500, np.ones((3,)) * 0.1, "s", "numpy", "broadcast"),
+]
+
+
+@pytest.mark.parametrize("wavelength, theta, polarization, backend, name", BAD_CALLS)
+@pytest.mark.parametrize("thing", THINGS, ids=["mirror", "mirror-host", "film"])
+def test_reflectance_rejects_bad_arguments(thing, wavelength, theta, polarization, backend,
+                                           name):
+    with pytest.raises(ValueError, match=names(name)):
+        thing.reflectance(wavelength, theta, polarization=polarization, backend=backend)
+
+
+@pytest.mark.parametrize("wavelength, theta, polarization, backend, name",
+                         [call for call in BAD_CALLS if call[3] == "numpy"])
+@pytest.mark.parametrize("thing", THINGS, ids=["mirror", "mirror-host", "film"])
+def test_gpu_backend_validates_before_touching_the_device(thing, wavelength, theta,
+                                                          polarization, backend, name,
+                                                          monkeypatch):
+    """backend="gpu" checks the same things first: the kernels are never reached."""
+    from wgbragg import gpu, kernels
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("the GPU was reached with invalid input")
+
+    monkeypatch.setattr(kernels, "bragg_reflectance", forbidden)
+    monkeypatch.setattr(kernels, "thin_film_reflectance", forbidden)
+    monkeypatch.setattr(gpu, "get_device", forbidden)
+    monkeypatch.setattr(gpu, "compute_pipeline", forbidden)
+    with pytest.raises(ValueError, match=names(name)):
+        thing.reflectance(wavelength, theta, polarization=polarization, backend="gpu")
+
+
+@pytest.mark.gpu
+def test_gpu_backend_rejects_bad_arguments_on_a_real_device():
+    mirror, film = BraggMirror(**GOOD_MIRROR), ThinFilm(**GOOD_FILM)
+    for thing in (mirror, film):
+        with pytest.raises(ValueError, match="theta"):
+            thing.reflectance(500.0, [0.1, 1.6], backend="gpu")
+        with pytest.raises(ValueError, match="wavelength_nm"):
+            thing.reflectance([500.0, -1.0], 0.1, backend="gpu")
+        assert np.isfinite(thing.reflectance([500.0, 600.0], 0.1, backend="gpu")).all()
+
+
+def test_reflectance_accepts_the_edges_of_its_domain():
+    for thing in THINGS:
+        R = thing.reflectance([1e-6, 1e9], [[0.0], [math.pi / 2]], polarization="p")
+        assert R.shape == (2, 2)
+        assert np.all((R >= 0) & (R <= 1))
+
+
+# --------------------------------------------------------------------------- transfer matrices
+
+GOOD_STACK = ([1.0, 1.5, 1.2 + 0.1j, 1.0], [100.0, 50.0])
+BAD_STACKS = [
+    (([1.0], []), "indices"),
+    (([], []), "indices"),
+    (([1.0, 1.5, 1.0], []), "thicknesses_nm"),
+    (([1.0, 1.5, 1.0], [10.0, 20.0]), "thicknesses_nm"),
+    (([1.0, 1.5, 1.2, 1.0], [10.0, 20.0, 30.0]), "thicknesses_nm"),
+    (([1.0, 1.5, 1.0], [np.inf, 10.0, 5.0]), "thicknesses_nm"),  # tmm style needs inf ends
+    (([1.0, 1.5, 1.0], [-1.0]), "thicknesses_nm"),
+    (([1.0, 1.5, 1.0], [math.nan]), "thicknesses_nm"),
+    (([1.0, 1.5, 1.0], [math.inf]), "thicknesses_nm"),
+    (([1.0, 0.0, 1.0], [10.0]), "indices"),
+    (([1.0, -1.5 + 0.1j, 1.0], [10.0]), "indices"),
+    (([1.0, 1.5, -2.0], [10.0]), "indices"),
+    (([1.0, 1.5 - 0.1j, 1.0], [10.0]), "indices"),
+    (([0.0, 1.5, 1.0], [10.0]), "indices"),
+    (([1.0, math.nan, 1.0], [10.0]), "indices"),
+    (([1.0 + 0.1j, 1.5, 1.0], [10.0]), "incident"),
+]
+
+
+@pytest.mark.parametrize("stack, name", BAD_STACKS)
+def test_transfer_matrix_rejects_bad_stacks(stack, name):
+    with pytest.raises(ValueError, match=names(name)):
+        transfer_matrix_reflectance(*stack, 500.0, 0.1, "s")
+
+
+@pytest.mark.parametrize("wavelength, theta, polarization, backend, name",
+                         [call for call in BAD_CALLS if call[3] == "numpy"])
+def test_transfer_matrix_rejects_bad_arguments(wavelength, theta, polarization, backend, name):
+    with pytest.raises(ValueError, match=names(name)):
+        transfer_matrix_reflectance(*GOOD_STACK, wavelength, theta, polarization)
+
+
+def test_transfer_matrix_accepts_its_domain():
+    R = transfer_matrix_reflectance([1.0, 1.5 + 2j], [], [400.0, 500.0], [[0.0], [math.pi / 2]])
+    assert R.shape == (2, 2)
+    assert np.all((R >= 0) & (R <= 1))
+    assert wgbragg.optics.transfer_matrix_reflectance is transfer_matrix_reflectance
