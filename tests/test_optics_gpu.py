@@ -495,3 +495,24 @@ def test_gpu_thin_film_is_always_a_reflectance(n_film, d, n_base, k_base, host, 
     film = ThinFilm(n_film, d, n_base, k_base, host)
     wavelength, theta = property_inputs(seed)
     assert_valid(film.reflectance(wavelength, theta, pol, backend="gpu"), film, pol, seed)
+
+
+@pytest.mark.parametrize("n1, n2, d1, d2, host", [(1.0, 1.5, 125.0, 375.0, None),
+                                                  (1.59, 1.67, 81.6, 78.4, 1.0),
+                                                  (1.5, 1.0, 100.0, 200.0, 1.2),
+                                                  (1.33, 1.56, 900.0, 1100.0, None)])
+def test_unresolvable_oscillations_return_their_phase_average(n1, n2, d1, d2, host):
+    """At N = 10**6 float32 cannot resolve the phase N K Lambda: the kernel returns the numpy
+    twin's method="phase-averaged" value instead of float32 noise."""
+    from wgbragg.optics import yeh_reflectance
+
+    mirror = BraggMirror(n1, n2, d1, d2, 10**6, host=host)
+    lam32, th32 = as_float32_inputs(np.linspace(360.0, 830.0, 1000)[:, None],
+                                    np.linspace(0.0, 1.5, 16)[None, :])
+    lam, th = lam32.astype(np.float64), th32.astype(np.float64)
+    for pol in ("s", "p"):
+        got = mirror.reflectance(lam, th, pol, backend="gpu")
+        averaged = yeh_reflectance(n1, n2, d1, d2, 10**6, lam, th, pol, host=host,
+                                   method="phase-averaged")
+        err = np.abs(got - averaged)
+        assert np.quantile(err, 0.999) <= GPU_ATOL and err.max() <= 10 * GPU_ATOL, (pol, err.max())

@@ -21,7 +21,7 @@ from scipy.optimize import brentq
 
 import wgbragg
 from wgbragg import BraggMirror, ThinFilm
-from wgbragg.optics import bloch_dispersion, transfer_matrix_reflectance
+from wgbragg.optics import bloch_dispersion, transfer_matrix_reflectance, yeh_reflectance
 
 # Absolute tolerances, one per kind of comparison.
 TMM_ATOL = 1e-10  # float64 closed forms and transfer matrices vs the tmm package
@@ -635,3 +635,38 @@ def test_numpy_thin_film_is_always_a_reflectance(n_film, d, n_base, k_base, host
     film = ThinFilm(n_film, d, n_base, k_base, host)
     wavelength, theta = property_inputs(seed)
     assert_valid(film.reflectance(wavelength, theta, pol), film, pol, seed)
+
+
+# --------------------------------------------------------------------------- phase average
+
+
+@pytest.mark.parametrize("host", [None, 1.0, 1.3])
+@pytest.mark.parametrize("pol", POLARIZATIONS)
+def test_phase_average_is_the_mean_over_many_periods(host, pol):
+    """method="phase-averaged" equals the brute-force mean of R over N (which sweeps the phase
+    N K Lambda uniformly), with host = n1 and for Appendix D hosts."""
+    n1, n2 = (1.59, 1.67) if host else (1.0, 1.5)
+    wavelength = np.array([480.0, 560.0, 610.0, 700.0])
+    counts = np.arange(2000, 6000, 3)
+    brute = np.mean([yeh_reflectance(n1, n2, 81.6, 78.4, int(N), wavelength, 0.4, pol,
+                                     host=host) for N in counts], axis=0)
+    averaged = yeh_reflectance(n1, n2, 81.6, 78.4, 10**6, wavelength, 0.4, pol, host=host,
+                               method="phase-averaged")
+    np.testing.assert_allclose(averaged, brute, rtol=0, atol=3e-4)
+
+
+def test_phase_average_is_exact_inside_band_gaps():
+    wavelength = np.linspace(400.0, 800.0, 801)
+    _, sin2 = bloch_dispersion(1.0, 1.5, 125.0, 375.0, wavelength, 0.2, "s")
+    gap = sin2 < 0
+    assert gap.any() and (~gap).any()
+    for N in (3, 40):
+        exact = yeh_reflectance(1.0, 1.5, 125.0, 375.0, N, wavelength, 0.2, "s")
+        averaged = yeh_reflectance(1.0, 1.5, 125.0, 375.0, N, wavelength, 0.2, "s",
+                                   method="phase-averaged")
+        np.testing.assert_array_equal(averaged[gap], exact[gap])
+
+
+def test_unknown_yeh_method_is_refused():
+    with pytest.raises(ValueError, match="method"):
+        yeh_reflectance(1.0, 1.5, 125.0, 375.0, 5, 500.0, 0.1, "s", method="fast")

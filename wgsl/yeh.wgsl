@@ -32,6 +32,7 @@ struct CellGeometry {
     ca: f32,            // cos(delta1 / 2), reduced
     half2: HalfPhase,   // delta2 / 2 of the n2 layer
     delta1_cycles: f32,
+    cell_cycles: f32,   // |delta1| + |delta2| in turns: scales the rounding error of x
 }
 
 fn cell_geometry(m: BraggMirror, wavelength_nm: f32, theta: f32) -> CellGeometry {
@@ -47,7 +48,9 @@ fn cell_geometry(m: BraggMirror, wavelength_nm: f32, theta: f32) -> CellGeometry
     let sc_a = half_phase_sin_cos(g.delta1_cycles);
     g.sa = sc_a.x;
     g.ca = sc_a.y;
-    g.half2 = layer_half_phase(sqrt(abs(g.q2sq)), g.q2sq < 0.0, m.d2_nm * inv_wavelength);
+    let q2 = sqrt(abs(g.q2sq));
+    g.half2 = layer_half_phase(q2, g.q2sq < 0.0, m.d2_nm * inv_wavelength);
+    g.cell_cycles = g.delta1_cycles + q2 * m.d2_nm * inv_wavelength;
     return g;
 }
 
@@ -98,23 +101,43 @@ fn cell_terms(m: BraggMirror, g: CellGeometry, polarization: u32) -> CellTerms {
     return t;
 }
 
+// A phase error above this (radians) leaves sin^2(N K Lambda) no better than a guess. With the
+// one-oscillation condition below it never triggers for N <= 1000 (error < N^2 dx / 2 pi).
+const PHASE_TOLERANCE: f32 = 0.25;
+
+// Where float32 cannot resolve the phase psi = N K Lambda of the pass-band oscillation, the
+// kernel returns R averaged over psi: what any measurement wider than one oscillation sees, and
+// the numpy twin's method="phase-averaged". The phase error is estimated from the rounding of
+// x = cos(K Lambda), dx ~ 6e-8 (|P| + |Q|)(1 + cell phase), through d(phi) = dx / sin(phi),
+// plus the rounding of N phi itself; at least one full oscillation must lie below it.
+fn phase_unresolved(t: CellTerms, cell_cycles: f32, turns: f32, root: f32, n: f32) -> bool {
+    let dx = 6e-8 * (abs(t.P) + abs(t.Q)) * (1.0 + TWO_PI * cell_cycles);
+    let phase_error = n * dx / root + TWO_PI * turns * 1.2e-7;
+    return turns > 1.0 && phase_error > PHASE_TOLERANCE;
+}
+
 // Eqs 2 and 9 (host == n1): R = |C|^2 U^2 / (1 + |C|^2 U^2), U = U_{N-1}(x), formed as one
 // quotient that never overflows. Pass band: U = sin(N phi) / sin(phi), sin^2(phi) = sin2.
 // Gap: 1/U = sinh(mu) / sinh(N mu) with sinh(mu) = sqrt(-sin2), scaled by e^{-N mu}.
-fn matched_reflectance(w: f32, x: f32, sin2: f32, periods: u32) -> f32 {
-    let w_capped = min(abs(w), MAX_AMPLITUDE);
+fn matched_reflectance(t: CellTerms, cell_cycles: f32, periods: u32) -> f32 {
+    let w_capped = min(abs(t.W), MAX_AMPLITUDE);
     let w2 = w_capped * w_capped;
     let n = f32(periods);
-    let root = sqrt(abs(sin2));
+    let root = sqrt(abs(t.sin2));
     var numerator: f32;
     var denominator: f32;
     if (root < 1e-30) {
         numerator = w2 * n * n;  // band edge: U = N
         denominator = 1.0 + numerator;
-    } else if (sin2 > 0.0) {
-        let s = sin_cycles(n * atan2_cycles_positive(root, abs(x)));
+    } else if (t.sin2 > 0.0) {
+        let turns = n * atan2_cycles_positive(root, abs(t.x));
+        if (phase_unresolved(t, cell_cycles, turns, root, n)) {
+            // Mean over psi of W^2 sin^2 psi / (sin^2 phi + W^2 sin^2 psi).
+            return clamp(1.0 - root / sqrt(w2 + t.sin2), 0.0, 1.0);
+        }
+        let s = sin_cycles(turns);
         numerator = w2 * s * s;
-        denominator = sin2 + numerator;
+        denominator = t.sin2 + numerator;
     } else {
         let y = 2.0 * n * asinh_accurate(root);
         let e = exp(-0.5 * y);
@@ -124,6 +147,34 @@ fn matched_reflectance(w: f32, x: f32, sin2: f32, periods: u32) -> f32 {
         denominator = numerator + 4.0 * root * root * e * e;
     }
     return clamp(numerator / max(denominator, 1e-37), 0.0, 1.0);
+}
+
+// Appendix D host, averaged over psi: with z = e^{2 i psi} the host reflection is a Moebius map
+// f(z) = (a z + b) / (c z + d) and the mean of |f|^2 on |z| = 1 is, by Parseval,
+// |b|^2/|d|^2 + |ad - bc|^2 / (|d|^2 (|d|^2 - |c|^2)) (z -> 1/z when |c| > |d|), with
+// ad - bc = 2 i sin(phi) C (1 - r_h1^2). See _phase_averaged_host_reflectance in yeh.py.
+fn phase_averaged_host(t: CellTerms, e1: vec2<f32>, root: f32, r_h1: f32) -> f32 {
+    let scale = max(max(abs(t.P), abs(t.Q)), max(abs(t.W), 1.0));
+    let a_matrix = c_mul(c_conj(e1), vec2<f32>(t.P, t.Q) / scale);
+    let c_matrix = c_mul(e1, vec2<f32>(0.0, t.W / scale));
+    let x = t.x / scale;
+    let band = root / scale;
+    let alpha = vec2<f32>(a_matrix.x - x, a_matrix.y + band);
+    let beta = vec2<f32>(x - a_matrix.x, band - a_matrix.y);
+    let a = c_matrix + r_h1 * alpha;
+    let b = r_h1 * beta - c_matrix;
+    let c = alpha + r_h1 * c_matrix;
+    let d = beta - r_h1 * c_matrix;
+    let determinant = 2.0 * band * (t.W / scale) * (1.0 - r_h1 * r_h1);
+    let c2 = c_abs2(c);
+    let d2 = c_abs2(d);
+    var mean: f32;
+    if (d2 > c2) {
+        mean = c_abs2(b) / d2 + determinant * determinant / (d2 * (d2 - c2));
+    } else {
+        mean = c_abs2(a) / c2 + determinant * determinant / (c2 * (c2 - d2));
+    }
+    return clamp(mean, 0.0, 1.0);
 }
 
 // U_{N-1}(x), U_{N-2}(x) up to a common positive factor (the general host needs both).
@@ -182,17 +233,25 @@ fn yeh_polarized(m: BraggMirror, g: CellGeometry, polarization: u32, host_matche
     }
     let t = cell_terms(m, g, polarization);
     if (host_matched) {
-        return matched_reflectance(t.W, t.x, t.sin2, m.periods);
+        return matched_reflectance(t, g.cell_cycles, m.periods);
+    }
+    let e1 = c_exp_i(TWO_PI * centered_fraction(g.delta1_cycles));
+    let r_h1 = fresnel_host_n1(m, g, polarization);
+    if (t.sin2 > 0.0) {
+        let root = sqrt(t.sin2);
+        let n = f32(m.periods);
+        let turns = n * atan2_cycles_positive(root, abs(t.x));
+        if (phase_unresolved(t, g.cell_cycles, turns, root, n)) {
+            return phase_averaged_host(t, e1, root, r_h1);
+        }
     }
     // Appendix D: r_N = C U1 / (A U1 - U0), times e^{i delta1} above and below, then the
     // host | n1 interface r = (r_N + r_h1) / (1 + r_h1 r_N).
     let c = chebyshev_terms(t.x, t.sin2, m.periods);
-    let e1 = c_exp_i(TWO_PI * centered_fraction(g.delta1_cycles));
     let scale = max(max(abs(t.P), abs(t.Q)), max(abs(t.W), 1.0)) * max(abs(c.u1), 1.0);
     let numerator = c_mul(vec2<f32>(0.0, t.W * c.u1 / scale), c_mul(e1, e1));
     let denominator = vec2<f32>(t.P, t.Q) * (c.u1 / scale) - e1 * (c.u0 / scale);
     let r_n = c_div(numerator, denominator);
-    let r_h1 = fresnel_host_n1(m, g, polarization);
     let top = r_n + vec2<f32>(r_h1, 0.0);
     let bottom = vec2<f32>(1.0, 0.0) + r_h1 * r_n;
     return clamp(c_abs2(top) / max(c_abs2(bottom), 1e-37), 0.0, 1.0);

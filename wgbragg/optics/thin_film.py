@@ -19,7 +19,8 @@ def airy_amplitude(n_host, n_film, d_film_nm, n_base, wavelength_nm, theta, pola
     ``delta = 2 pi q_film d / lambda`` (the path difference uses the refracted angle), written
     with admittances ``eta = q`` (s) or ``q / n^2`` (p) as
 
-    ``r = [c (eta0 - eta2) + i S (eta1^2 - eta0 eta2)] / [c (eta0 + eta2) - i S (eta1^2 + eta0 eta2)]``
+    ``r = [c (eta0 - eta2) + i S (eta1^2 - eta0 eta2)]
+    / [c (eta0 + eta2) - i S (eta1^2 + eta0 eta2)]``
 
     with ``c = cos(delta)`` and ``S = sin(delta) / eta1`` in sinc form, which stays finite where
     the film turns evanescent (``q_film = 0``) and real beyond (``cos, sin -> cosh, sinh``).

@@ -19,7 +19,7 @@ import numpy as np
 
 from .fresnel import fresnel_r, normal_component
 
-__all__ = ["bloch_dispersion", "cell_coefficients", "yeh_reflectance"]
+__all__ = ["YEH_METHODS", "bloch_dispersion", "cell_coefficients", "yeh_reflectance"]
 
 
 # Beyond this many e-folds an evanescent n2 layer is opaque (transmission e^-70, far below
@@ -160,7 +160,29 @@ def _chebyshev_ratio_terms(x, sin2, N):
     return in_gap, u1, u0, np.where(in_gap, inv_u1**2, 0.0)
 
 
-def _yeh_polarized(n1, n2, d1, d2, N, wavelength, theta, polarization, host):
+def _phase_averaged_host_reflectance(A, C, x, sin2, r_h1):
+    """Mean of |r_hN|^2 over the pass-band phase psi = N K Lambda (Appendix D host).
+
+    With z = e^{2 i psi}, r_N = C (z - 1) / (alpha z + beta), alpha = A - x + i sin(K Lambda),
+    beta = -(A - x - i sin(K Lambda)), and the host interface maps r_N to
+    f(z) = (a z + b) / (c z + d); the mean of |f|^2 on |z| = 1 is, by Parseval,
+    |b|^2/|d|^2 + |ad - bc|^2 / (|d|^2 (|d|^2 - |c|^2)) for |d| > |c| (z -> 1/z otherwise),
+    with ad - bc = 2 i sin(K Lambda) C (1 - r_h1^2).
+    """
+    root = np.sqrt(np.maximum(sin2, 0.0))
+    alpha = A - x + 1j * root
+    beta = -(A - x - 1j * root)
+    a, b = C + r_h1 * alpha, r_h1 * beta - C
+    c, d = alpha + r_h1 * C, beta - r_h1 * C
+    determinant2 = np.abs(2.0 * root * C * (1.0 - r_h1 * r_h1)) ** 2
+    c2, d2 = np.abs(c) ** 2, np.abs(d) ** 2
+    outer = d2 > c2  # the pole of f lies outside the unit disk
+    near = np.where(outer, np.abs(b) ** 2 / d2, np.abs(a) ** 2 / c2)
+    far = determinant2 / np.where(outer, d2 * (d2 - c2), c2 * (c2 - d2))
+    return near + far
+
+
+def _yeh_polarized(n1, n2, d1, d2, N, wavelength, theta, polarization, host, averaged):
     wavelength, theta = np.broadcast_arrays(
         np.asarray(wavelength, np.float64), np.asarray(theta, np.float64)
     )
@@ -177,21 +199,30 @@ def _yeh_polarized(n1, n2, d1, d2, N, wavelength, theta, polarization, host):
     A, C, x, sin2 = cell_coefficients(n1, n2, d1, d2, wavelength, s_safe, polarization)
     in_gap, u1, u0, inv_u1_squared = _chebyshev_ratio_terms(x, sin2, N)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        c2 = np.abs(C) ** 2
         if host == n1:
             # Eqs 2 and 9: R = |C|^2 U^2 / (1 + |C|^2 U^2).
-            c2 = np.abs(C) ** 2
             c2u2 = c2 * u1 * u1
             R = np.where(in_gap, c2 / (c2 + inv_u1_squared), c2u2 / (1.0 + c2u2))
+            if averaged:
+                band = np.sqrt(np.maximum(sin2, 0.0))
+                R = np.where(in_gap, R, 1.0 - band / np.sqrt(c2 + band * band))
         else:
             # Appendix D: r_N = C U_{N-1} / (A U_{N-1} - U_{N-2}), then the host interface.
             r_N = C * u1 / (A * u1 - u0)
             R = np.abs((r_N + r_h1) / (1.0 + r_h1 * r_N)) ** 2
+            if averaged:
+                mean = _phase_averaged_host_reflectance(A, C, x, sin2, r_h1)
+                R = np.where(in_gap | (sin2 <= 0), R, mean)
     R = np.where(total, 1.0, R)
     return np.clip(R, 0.0, 1.0)
 
 
+YEH_METHODS = ("exact", "phase-averaged")
+
+
 def yeh_reflectance(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization="unpolarized",
-                    host=None):
+                    host=None, method="exact"):
     """Reflectance of a Bragg mirror by Yeh's closed form, for any N at O(1) cost.
 
     Parameters
@@ -208,6 +239,13 @@ def yeh_reflectance(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization=
     host : float, optional
         Index of the incident medium; defaults to ``n1``. Beyond the critical angle of a host
         denser than ``n1`` the reflectance is 1.
+    method : {"exact", "phase-averaged"}
+        ``"phase-averaged"``: in pass bands, the mean of R over the phase ``N K Lambda`` of its
+        N-fold oscillation (for ``host = n1``,
+        ``1 - |sin K Lambda| / sqrt(|C|^2 + sin^2 K Lambda)``; Appendix D hosts by the mean of a
+        Moebius map over the unit circle); inside band gaps the exact finite-N value. It is
+        the reflectance seen by any measurement wider than one oscillation, and what the
+        float32 kernel returns where float32 cannot resolve that phase.
 
     Returns
     -------
@@ -220,9 +258,11 @@ def yeh_reflectance(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization=
     eqs 2, 8, 9, 10 and Appendix D.
     """
     host = n1 if host is None else host
+    if method not in YEH_METHODS:
+        raise ValueError(f"method must be one of {YEH_METHODS}, got {method!r}")
+    averaged = method == "phase-averaged"
+    args = (n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta)
     if polarization == "unpolarized":
-        return 0.5 * (
-            _yeh_polarized(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, "s", host)
-            + _yeh_polarized(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, "p", host)
-        )
-    return _yeh_polarized(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization, host)
+        return 0.5 * (_yeh_polarized(*args, "s", host, averaged)
+                      + _yeh_polarized(*args, "p", host, averaged))
+    return _yeh_polarized(*args, polarization, host, averaged)
