@@ -15,8 +15,6 @@ import warnings
 import numpy as np
 import pytest
 import tmm
-from hypothesis import given, settings
-from hypothesis import strategies as st
 from scipy.optimize import brentq
 
 import wgbragg
@@ -588,53 +586,6 @@ def test_scalar_inputs_give_zero_dimensional_arrays():
     assert np.shape(R) == ()
     assert float(R) > 0.99
     assert wgbragg.ThinFilm(1.3, 290.0).reflectance([500.0, 600.0], 0.1).shape == (2,)
-
-
-# --------------------------------------------------------------------------- properties
-
-PROPERTY_SETTINGS = settings(max_examples=60, deadline=None, derandomize=True, database=None)
-indices = st.floats(0.05, 20.0)
-thicknesses = st.one_of(st.just(0.0), st.floats(0.0, 1e5))
-counts = st.one_of(st.sampled_from([1, 2, MAX_INT32]), st.integers(1, MAX_INT32))
-polarizations = st.sampled_from(["s", "p", "unpolarized"])
-
-
-def property_inputs(seed, size=256):
-    """~256 (wavelength, theta) pairs over the whole domain, endpoints included."""
-    rng = np.random.default_rng(seed)
-    wavelength = np.exp(rng.uniform(0.0, math.log(1e5), size))
-    theta = rng.uniform(0.0, math.pi / 2, size)
-    wavelength[:4] = [1.0, 1e5, 1.0, 1e5]
-    theta[:6] = [0.0, 0.0, math.pi / 2, math.pi / 2, 0.0, math.pi / 2]
-    return wavelength, theta
-
-
-def assert_valid(R, *context):
-    bad = ~(np.isfinite(R) & (R >= 0.0) & (R <= 1.0))
-    assert not bad.any(), (*context, np.flatnonzero(bad)[:5], R[bad][:5])
-
-
-@PROPERTY_SETTINGS
-@given(n1=indices, n2=indices, d1=thicknesses, d2=thicknesses, N=counts,
-       host_kind=st.sampled_from(["n1", "free", "n2"]), host_value=indices, pol=polarizations,
-       seed=st.integers(0, 2**32 - 1))
-def test_numpy_mirror_is_always_a_reflectance(n1, n2, d1, d2, N, host_kind, host_value, pol,
-                                           seed):
-    host = {"n1": None, "free": host_value, "n2": n2}[host_kind]  # n2 == host: q2 = 0 at grazing
-    mirror = BraggMirror(n1, n2, d1, d2, N, host=host)
-    wavelength, theta = property_inputs(seed)
-    with np.errstate(all="ignore"):
-        R = mirror.reflectance(wavelength, theta, pol)
-    assert_valid(R, mirror, pol, seed)
-
-
-@PROPERTY_SETTINGS
-@given(n_film=indices, d=thicknesses, n_base=indices, k_base=st.floats(0.0, 50.0),
-       host=indices, pol=polarizations, seed=st.integers(0, 2**32 - 1))
-def test_numpy_thin_film_is_always_a_reflectance(n_film, d, n_base, k_base, host, pol, seed):
-    film = ThinFilm(n_film, d, n_base, k_base, host)
-    wavelength, theta = property_inputs(seed)
-    assert_valid(film.reflectance(wavelength, theta, pol), film, pol, seed)
 
 
 # --------------------------------------------------------------------------- phase average
