@@ -27,6 +27,22 @@ from ._validation import (
 __all__ = ["BraggMirror", "ThinFilm"]
 
 
+def _colour_xyz(material, theta, method, backend, methods, options):
+    from . import colour_methods
+
+    check_backend(backend)
+    if method not in methods:
+        raise ValueError(f"method must be one of {tuple(methods)}, got {method!r}")
+    angle = check_angle(theta)
+    return colour_methods.COLOUR_METHODS[method](material, angle, backend, **options)
+
+
+def _linear_srgb(xyz):
+    from .colorimetry import xyz_to_linear_srgb
+
+    return xyz_to_linear_srgb(xyz)
+
+
 def _checked_inputs(wavelength_nm, theta, polarization, backend):
     check_polarization(polarization)
     check_backend(backend)
@@ -117,6 +133,63 @@ class BraggMirror:
             return kernels.bragg_reflectance(*args, self.host)
         return optics.yeh_reflectance(*args, host=self.host)
 
+    def xyz(self, theta, method="reference", backend="numpy", **options):
+        """CIE 1931 XYZ under D65 (a perfect reflector has ``Y = 1``), both polarisations averaged.
+
+        Parameters
+        ----------
+        theta : array_like
+            Angles of incidence in the host, radians in ``[0, pi/2]``.
+        method : {"reference", "spectral", "approx", "subdivided", "averaged"}
+            ``"reference"``: exact R every 1 nm over 360-830 nm. ``"spectral"``: ``samples=K``
+            stratified wavelengths (``seed=`` jitters them). ``"approx"`` / ``"subdivided"``
+            (``s=3``): the paper's piecewise-constant landmark spectra (sec. 3.2.2, App. B;
+            ``host == n1``). ``"averaged"``: phase-averaged product integration between
+            landmarks (ours).
+        backend : {"numpy", "gpu"}
+        **options
+            ``samples``, ``seed`` (spectral) or ``s`` (subdivided).
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape ``theta.shape + (3,)``.
+        """
+        from .colour_methods import COLOUR_METHODS
+
+        return _colour_xyz(self, theta, method, backend, COLOUR_METHODS, options)
+
+    def rgb(self, theta, method="reference", backend="numpy", **options):
+        """Linear sRGB (D65) of :meth:`xyz`; a perfect reflector is ~(1, 1, 1)."""
+        return _linear_srgb(self.xyz(theta, method, backend, **options))
+
+    def landmarks(self, theta, polarization="s"):
+        """Ordered spectral landmarks (modes, Airy points, band edges, zero points).
+
+        Parameters
+        ----------
+        theta : float or array_like
+            Angle(s) of incidence in the host, radians.
+        polarization : {"s", "p"}
+
+        Returns
+        -------
+        Landmarks or numpy.ndarray of Landmarks
+            One :class:`~wgbragg.landmarks.Landmarks` for a scalar angle, an object array of
+            them shaped like ``theta`` otherwise.
+        """
+        from .landmarks import find_landmarks
+
+        if polarization not in ("s", "p"):
+            raise ValueError(f"polarization must be 's' or 'p', got {polarization!r}")
+        angle = check_angle(theta)
+        if angle.ndim == 0:
+            return find_landmarks(self, float(angle), polarization)
+        out = np.empty(angle.shape, dtype=object)
+        for index, value in np.ndenumerate(angle):
+            out[index] = find_landmarks(self, float(value), polarization)
+        return out
+
 
 @dataclass(frozen=True)
 class ThinFilm:
@@ -168,3 +241,13 @@ class ThinFilm:
             self.host, self.n_film, self.d, complex(self.n_base, self.k_base), wavelength, angle,
             polarization,
         )
+
+    def xyz(self, theta, method="reference", backend="numpy", **options):
+        """CIE XYZ under D65; ``method`` "reference" or "spectral", as :meth:`BraggMirror.xyz`."""
+        from .colour_methods import THIN_FILM_COLOUR_METHODS
+
+        return _colour_xyz(self, theta, method, backend, THIN_FILM_COLOUR_METHODS, options)
+
+    def rgb(self, theta, method="reference", backend="numpy", **options):
+        """Linear sRGB (D65) of :meth:`xyz`."""
+        return _linear_srgb(self.xyz(theta, method, backend, **options))

@@ -1,0 +1,100 @@
+"""Spectral landmarks (Fourneau et al. 2024, sec. 3.2.1, App. A) against their definitions."""
+
+import math
+
+import numpy as np
+import pytest
+
+from wgbragg import BraggMirror
+from wgbragg.landmarks import KINDS, VISIBLE_OMEGA, find_landmarks
+from wgbragg.optics import bloch_dispersion
+
+EDGE_ATOL = 1e-9  # |cos K Lambda| - 1 at a band edge found by bisection
+AIRY_ATOL = 1e-9  # cos K Lambda at an Airy point
+
+MIRRORS = [
+    BraggMirror(1.0, 1.5, 315.0, 315.0, 10),  # the paper's Fig. 3
+    BraggMirror(1.0, 1.5, 61.0, 183.0, 20),
+    BraggMirror(1.0, 1.5, 741.0, 247.0, 20),
+    BraggMirror(1.33, 1.56, 900.0, 1100.0, 5),
+    BraggMirror(1.59, 1.67, 81.6, 78.4, 8, host=1.0),
+]
+ANGLES = [0.0, 0.4, 0.9, 1.3]
+
+
+def dispersion(mirror, landmarks, theta, pol):
+    return bloch_dispersion(mirror.n1, mirror.n2, mirror.d1, mirror.d2, landmarks.wavelength_nm,
+                            theta, pol, host=mirror.host)
+
+
+@pytest.mark.parametrize("mirror", MIRRORS, ids=repr)
+@pytest.mark.parametrize("pol", ["s", "p"])
+def test_landmarks_satisfy_their_definitions(mirror, pol):
+    for theta in ANGLES:
+        found = mirror.landmarks(theta, pol)
+        assert len(found) > 0
+        assert np.all(np.diff(found.omega) >= 0.0)
+        assert np.all((found.omega > VISIBLE_OMEGA[0]) & (found.omega < VISIBLE_OMEGA[1]))
+        assert set(found.kind) <= set(KINDS)
+        x, sin2 = dispersion(mirror, found, theta, pol)
+        edges, airy, modes = found.kind == "edge", found.kind == "airy", found.kind == "mode"
+        np.testing.assert_allclose(np.abs(x[edges]), 1.0, rtol=0, atol=EDGE_ATOL)
+        np.testing.assert_allclose(x[airy], 0.0, rtol=0, atol=AIRY_ATOL)
+        # Appendix A: every mode lies inside a band gap, with the sign of (-1)^m.
+        assert np.all(sin2[modes] <= 1e-12)
+        np.testing.assert_array_equal(np.sign(x[modes]), (-1.0) ** found.mode_number[modes])
+        # Zero points: the Airy reflectance of one n2 slab vanishes, inside pass bands.
+        zeros = found.kind == "zero"
+        assert np.all(sin2[zeros] > 0.0)
+        slab = mirror.__class__(mirror.n1, mirror.n2, mirror.d1, mirror.d2, 1, host=mirror.n1)
+        np.testing.assert_allclose(slab.reflectance(found.wavelength_nm[zeros], theta, pol), 0.0,
+                                   atol=1e-20)
+
+
+def test_gaps_close_at_brewsters_angle():
+    """App. A: for p at Brewster's angle every band gap shrinks onto its mode."""
+    mirror = BraggMirror(1.0, 1.5, 315.0, 315.0, 10)
+    found = mirror.landmarks(math.atan(1.5), "p")
+    modes = found.omega[found.kind == "mode"]
+    edges = found.omega[found.kind == "edge"]
+    assert modes.size > 0
+    assert np.abs(edges[:, None] - modes[None, :]).min(axis=1).max() < 1e-9 * modes.max()
+
+
+def test_evanescent_n2_has_band_edges_only():
+    mirror = BraggMirror(1.5, 1.0, 300.0, 50.0, 20)
+    theta = math.radians(45.0)  # beyond n2's critical angle (41.8 deg)
+    found = mirror.landmarks(theta, "s")
+    assert len(found) > 0 and set(found.kind) == {"edge"}
+    _, sin2 = dispersion(mirror, found, theta, "s")
+    assert np.abs(sin2).max() < 1e-9
+
+
+@pytest.mark.parametrize("mirror", [BraggMirror(1.0, 1.0, 100.0, 100.0, 5),
+                                    BraggMirror(1.0, 1.5, 100.0, 0.0, 5),
+                                    BraggMirror(1.3, 1.5, 100.0, 100.0, 5, host=2.0)], ids=repr)
+def test_no_structure_no_landmarks(mirror):
+    theta = 1.2  # for the dense host this is beyond the critical angle of n1
+    assert len(mirror.landmarks(theta, "s")) == 0
+
+
+def test_landmarks_do_not_depend_on_n():
+    few = find_landmarks(BraggMirror(1.0, 1.5, 125.0, 375.0, 3), 0.5, "s")
+    many = find_landmarks(BraggMirror(1.0, 1.5, 125.0, 375.0, 10**6), 0.5, "s")
+    np.testing.assert_array_equal(few.omega, many.omega)
+
+
+def test_array_angles_give_an_array_of_landmarks():
+    mirror = MIRRORS[0]
+    found = mirror.landmarks(np.array([[0.0, 0.3, 0.6], [0.9, 1.2, 1.5]]), "p")
+    assert found.shape == (2, 3)
+    np.testing.assert_array_equal(found[1, 0].omega, mirror.landmarks(0.9, "p").omega)
+
+
+@pytest.mark.parametrize(("kwargs", "name"), [({"polarization": "x"}, "polarization"),
+                                              ({"theta": -0.1}, "theta"),
+                                              ({"theta": float("nan")}, "theta")])
+def test_bad_input(kwargs, name):
+    arguments = {"theta": 0.2, "polarization": "s"} | kwargs
+    with pytest.raises(ValueError, match=name):
+        MIRRORS[0].landmarks(**arguments)
