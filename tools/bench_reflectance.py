@@ -52,7 +52,13 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from wgbragg._io import write_text_atomic
+# tools/ is not a package: make the shared helpers importable however this file is loaded
+# (as a script, or by path from the tests).
+_TOOLS = str(Path(__file__).resolve().parent)
+if _TOOLS not in sys.path:
+    sys.path.insert(0, _TOOLS)
+
+import _docs  # noqa: E402
 
 # torch's OpenMP workers spin for a while after each parallel region; on 2 shared cores that
 # spinning lands on the next cell (lavapipe's threads). Set before torch is imported.
@@ -61,17 +67,9 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 REPO_ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_OUTPUT = REPO_ROOT / "docs" / "benchmarks.md"
 
-BEGIN_MARKER = "<!-- bench_reflectance:begin -->"
-END_MARKER = "<!-- bench_reflectance:end -->"
+BEGIN_MARKER, END_MARKER = _docs.markers("bench_reflectance")
 
-DOC_INTRO = """# Benchmarks
-
-Throughput measurements of wgbragg, each produced by a script under `tools/`. Every section
-sits between a pair of `<!-- NAME:begin -->` / `<!-- NAME:end -->` markers and is rewritten
-whole by the script that owns it, so edit text outside the markers only. Numbers depend on the
-machine: the reference is lavapipe (Mesa's CPU Vulkan driver) on 2 CPU cores, where the "GPU"
-runs on the same two cores as the CPU methods it is compared with.
-"""
+DOC_INTRO = _docs.DOC_INTRO
 
 # The mirror of the issue: index-matched host (host = n1), n1 substrate.
 N1, N2, D1_NM, D2_NM = 1.0, 1.5, 125.0, 375.0
@@ -907,18 +905,7 @@ def update_document(text: str | None, section: str) -> str:
         If the markers are unpaired, repeated or out of order: rewriting then could eat
         someone else's section.
     """
-    if text is None:
-        return f"{DOC_INTRO}\n{section}\n"
-    begins, ends = text.count(BEGIN_MARKER), text.count(END_MARKER)
-    if begins == ends == 0:
-        return f"{text.rstrip()}\n\n{section}\n"
-    start, stop = text.find(BEGIN_MARKER), text.find(END_MARKER)
-    if begins != 1 or ends != 1 or stop < start:
-        raise ValueError(
-            f"expected one {BEGIN_MARKER} followed by one {END_MARKER}; found {begins} and "
-            f"{ends}: fix the document by hand"
-        )
-    return text[:start] + section + text[stop + len(END_MARKER):]
+    return _docs.update_document(text, section, BEGIN_MARKER, END_MARKER, DOC_INTRO)
 
 
 # --------------------------------------------------------------------------- CLI
@@ -971,8 +958,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(section)
     path = output_path(args)
     if path is not None:
-        current = path.read_text(encoding="utf-8") if path.exists() else None
-        write_text_atomic(path, update_document(current, section))
+        _docs.write_section(path, section, BEGIN_MARKER, END_MARKER)
         print(f"wrote {path}", file=sys.stderr)
     return 0
 

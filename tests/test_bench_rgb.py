@@ -1,0 +1,292 @@
+"""Structure and sanity of ``tools/bench_rgb.py`` in its quick mode.
+
+No speed or accuracy is asserted (timings on shared CI machines are noise, and the accuracy
+targets are what the full run reports). The tests check that a quick run covers every colour
+method and every GPU kernel the library declares at run time, that the tables parse, that the
+section replaces (never duplicates) itself between its markers, and that the plot is a PNG.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import importlib.util
+import io
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+pytestmark = pytest.mark.gpu
+
+TOOL = Path(__file__).resolve().parents[1] / "tools" / "bench_rgb.py"
+LATER_SECTION = "## A later benchmark\n\n<!-- other:begin -->\nkeep me\n<!-- other:end -->\n"
+
+
+@pytest.fixture(scope="module")
+def bench():
+    """The tool loaded as a module (``tools/`` is not a package)."""
+    spec = importlib.util.spec_from_file_location("bench_rgb", TOOL)
+    module = importlib.util.module_from_spec(spec)
+    # dataclasses look the module up in sys.modules while the class body runs.
+    sys.modules[spec.name] = module
+    try:
+        spec.loader.exec_module(module)
+        yield module
+    finally:
+        sys.modules.pop(spec.name, None)
+
+
+@pytest.fixture(scope="module")
+def runs(bench, tmp_path_factory):
+    """Two quick runs into a document that holds an intro, a stale bench_rgb section and a
+    later section. Returns (documents after each run, first run's stdout, plot path)."""
+    folder = tmp_path_factory.mktemp("docs")
+    path = folder / "benchmarks.md"
+    stale = f"{bench.BEGIN_MARKER}\nstale numbers\n{bench.END_MARKER}"
+    path.write_text(f"# Benchmarks\n\nIntro text.\n\n{stale}\n\n{LATER_SECTION}",
+                    encoding="utf-8")
+    plot = folder / "plots" / "tradeoff.png"
+    texts, printed = [], []
+    for _ in range(2):
+        with contextlib.redirect_stdout(io.StringIO()) as capture:
+            status = bench.main(["--quick", "--no-progress", "--output", str(path),
+                                 "--plot", str(plot)])
+        assert status == 0
+        texts.append(path.read_text(encoding="utf-8"))
+        printed.append(capture.getvalue())
+    return texts, printed[0], plot
+
+
+def _section(bench, text: str) -> str:
+    start, stop = text.index(bench.BEGIN_MARKER), text.index(bench.END_MARKER)
+    return text[start:stop + len(bench.END_MARKER)]
+
+
+def _table_after(section: str, heading: str) -> list[list[str]]:
+    """Rows (lists of cells, header included) of the first markdown table after ``heading``."""
+    lines = section[section.index(heading):].splitlines()[1:]
+    rows: list[list[str]] = []
+    for line in lines:
+        if line.startswith("|"):
+            cells = [c.strip() for c in line.strip().strip("|").split("|")]
+            if not set(cells[0]) <= set("-"):
+                rows.append(cells)
+        elif rows:
+            break
+    return rows
+
+
+def _methods():
+    from wgbragg.colour_methods import COLOUR_METHODS, GPU_COLOUR_METHODS
+
+    return list(COLOUR_METHODS), tuple(GPU_COLOUR_METHODS)
+
+
+# --------------------------------------------------------------------------- the document
+
+
+def test_section_replaced_not_duplicated(bench, runs):
+    (first, second), _, _ = runs
+    for text in (first, second):
+        assert text.count(bench.BEGIN_MARKER) == 1
+        assert text.count(bench.END_MARKER) == 1
+        assert "stale numbers" not in text
+        assert text.startswith("# Benchmarks\n\nIntro text.\n")
+        assert text.rstrip().endswith(LATER_SECTION.rstrip())
+        assert text.count("## Colour methods: speed and accuracy") == 1
+    outside = [t.replace(_section(bench, t), "") for t in (first, second)]
+    assert outside[0] == outside[1]
+
+
+def test_section_printed(bench, runs):
+    (first, _), printed, _ = runs
+    assert _section(bench, first) in printed
+
+
+def test_header_facts(bench, runs):
+    (text, _), _, _ = runs
+    section = _section(bench, text)
+    from wgbragg import gpu
+
+    assert gpu.adapter_info()["name"] in section
+    assert "Quick mode" in section
+    assert "Command: `python tools/bench_rgb.py --quick --no-progress --output" in section
+    _, gpu_methods = _methods()
+    assert f"run time): {', '.join(gpu_methods)}." in section
+
+
+# --------------------------------------------------------------------------- the tables
+
+
+def test_time_table_has_every_method(bench, runs):
+    (text, _), _, _ = runs
+    rows = _table_after(_section(bench, text), "### Time per colour")
+    header, body = rows[0], rows[1:]
+    assert header[-1] == "all" and len(header) == 2 + len(bench.QUICK.periods_nm) + 1
+    methods, gpu_methods = _methods()
+    labels = {(row[0], row[1]) for row in body}
+    for method in methods:
+        assert (bench.method_label(method), bench.TIMING_LABELS[bench.NUMPY]) in labels, method
+    for method in gpu_methods:
+        assert (bench.method_label(method), bench.TIMING_LABELS[bench.GPU_WALL]) in labels
+    for row in body:
+        for cell in row[2:]:
+            seconds = bench.parse_time(cell)
+            assert math.isfinite(seconds) and seconds > 0, row
+
+
+def test_speedup_table_parses(bench, runs):
+    (text, _), _, _ = runs
+    rows = _table_after(_section(bench, text), "### Speed-up over")
+    body = rows[1:]
+    measured = [row for row in body if not row[0].startswith("paper")]
+    for row in measured:
+        ratios = [bench.parse_ratio(cell) for cell in row[2:]]
+        assert all(math.isfinite(r) and r > 0 for r in ratios), row
+        if row[0] == "reference":
+            assert ratios == [1.0] * len(ratios)
+    papers = [row for row in body if row[0].startswith("paper")]
+    assert len(papers) == len(bench.PAPER_TABLE1)
+
+
+def test_delta_e_table_has_every_method(bench, runs):
+    (text, _), _, _ = runs
+    rows = _table_after(_section(bench, text), "### dE2000 against")
+    header, body = rows[0], rows[1:]
+    assert header[1:] == [f"N = {n}" for n in bench.QUICK.counts] + ["N ≥ 10", "all N"]
+    methods, _ = _methods()
+    assert [row[0] for row in body] == [bench.method_label(m) for m in methods]
+    for row in body:
+        for cell in row[1:]:
+            mean, p95, top = bench.parse_stats(cell)
+            assert 0.0 <= mean <= top and 0.0 <= p95 <= top, row
+        if row[0] == "reference":
+            assert bench.parse_stats(row[-1]) == (0.0, 0.0, 0.0)
+
+
+def test_gpu_agreement_table(bench, runs):
+    (text, _), _, _ = runs
+    body = _table_after(_section(bench, text), "### numpy against GPU")[1:]
+    methods, gpu_methods = _methods()
+    assert [row[0] for row in body] == [bench.method_label(m) for m in methods]
+    for method, row in zip(methods, body, strict=True):
+        assert len(row) == len(bench.QUICK.counts) + 4
+        if method in gpu_methods:
+            assert all(float(cell) >= 0.0 for cell in row[1:-1]) and row[-1] in ("yes", "no")
+        else:
+            assert row[1] == "no GPU kernel yet" and row[-1] == "not checked"
+
+
+def test_converged_table(bench, runs):
+    """The check of the reference itself: every method, reference included, against the
+    converged integral."""
+    (text, _), _, _ = runs
+    body = _table_after(_section(bench, text), "### dE2000 against the converged integral")[1:]
+    methods, _ = _methods()
+    assert [row[0] for row in body] == [bench.method_label(m) for m in methods]
+    for row in body:
+        for cell in row[1:]:
+            mean, p95, top = bench.parse_stats(cell)
+            assert 0.0 <= mean <= top and 0.0 <= p95 <= top, row
+
+
+def test_fine_integral(bench):
+    """On the 1 nm grid the trapezoid integral is the reference's sum (the density vanishes
+    at the ends); the adaptive step resolves N-fold oscillations."""
+    from wgbragg.colour_reference import reference_xyz
+
+    case = bench.Case(500.0, 0.5, 20)
+    theta = np.radians([0.0, 40.0])
+    np.testing.assert_allclose(bench.fine_xyz(case.mirror, theta, 1.0),
+                               reference_xyz(case.mirror, theta), atol=1e-6)
+    assert bench.fine_step_nm(bench.Case(988.0, 0.5, 100)) < 0.02
+    assert bench.fine_step_nm(bench.Case(244.0, 0.5, 3)) == bench.FINE_MAX_STEP_NM
+
+
+def test_spectral_sweep_rows(bench, runs):
+    (text, _), _, _ = runs
+    body = _table_after(_section(bench, text), '### "spectral"')[1:]
+    assert [int(row[0]) for row in body] == list(bench.QUICK.samples)
+    for row in body:
+        for cell in row[1:4]:
+            assert bench.parse_time(cell) > 0
+        for cell in row[4:6]:
+            assert bench.parse_ratio(cell) > 0
+        assert all(float(cell) >= 0.0 for cell in row[6:])
+
+
+def test_targets_listed(bench, runs):
+    (text, _), _, _ = runs
+    body = _table_after(_section(bench, text), "### Targets")[1:]
+    targets = " ".join(row[0] for row in body)
+    for needle in ("`averaged`: mean dE2000 <= 0.5", "over all N", "the speed of `reference`",
+                   "`approx`: the paper's Table 1", "`approx`: dE2000 reported",
+                   "numpy and GPU versions"):
+        assert needle in targets, needle
+    assert all(row[2] in ("yes", "no", "not checked", "reported") for row in body)
+
+
+# --------------------------------------------------------------------------- the plot
+
+
+def test_plot_is_a_png(runs):
+    _, _, plot = runs
+    with Image.open(plot) as image:
+        image.verify()
+    with Image.open(plot) as image:
+        pixels = np.asarray(image.convert("RGB"), dtype=np.float64)
+    assert pixels.shape[0] >= 200 and pixels.shape[1] >= 200
+    assert pixels.std() > 10.0
+    assert [p.name for p in plot.parent.iterdir()] == [plot.name]  # no temporary files left
+
+
+# --------------------------------------------------------------------------- behaviour
+
+
+def test_gpu_methods_read_at_run_time(bench, monkeypatch):
+    """The GPU rows follow ``GPU_COLOUR_METHODS`` as it is when the run starts."""
+    from wgbragg import colour_methods
+
+    monkeypatch.setattr(colour_methods, "GPU_COLOUR_METHODS", ("reference",))
+    tiny = dataclasses.replace(bench.QUICK, counts=(10,), angles_deg=(20.0,), samples=(4,),
+                               timing_angles=16)
+    results = bench.run_benchmarks(tiny, progress=False)
+    assert results.gpu_methods == ("reference",)
+    assert set(results.gpu_delta_e) == {"reference"}
+    assert ("spectral", *bench.GPU_WALL) not in results.seconds
+    assert ("reference", *bench.GPU_WALL) in results.seconds
+    assert not results.sweep_gpu_delta_e
+    section = bench.render_section(results, "python tools/bench_rgb.py")
+    rows = _table_after(section, "### numpy against GPU")[1:]
+    spectral = next(row for row in rows if row[0].startswith("spectral"))
+    assert spectral[1] == "no GPU kernel yet"
+
+
+@pytest.mark.parametrize("seconds", [3.2e-9, 4.56e-7, 9.9996e-4, 1.2e-3, 0.5, 12.0])
+def test_time_format_round_trip(bench, seconds):
+    assert bench.parse_time(bench.human_time(seconds)) == pytest.approx(seconds, rel=5e-3)
+
+
+@pytest.mark.parametrize("ratio", [0.0123, 0.83, 1.0, 12.46, 431.0, 4312.0])
+def test_ratio_format_round_trip(bench, ratio):
+    assert bench.parse_ratio(bench.human_ratio(ratio)) == pytest.approx(ratio, rel=5e-3)
+
+
+def test_output_and_plot_paths(bench, tmp_path):
+    def where(*argv):
+        args = bench.parse_args(list(argv))
+        return bench.output_path(args), bench.plot_path(args)
+
+    assert where("--quick") == (None, None)
+    assert where() == (bench.DEFAULT_OUTPUT, bench.DEFAULT_PLOT)
+    assert where("--no-write") == (None, bench.DEFAULT_PLOT)
+    assert where("--quick", "--output", str(tmp_path / "b.md"), "--plot",
+                 str(tmp_path / "p.png")) == (tmp_path / "b.md", tmp_path / "p.png")
+    # Generated output stays out of the tracked tree.
+    assert bench.DEFAULT_PLOT.parts[-2] == "out"
+    with pytest.raises(SystemExit):
+        where("--output", "x.md", "--no-write")
