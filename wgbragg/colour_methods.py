@@ -47,6 +47,7 @@ _NODES = np.array([-np.sqrt(3.0) / 2.0, 0.0, np.sqrt(3.0) / 2.0])
 _CENTER_NM = 595.0
 _HALF_NM = 235.0
 _TABLE_STEP_NM = 0.05
+_NARROW_PIECE_NM = 0.25
 
 
 def angular_correction(n1, n2, theta1):
@@ -209,8 +210,12 @@ def _averaged_polarized(mirror, theta, polarization):
     h = (half / _HALF_NM)[:, None]
     m_hi, m_lo = _moments(pieces[:, 1]), _moments(pieces[:, 0])
     m0, m1, m2 = (m_hi - m_lo)[0], (m_hi - m_lo)[1], (m_hi - m_lo)[2]
-    v1 = (m1 - um * m0) / h
-    v2 = (m2 - 2.0 * um * m1 + um * um * m0) / (h * h)
+    # Central moments from raw ones cancel like h^2; below a quarter nanometre the density is
+    # constant over the piece to table precision, and int v dens = 0, int v^2 dens = m0 / 3.
+    narrow = (half < _NARROW_PIECE_NM)[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v1 = np.where(narrow, 0.0, (m1 - um * m0) / h)
+        v2 = np.where(narrow, m0 / 3.0, (m2 - 2.0 * um * m1 + um * um * m0) / (h * h))
     return np.sum(c0[:, None] * m0 + c1[:, None] * v1 + c2[:, None] * v2, axis=0)
 
 
@@ -232,8 +237,13 @@ def averaged_xyz(mirror, theta):
     return out
 
 
-def _landmark_method(function, **fixed):
+def _landmark_method(function, gpu_twin, **fixed):
     def method(material, theta, backend, **options):
+        if backend == "gpu":
+            # float32 WGSL twin (wgsl/colour_landmarks_bragg.wgsl), same options and errors.
+            from . import colour_landmarks_gpu
+
+            return getattr(colour_landmarks_gpu, gpu_twin)(material, theta, **options)
         if backend != "numpy":
             raise ValueError(
                 f"backend {backend!r} is not available for this method yet; GPU colour methods: "
@@ -269,11 +279,11 @@ def _approx_basic(mirror, theta):
 COLOUR_METHODS = {
     "reference": _reference,
     "spectral": _spectral,
-    "approx": _landmark_method(_approx_basic),
-    "subdivided": _landmark_method(_subdivided),
-    "averaged": _landmark_method(averaged_xyz),
+    "approx": _landmark_method(_approx_basic, "approx_xyz"),
+    "subdivided": _landmark_method(_subdivided, "subdivided_xyz"),
+    "averaged": _landmark_method(averaged_xyz, "averaged_xyz"),
 }
 """Colour methods of :meth:`BraggMirror.xyz`, by name (``method=``)."""
 
 THIN_FILM_COLOUR_METHODS = ("reference", "spectral")
-GPU_COLOUR_METHODS = ("reference", "spectral")
+GPU_COLOUR_METHODS = ("reference", "spectral", "approx", "subdivided", "averaged")

@@ -1,0 +1,271 @@
+"""float32 GPU twins of the landmark colour methods ("approx", "subdivided", "averaged").
+
+The issue's target: numpy and GPU versions of each method agree within CIE dE2000 0.1, on the
+grid n1 = 1, n2 = 1.5, Lambda in {244, 500, 988} nm, d1 / Lambda in {0.25, 0.5, 0.75},
+N in {3, 5, 10, 20, 100}, theta = 0, 7, ..., 84 degrees; plus an Appendix D mirror (host != n1,
+"averaged" only) and an evanescent-n2 mirror past its critical angle. Measured (lavapipe):
+mean dE 4e-5 (approx, subdivided) and 1.4e-4 (averaged), max 3e-4 and 1.8e-3. The kernel
+integrates the piecewise-linear density exactly where the numpy twin interpolates 0.05 nm
+cumulative moment tables; against an exact float64 integration of the same pieces the kernel
+is within 1e-6 in XYZ (test_averaged_moments_are_exact).
+
+The numpy landmark search (60 bisection steps per landmark) dominates the run time, so the
+module caches ``find_landmarks`` (a pure function of a frozen mirror, angle and polarisation)
+while it computes the numpy colours, and shares them between the tests.
+"""
+
+from __future__ import annotations
+
+import functools
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from wgbragg import BraggMirror, colour_landmarks_gpu
+from wgbragg import colour_methods as cm
+from wgbragg.colorimetry import delta_e_2000, xyz_density, xyz_to_linear_srgb
+from wgbragg.landmarks import find_landmarks
+from wgbragg.optics.yeh import yeh_reflectance
+
+pytestmark = pytest.mark.gpu
+
+ISSUE_DE = 0.1  # the issue: numpy and GPU versions of a method agree within dE2000 0.1
+MEDIAN_DE = 0.01  # typical agreement; measured median 2e-5 .. 4e-5
+LANDMARK_RTOL = 1e-5  # the issue asks 1e-4; measured 4.4e-7 relative in omega (and wavelength)
+MOMENTS_ATOL = 1e-5  # XYZ, GPU vs exact float64 integration of the same pieces; measured 8e-7
+
+DEG = math.pi / 180.0
+THETA = np.arange(0.0, 90.0, 7.0) * DEG
+GRID = [
+    BraggMirror(1.0, 1.5, fraction * period, (1.0 - fraction) * period, N)
+    for period, fraction, N in itertools.product((244.0, 500.0, 988.0), (0.25, 0.5, 0.75),
+                                                 (3, 5, 10, 20, 100))
+]
+HOST_MIRROR = BraggMirror(1.59, 1.67, 81.6, 78.4, 8, host=1.0)  # Appendix D (jewel beetle)
+EVANESCENT = BraggMirror(1.5, 1.0, 100.0, 200.0, 20)  # n2 evanescent past 41.8 degrees
+EVANESCENT_THETA = np.arange(42.0, 90.0, 3.0) * DEG
+METHODS = ("approx", "subdivided", "averaged")
+
+
+def numpy_xyz(mirror, theta, method):
+    if method == "averaged":
+        return cm.averaged_xyz(mirror, theta)
+    return cm.approx_xyz(mirror, theta, subdivisions=3 if method == "subdivided" else None)
+
+
+def delta_e(xyz_a, xyz_b):
+    return delta_e_2000(xyz_to_linear_srgb(xyz_a), xyz_to_linear_srgb(xyz_b))
+
+
+@pytest.fixture(scope="module")
+def numpy_colours():
+    """{(mirror index or name, method): numpy XYZ}, landmarks computed once per angle."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(cm, "find_landmarks", functools.lru_cache(maxsize=None)(find_landmarks))
+        out = {}
+        for method in METHODS:
+            for index, mirror in enumerate(GRID):
+                out[index, method] = numpy_xyz(mirror, THETA, method)
+            out["evanescent", method] = numpy_xyz(EVANESCENT, EVANESCENT_THETA, method)
+        out["host", "averaged"] = cm.averaged_xyz(HOST_MIRROR, THETA)
+    return out
+
+
+# --------------------------------------------------------------------------- numpy vs GPU
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_matches_numpy_on_the_issue_grid(numpy_colours, method):
+    errors = np.array([
+        delta_e(numpy_colours[index, method], colour_landmarks_gpu.landmark_xyz(mirror, THETA,
+                                                                                method))
+        for index, mirror in enumerate(GRID)
+    ])
+    assert errors.shape == (len(GRID), THETA.size)
+    worst = np.unravel_index(errors.argmax(), errors.shape)
+    assert errors.max() <= ISSUE_DE, (GRID[worst[0]], THETA[worst[1]] / DEG)
+    assert np.median(errors) <= MEDIAN_DE
+
+
+def test_averaged_matches_numpy_for_an_appendix_d_host(numpy_colours):
+    gpu = colour_landmarks_gpu.landmark_xyz(HOST_MIRROR, THETA, "averaged")
+    assert delta_e(numpy_colours["host", "averaged"], gpu).max() <= ISSUE_DE
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_matches_numpy_with_evanescent_n2(numpy_colours, method):
+    gpu = colour_landmarks_gpu.landmark_xyz(EVANESCENT, EVANESCENT_THETA, method)
+    errors = delta_e(numpy_colours["evanescent", method], gpu)
+    assert errors.max() <= ISSUE_DE
+    # The range holds pass bands (coloured) and total reflection (white): both are checked.
+    assert np.ptp(gpu[:, 1]) > 0.3
+
+
+@pytest.mark.parametrize("method", ["approx", "subdivided"])
+@pytest.mark.parametrize("backend", ["numpy", "gpu"])
+def test_paper_methods_need_a_matched_host(method, backend):
+    with pytest.raises(ValueError, match="host == n1"):
+        HOST_MIRROR.xyz(0.3, method=method, backend=backend)
+
+
+# --------------------------------------------------------------------------- landmarks
+
+
+LANDMARK_MIRRORS = [
+    BraggMirror(1.0, 1.5, 315.0, 315.0, 10),  # the paper's Fig. 3
+    BraggMirror(1.0, 1.5, 61.0, 183.0, 20),
+    BraggMirror(1.0, 1.5, 741.0, 247.0, 20),
+    BraggMirror(1.33, 1.56, 900.0, 1100.0, 5),
+    HOST_MIRROR,
+    EVANESCENT,
+]
+
+
+@pytest.mark.parametrize("mirror", LANDMARK_MIRRORS, ids=repr)
+@pytest.mark.parametrize("pol", ["s", "p"])
+def test_landmarks_match_numpy(mirror, pol):
+    theta = np.arange(0.0, 90.0, 3.0) * DEG
+    found = colour_landmarks_gpu.find_landmarks_gpu(mirror, theta, pol)
+    total = 0
+    for angle, (omega, kind) in zip(theta, found, strict=True):
+        # The kernel sees the float32 angle.
+        expected = find_landmarks(mirror, float(np.float32(angle)), pol)
+        assert list(kind) == list(expected.kind), angle / DEG
+        np.testing.assert_allclose(omega, expected.omega, rtol=LANDMARK_RTOL, atol=0.0)
+        total += omega.size
+    assert total > 20  # the sweep did meet landmarks
+
+
+# --------------------------------------------------------------------------- float32 moments
+
+
+def exact_piece_integral(a, b, values):
+    """int of the quadratic through the three Chebyshev nodes of [a, b] times the density,
+    exactly (3-point Gauss-Legendre on each 1 nm cell the piece meets: cubic integrands)."""
+    nodes = np.arange(np.floor(a) + 1.0, np.ceil(b))
+    cuts = np.concatenate([[a], nodes[(nodes > a) & (nodes < b)], [b]])
+    x, w = np.polynomial.legendre.leggauss(3)
+    lo, hi = cuts[:-1, None], cuts[1:, None]
+    wavelength = (0.5 * (lo + hi) + 0.5 * (hi - lo) * x).ravel()
+    weight = (0.5 * (hi - lo) * w).ravel()
+    v = (wavelength - 0.5 * (a + b)) / (0.5 * (b - a))
+    r0, r1, r2 = values
+    quadratic = r1 + (r2 - r0) / np.sqrt(3.0) * v + (r0 + r2 - 2.0 * r1) * (2.0 / 3.0) * v * v
+    return (weight * quadratic) @ xyz_density(wavelength)
+
+
+def averaged_exact(mirror, theta):
+    """colour_methods.averaged_xyz with the moments integrated exactly in float64."""
+    out = np.zeros(3)
+    for pol in ("s", "p"):
+        pieces = cm._pieces(mirror, theta, pol)
+        middle, half = pieces.mean(axis=1), 0.5 * np.diff(pieces, axis=1)[:, 0]
+        nodes = middle[:, None] + half[:, None] * cm._NODES[None, :]
+        method = "exact" if mirror.N < cm.AVERAGING_MIN_PERIODS else "phase-averaged"
+        values = yeh_reflectance(mirror.n1, mirror.n2, mirror.d1, mirror.d2, mirror.N, nodes,
+                                 theta, pol, host=mirror.host, method=method)
+        for (a, b), v in zip(pieces, values, strict=True):
+            out += 0.5 * exact_piece_integral(a, b, v)
+    return out
+
+
+@pytest.mark.parametrize("mirror, theta", [
+    (GRID[42], 0.3),   # Lambda 988, d1 = 0.75 Lambda, N = 20: graded pieces down to 0.5 nm
+    (GRID[18], 1.1),   # Lambda 500, N = 100
+    (GRID[6], 0.0),    # Lambda 244, N = 5: exact R on 2N pieces per pass band
+    (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), 1.5707),  # near grazing: pieces of 1e-4 nm
+])
+def test_averaged_moments_are_exact(mirror, theta):
+    """The kernel's moments (two staggered block grids, closed forms below 1 nm) keep float32
+    from cancelling: it matches an exact float64 integration of the numpy twin's pieces."""
+    theta32 = float(np.float32(theta))
+    expected = averaged_exact(mirror, theta32)
+    gpu = colour_landmarks_gpu.landmark_xyz(mirror, theta32, "averaged")
+    np.testing.assert_allclose(gpu, expected, rtol=0.0, atol=MOMENTS_ATOL)
+
+
+def test_moment_tables_reproduce_the_density_integrals():
+    """Each table record rebuilds int (lambda - c)^k density from its block start (float64)."""
+    _, moments = colour_landmarks_gpu._tables()
+    records = moments.reshape(colour_landmarks_gpu.MOMENT_LEVELS, 2, 470, 4, 4)
+    rng = np.random.default_rng(3)
+    for level, grid, j in zip(rng.integers(1, 8, 40), rng.integers(0, 2, 40),
+                              rng.integers(0, 470, 40), strict=True):
+        size, half = 2**level, 2 ** (level - 1)
+        start = ((j + grid * half) // size) * size - grid * half  # nm from 360
+        centre = start + half
+        lo = 360.0 + max(start, 0)
+        wavelength = np.linspace(lo, 360.0 + j, 4001)
+        density = xyz_density(wavelength)
+        record = records[level - 1, grid, j]
+        prefix = [record[2, :3], record[3, :3], record[:3, 3]]
+        for k in range(3):
+            integrand = (wavelength - 360.0 - centre)[:, None] ** k * density
+            expected = np.trapezoid(integrand, wavelength, axis=0) if j > lo - 360.0 else 0.0
+            scale = np.abs(integrand).max() * max(j - (lo - 360.0), 1.0)
+            np.testing.assert_allclose(prefix[k], expected, rtol=0.0, atol=1e-5 * scale)
+
+
+# --------------------------------------------------------------------------- API and edges
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_backend_dispatch_and_theta_shapes(method):
+    mirror = GRID[17]
+    theta = np.linspace(0.0, 1.5, 6).reshape(2, 3)
+    xyz = mirror.xyz(theta, method=method, backend="gpu")
+    assert xyz.shape == (2, 3, 3)
+    np.testing.assert_array_equal(xyz.reshape(-1, 3),
+                                  colour_landmarks_gpu.landmark_xyz(mirror, theta.ravel(), method))
+    assert mirror.xyz(0.25, method=method, backend="gpu").shape == (3,)
+    assert mirror.xyz(np.zeros((0, 4)), method=method, backend="gpu").shape == (0, 4, 3)
+    assert mirror.rgb([0.1], method=method, backend="gpu").shape == (1, 3)
+    assert method in cm.GPU_COLOUR_METHODS
+
+
+def test_subdivided_options():
+    mirror = GRID[22]
+    # s = 1 subdivides nothing: the basic approximation.
+    np.testing.assert_allclose(mirror.xyz(THETA, method="subdivided", backend="gpu", s=1),
+                               mirror.xyz(THETA, method="approx", backend="gpu"), atol=1e-7)
+    fine = mirror.xyz(THETA, method="subdivided", backend="gpu", s=6)
+    assert not np.allclose(fine, mirror.xyz(THETA, method="subdivided", backend="gpu"))
+    for bad in (0, -2, 2.5, True, "3", colour_landmarks_gpu.MAX_SUBDIVISIONS + 1):
+        with pytest.raises(ValueError, match=r"\bs\b"):
+            mirror.xyz(0.2, method="subdivided", backend="gpu", s=bad)
+    with pytest.raises(TypeError):
+        mirror.xyz(0.2, method="approx", backend="gpu", s=3)  # as numpy: no such option
+
+
+EXTREME_MIRRORS = [
+    BraggMirror(1.0, 1.5, 125.0, 375.0, 1),
+    BraggMirror(1.0, 1.5, 125.0, 375.0, 2),
+    BraggMirror(1.0, 1.5, 125.0, 375.0, 2**31 - 1),
+    BraggMirror(1.0, 1.5, 0.0, 375.0, 20),  # d1 = 0: every gap closed
+    BraggMirror(1.0, 1.5, 375.0, 0.0, 20),  # d2 = 0: bulk n1
+    BraggMirror(1.3, 1.3, 100.0, 100.0, 20),  # n1 = n2
+    BraggMirror(1.0, 1.5, 530.0 / 4, 530.0 / 6, 100),  # quarter wave: even gaps closed
+    BraggMirror(1.0, 2.5, 1e-3, 1e-3, 20),
+    BraggMirror(1.0, 1.5, 5000.0, 5000.0, 50),  # ~70 landmarks per polarisation
+    BraggMirror(1.5, 1.0, 100.0, 200.0, 1),
+]
+EXTREME_HOSTS = [
+    BraggMirror(1.3, 2.5, 300.0, 20.0, 20, host=2.0),  # dense host: total reflection
+    BraggMirror(1.59, 1.67, 81.6, 78.4, 2**31 - 1, host=1.0),
+]
+EXTREME_THETA = np.array([0.0, 1e-6, math.atan(1.5), 0.7, 1.2, 1.5, 1.5707, 1.57079,
+                          math.pi / 2])
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_finite_and_bounded_at_extremes(method):
+    mirrors = EXTREME_MIRRORS + (EXTREME_HOSTS if method == "averaged" else [])
+    white = cm._white()
+    for mirror in mirrors:
+        xyz = colour_landmarks_gpu.landmark_xyz(mirror, EXTREME_THETA, method)
+        assert np.all(np.isfinite(xyz)), mirror
+        assert np.all(xyz >= -1e-6) and np.all(xyz <= white * (1.0 + 1e-4)), mirror
+        # Grazing incidence reflects everything.
+        np.testing.assert_allclose(xyz[-1], white, rtol=1e-5)

@@ -1,0 +1,71 @@
+// Entry point: D65-weighted XYZ of a Bragg mirror from its spectral landmarks, one invocation
+// per angle theta[i], both polarisations averaged: the "approx", "subdivided" and "averaged"
+// colour methods (wgbragg/colour_methods.py; physics in colour_landmark.wgsl). Tables
+// (wgbragg/colour_landmarks_gpu.py, built once in float64):
+//   cmf[j] = density at node 360 + j nm (per nm), cmf[471 + j] = its cumulative integral;
+//   moments: moment_prefix and moment_block below.
+//! include "harness.wgsl"
+//! include "numerics.wgsl"
+//! include "complex.wgsl"
+//! include "layer.wgsl"
+//! include "yeh.wgsl"
+//! include "landmarks.wgsl"
+//! include "colour_landmark.wgsl"
+
+// host == n1: eqs 2 and 9 need no complex amplitude (Appendix D is compiled out).
+override HOST_MATCHED: bool = true;
+// 0 = approx, 1 = subdivided, 2 = averaged.
+override METHOD: u32 = 2u;
+
+// BraggMirror (yeh.wgsl) with its padding word holding s of "subdivided".
+struct LandmarkColourParams {
+    n1: f32,
+    n2: f32,
+    d1_nm: f32,
+    d2_nm: f32,
+    host: f32,
+    periods: u32,
+    bulk: u32,
+    subdivisions: u32,
+}
+
+@group(0) @binding(0) var<storage, read> theta: array<f32>;
+@group(0) @binding(1) var<storage, read> cmf: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> moments: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read_write> xyz: array<vec4<f32>>;  // w = 0
+@group(0) @binding(4) var<uniform> params: LandmarkColourParams;
+
+const CMF_NODES: u32 = 471u;
+// Records of 4 vec4 per (level L = 1..MOMENT_LEVELS, grid g = 0, 1, cell j = 0..469):
+// (d0, T2.x), (slope, T2.y), (T0, T2.z), (T1, 0), with d0 the density at node j, slope its
+// slope on cell j, and T_k = int (lambda - c)^k density from the start of the block of cell j
+// to node j, about its centre c; blocks of 2^L nm start at 360 nm + K 2^L - g 2^(L-1).
+const MOMENT_CELLS: u32 = 470u;
+
+fn cmf_density(j: u32) -> vec3<f32> {
+    return cmf[j].xyz;
+}
+
+fn cmf_cumulative(j: u32) -> vec3<f32> {
+    return cmf[CMF_NODES + j].xyz;
+}
+
+fn moment_record(level: u32, grid: u32, j: u32, i: u32) -> vec4<f32> {
+    return moments[((((level - 1u) * 2u + grid) * MOMENT_CELLS + j) * 4u) + i];
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>,
+        @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = global_index(gid, nwg);
+    if (i >= arrayLength(&xyz)) {
+        return;
+    }
+    let p = params;
+    let m = BraggMirror(p.n1, p.n2, p.d1_nm, p.d2_nm, p.host, p.periods, p.bulk, 0u);
+    let s = i32(min(p.subdivisions, 0x7fffffffu));
+    let angle = theta[i];
+    let colour = 0.5 * (landmark_colour(m, angle, 0u, METHOD, s, HOST_MATCHED)
+        + landmark_colour(m, angle, 1u, METHOD, s, HOST_MATCHED));
+    xyz[i] = vec4<f32>(colour, 0.0);
+}

@@ -1,0 +1,75 @@
+// Test kernel: the spectral landmarks found by landmarks.wgsl, one invocation per angle, for
+// comparison with wgbragg.landmarks.find_landmarks. Row i holds up to CAPACITY landmarks
+// (omega in rad/nm, kind as landmarks.KINDS index, mode number, 0) in increasing omega.
+//! include "harness.wgsl"
+//! include "numerics.wgsl"
+//! include "complex.wgsl"
+//! include "layer.wgsl"
+//! include "yeh.wgsl"
+//! include "landmarks.wgsl"
+
+// 0 = s, 1 = p.
+override POLARIZATION: u32 = 0u;
+override CAPACITY: u32 = 64u;
+
+@group(0) @binding(0) var<storage, read> theta: array<f32>;
+@group(0) @binding(1) var<storage, read_write> found: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> count: array<u32>;
+@group(0) @binding(3) var<uniform> mirror: BraggMirror;
+
+fn emit(i: u32, n: ptr<function, u32>, omega: f32, kind: u32, mode: i32) {
+    if (omega <= OMEGA_LO || omega >= OMEGA_HI || *n >= CAPACITY) {
+        return;
+    }
+    found[i * CAPACITY + *n] = vec4<f32>(omega, f32(kind), f32(mode), 0.0);
+    *n += 1u;
+}
+
+fn emit_t(i: u32, n: ptr<function, u32>, f: ModeFrame, t: f32, kind: u32, mode: i32) {
+    if (t > f.t_lo && t < f.t_hi) {
+        emit(i, n, PI * t / f.n_plus, kind, mode);
+    }
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>,
+        @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = global_index(gid, nwg);
+    if (i >= arrayLength(&count)) {
+        return;
+    }
+    var n = 0u;
+    let angle = cell_geometry(mirror, 1.0, theta[i]);
+    let host_matched = mirror.host == mirror.n1;
+    if (angle.q1 > 0.0 && (host_matched || angle.s < mirror.n1) && mirror.bulk == 0u) {
+        if (angle.q2sq > 0.0) {
+            let f = mode_frame(mirror, angle, POLARIZATION);
+            for (var k = i32(floor(f.t_lo)); k < i32(ceil(f.t_hi)); k++) {
+                let iv = mode_interval(f, k);
+                emit_t(i, &n, f, f32(k), KIND_MODE, k);
+                emit_t(i, &n, f, iv.rising, KIND_EDGE, k);
+                if (iv.zero > 0.0 && iv.zero < iv.airy) {
+                    emit_t(i, &n, f, iv.zero, KIND_ZERO, k);
+                }
+                emit_t(i, &n, f, iv.airy, KIND_AIRY, k);
+                if (iv.zero > 0.0 && iv.zero >= iv.airy) {
+                    emit_t(i, &n, f, iv.zero, KIND_ZERO, k);
+                }
+                emit_t(i, &n, f, iv.falling, KIND_EDGE, k);
+            }
+        } else {
+            // As colour_landmark.wgsl: the scan's test, then bisection on sin^2 K Lambda.
+            let ef = evanescent_frame(mirror, angle, POLARIZATION);
+            var previous = evanescent_pass(ef, OMEGA_LO);
+            for (var j = 1u; j < SCAN_POINTS; j++) {
+                let in_band = evanescent_pass(ef, scan_omega(j));
+                if (in_band != previous) {
+                    emit(i, &n, scan_edge(mirror, angle, POLARIZATION, scan_omega(j - 1u),
+                                          scan_omega(j), !previous), KIND_EDGE, -1);
+                }
+                previous = in_band;
+            }
+        }
+    }
+    count[i] = n;
+}
