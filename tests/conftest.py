@@ -27,7 +27,11 @@ generator are reproducible one by one and in any order.
 
 from __future__ import annotations
 
+import contextlib
+import importlib.util
 import os
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -93,3 +97,20 @@ def device():
 @pytest.fixture(autouse=True)
 def _seed_numpy() -> None:
     np.random.seed(0)
+
+
+TOOLS = Path(__file__).resolve().parents[1] / "tools"
+
+
+@contextlib.contextmanager
+def load_tool(name: str):
+    """A script of ``tools/`` loaded as a module (``tools/`` is not a package)."""
+    spec = importlib.util.spec_from_file_location(name, TOOLS / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    # dataclasses look the module up in sys.modules while the class body runs.
+    sys.modules[spec.name] = module
+    try:
+        spec.loader.exec_module(module)
+        yield module
+    finally:
+        sys.modules.pop(spec.name, None)

@@ -8,34 +8,23 @@ replaces (not duplicates) itself, and that what the tool times is the mirror it 
 from __future__ import annotations
 
 import contextlib
-import importlib.util
 import io
 import math
 import re
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import load_tool
 
 pytestmark = pytest.mark.gpu
 
-TOOL = Path(__file__).resolve().parents[1] / "tools" / "bench_reflectance.py"
 LATER_SECTION = "## A later benchmark\n\n<!-- other:begin -->\nkeep me\n<!-- other:end -->\n"
 
 
 @pytest.fixture(scope="module")
 def bench():
-    """The tool loaded as a module (``tools/`` is not a package)."""
-    spec = importlib.util.spec_from_file_location("bench_reflectance", TOOL)
-    module = importlib.util.module_from_spec(spec)
-    # dataclasses look the module up in sys.modules while the class body runs.
-    sys.modules[spec.name] = module
-    try:
-        spec.loader.exec_module(module)
+    with load_tool("bench_reflectance") as module:
         yield module
-    finally:
-        sys.modules.pop(spec.name, None)
 
 
 @pytest.fixture(scope="module")

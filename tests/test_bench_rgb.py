@@ -10,34 +10,23 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import importlib.util
 import io
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import load_tool
 from PIL import Image
 
 pytestmark = pytest.mark.gpu
 
-TOOL = Path(__file__).resolve().parents[1] / "tools" / "bench_rgb.py"
 LATER_SECTION = "## A later benchmark\n\n<!-- other:begin -->\nkeep me\n<!-- other:end -->\n"
 
 
 @pytest.fixture(scope="module")
 def bench():
-    """The tool loaded as a module (``tools/`` is not a package)."""
-    spec = importlib.util.spec_from_file_location("bench_rgb", TOOL)
-    module = importlib.util.module_from_spec(spec)
-    # dataclasses look the module up in sys.modules while the class body runs.
-    sys.modules[spec.name] = module
-    try:
-        spec.loader.exec_module(module)
+    with load_tool("bench_rgb") as module:
         yield module
-    finally:
-        sys.modules.pop(spec.name, None)
 
 
 @pytest.fixture(scope="module")

@@ -8,30 +8,20 @@ Fig. 3 is the one the library integrates.
 from __future__ import annotations
 
 import contextlib
-import importlib.util
 import io
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import load_tool
 from PIL import Image
 
-TOOL = Path(__file__).resolve().parents[1] / "tools" / "figures.py"
 NAMES = ("fig3_spectrum.png", "fig4_gradients.png")
 
 
 @pytest.fixture(scope="module")
 def figures():
-    """The tool loaded as a module (``tools/`` is not a package)."""
-    spec = importlib.util.spec_from_file_location("figures", TOOL)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    try:
-        spec.loader.exec_module(module)
+    with load_tool("figures") as module:
         yield module
-    finally:
-        sys.modules.pop(spec.name, None)
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,5 @@
-"""Marker sections of ``docs/benchmarks.md``, shared by the scripts under ``tools/``.
+"""Report helpers shared by the scripts under ``tools/``: marker sections of
+``docs/benchmarks.md`` and the machine facts every report states.
 
 Each benchmark script owns one section of the document, delimited by
 ``<!-- NAME:begin -->`` and ``<!-- NAME:end -->``, and rewrites it whole; everything outside
@@ -9,11 +10,13 @@ is replaced atomically, so a reader or an interrupted run never sees half a docu
 from __future__ import annotations
 
 import os
+import platform
+import time
 from pathlib import Path
 
 from wgbragg._io import write_text_atomic
 
-__all__ = ["DOC_INTRO", "markers", "update_document", "write_section"]
+__all__ = ["DOC_INTRO", "LoadMeter", "cpu_model", "markers", "update_document", "write_section"]
 
 DOC_INTRO = """# Benchmarks
 
@@ -96,3 +99,48 @@ def write_section(path: str | os.PathLike, section: str, begin: str, end: str) -
     target = Path(path)
     current = target.read_text(encoding="utf-8") if target.exists() else None
     write_text_atomic(target, update_document(current, section, begin, end))
+
+
+class LoadMeter:
+    """CPU time that other processes used since creation, from ``/proc/stat`` (Linux).
+
+    The GPU of lavapipe and the CPU methods share the same few cores with whatever else runs
+    on the machine, so the report says how busy the machine was besides this benchmark.
+    """
+
+    def __init__(self):
+        self._start = (time.perf_counter(), self._busy(), self._own())
+
+    @staticmethod
+    def _busy() -> float | None:
+        try:
+            fields = Path("/proc/stat").read_text().splitlines()[0].split()
+        except (OSError, IndexError):
+            return None
+        # user nice system idle iowait irq softirq steal: busy = all but idle and iowait.
+        user, nice, system, _idle, _iowait, irq, softirq, steal = map(int, fields[1:9])
+        return (user + nice + system + irq + softirq + steal) / os.sysconf("SC_CLK_TCK")
+
+    @staticmethod
+    def _own() -> float:
+        times = os.times()
+        return times.user + times.system
+
+    def background_cores(self) -> float | None:
+        """Average number of cores busy with other processes (or stolen by the hypervisor)."""
+        wall0, busy0, own0 = self._start
+        busy = self._busy()
+        if busy is None or busy0 is None:
+            return None
+        wall = time.perf_counter() - wall0
+        return max(0.0, (busy - busy0 - (self._own() - own0)) / max(wall, 1e-9))
+
+
+def cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()

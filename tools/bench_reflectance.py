@@ -518,51 +518,6 @@ def applicable(method: Method, N: int) -> bool:
     return not method.linear or N <= MAX_N_LINEAR
 
 
-class _LoadMeter:
-    """CPU time that other processes used since creation, from ``/proc/stat`` (Linux).
-
-    The GPU of lavapipe and the CPU methods share the same few cores with whatever else runs
-    on the machine, so the report says how busy the machine was besides this benchmark.
-    """
-
-    def __init__(self):
-        self._start = (time.perf_counter(), self._busy(), self._own())
-
-    @staticmethod
-    def _busy() -> float | None:
-        try:
-            fields = Path("/proc/stat").read_text().splitlines()[0].split()
-        except (OSError, IndexError):
-            return None
-        # user nice system idle iowait irq softirq steal: busy = all but idle and iowait.
-        user, nice, system, _idle, _iowait, irq, softirq, steal = map(int, fields[1:9])
-        return (user + nice + system + irq + softirq + steal) / os.sysconf("SC_CLK_TCK")
-
-    @staticmethod
-    def _own() -> float:
-        times = os.times()
-        return times.user + times.system
-
-    def background_cores(self) -> float | None:
-        """Average number of cores busy with other processes (or stolen by the hypervisor)."""
-        wall0, busy0, own0 = self._start
-        busy = self._busy()
-        if busy is None or busy0 is None:
-            return None
-        wall = time.perf_counter() - wall0
-        return max(0.0, (busy - busy0 - (self._own() - own0)) / max(wall, 1e-9))
-
-
-def _cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
-
-
 def _version(distribution: str) -> str:
     # tmm and tmm_fast define no __version__; the installed metadata knows it.
     try:
@@ -582,7 +537,7 @@ def _environment(modules: dict[str, Any]) -> dict[str, Any]:
     env = {
         "date": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"),
         "adapter": f"{info['name']} [{info['backend']}]",
-        "cpu": _cpu_model(),
+        "cpu": _docs.cpu_model(),
         "cores": cores,
         "python": platform.python_version(),
         "versions": {"wgbragg": __version__, "numpy": np.__version__},
@@ -630,7 +585,7 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
     tasks = [cell for _ in range(cfg.passes) for cell in cells]
     measurements: dict[tuple[str, int], Measurement] = {}
     sizes: dict[tuple[str, int], Any] = {}
-    load = _LoadMeter()
+    load = _docs.LoadMeter()
     bar = tqdm(tasks, desc="bench_reflectance", unit="cell", disable=not progress,
                file=sys.stderr)
     for key, N in bar:

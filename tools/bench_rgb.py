@@ -340,7 +340,7 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
     methods = list(COLOUR_METHODS)
     have_gpu, gpu_error = _gpu_available()
     gpu_methods = tuple(m for m in GPU_COLOUR_METHODS if m in methods) if have_gpu else ()
-    load = _LoadMeter()
+    load = _docs.LoadMeter()
     grid = cases(cfg)
     angles = np.radians(np.asarray(cfg.angles_deg, dtype=np.float64))
     shape = (len(grid), angles.size)
@@ -435,51 +435,6 @@ def _time_gpu(cfg: Config, grid: list[Case], gpu_methods: tuple[str, ...],
             table[key, *GPU_KERNEL][i] = min(table[key, *GPU_KERNEL][i], kernel)
 
 
-class _LoadMeter:
-    """CPU time other processes used since creation, from ``/proc/stat`` (Linux).
-
-    lavapipe and the numpy methods share the machine's few cores with whatever else runs, so
-    the report says how busy the machine was besides this benchmark.
-    """
-
-    def __init__(self):
-        self._start = (time.perf_counter(), self._busy(), self._own())
-
-    @staticmethod
-    def _busy() -> float | None:
-        try:
-            fields = Path("/proc/stat").read_text().splitlines()[0].split()
-        except (OSError, IndexError):
-            return None
-        # user nice system idle iowait irq softirq steal: busy = all but idle and iowait.
-        user, nice, system, _idle, _iowait, irq, softirq, steal = map(int, fields[1:9])
-        return (user + nice + system + irq + softirq + steal) / os.sysconf("SC_CLK_TCK")
-
-    @staticmethod
-    def _own() -> float:
-        times = os.times()
-        return times.user + times.system
-
-    def background_cores(self) -> float | None:
-        """Average number of cores busy with other processes since creation."""
-        wall0, busy0, own0 = self._start
-        busy = self._busy()
-        if busy is None or busy0 is None:
-            return None
-        wall = time.perf_counter() - wall0
-        return max(0.0, (busy - busy0 - (self._own() - own0)) / max(wall, 1e-9))
-
-
-def _cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
-
-
 def _environment(gpu_error: str | None) -> dict[str, Any]:
     from wgbragg import __version__, gpu
 
@@ -495,7 +450,7 @@ def _environment(gpu_error: str | None) -> dict[str, Any]:
     return {
         "date": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"),
         "adapter": adapter,
-        "cpu": _cpu_model(),
+        "cpu": _docs.cpu_model(),
         "cores": cores,
         "python": platform.python_version(),
         "versions": {"wgbragg": __version__, "numpy": np.__version__},
