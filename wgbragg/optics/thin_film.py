@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._series import sinc, sinhc
 from .fresnel import normal_component
 
 __all__ = ["airy_amplitude", "thin_film_reflectance"]
@@ -70,15 +71,13 @@ def airy_amplitude(n_host, n_film, d_film_nm, n_base, wavelength_nm, theta, pola
     phase = k0 * q_film * d_film_nm
     opaque = evanescent & (phase > _OPAQUE_DECAY)
     phase = np.where(opaque, _OPAQUE_DECAY, phase)
-    small = phase < 1e-4
-    safe = np.where(small, 1.0, phase)
-    decay = np.where(evanescent, safe, 0.0)  # hyperbolic functions see only clamped decays
-    sine = np.where(evanescent, np.sinh(decay), np.sin(safe))
-    sinc = np.where(small, 1.0 + np.where(evanescent, 1.0, -1.0) * phase**2 / 6.0, sine / safe)
-    c = np.where(evanescent, np.cosh(np.where(evanescent, phase, 0.0)), np.cos(phase))
+    decay = np.where(evanescent, phase, 0.0)  # hyperbolic functions see only clamped decays
+    c = np.where(evanescent, np.cosh(decay), np.cos(phase))
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         # S = sin(delta) / eta1; where the decay is clamped q_film is far from 0.
-        S = film_factor * np.where(opaque, sine / q_film, k0 * d_film_nm * sinc)
+        S = film_factor * np.where(
+            opaque, np.sinh(decay) / q_film,
+            k0 * d_film_nm * np.where(evanescent, sinhc(decay), sinc(phase)))
     top = c * (eta0 - eta2) + 1j * S * (eta1_squared - eta0 * eta2)
     bottom = c * (eta0 + eta2) - 1j * S * (eta1_squared + eta0 * eta2)
     matched = bottom == 0  # host, film and base index-matched at grazing incidence

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._validation import check_angle, check_polarization, check_wavelength
+from ._series import sinc
 from .fresnel import normal_component
 
 __all__ = ["transfer_matrix_reflectance"]
@@ -69,13 +70,6 @@ def transfer_matrix_reflectance(indices, thicknesses_nm, wavelength_nm, theta,
     return _reflectance(indices, thicknesses, wavelength, angle, polarization)
 
 
-def _sinc(z):
-    """``sin(z) / z`` for complex ``z``, 1 at 0."""
-    small = np.abs(z) < 1e-4
-    safe = np.where(small, 1.0, z)
-    return np.where(small, 1.0 - z * z / 6.0, np.sin(safe) / safe)
-
-
 def _reflectance(indices, thicknesses, wavelength, angle, polarization):
     # Characteristic matrices M_j = [[cos d, -i S], [-i eta^2 S, cos d]] with admittance
     # eta = q (s) or q / n^2 (p) and S = sin(d) / eta in sinc form: finite where a layer turns
@@ -96,7 +90,7 @@ def _reflectance(indices, thicknesses, wavelength, angle, polarization):
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             # Where clamped, q is far from 0 (the layer decays by > 35 e-folds).
             S = factor[layer] * np.where(opaque, np.sin(delta) / q[layer],
-                                         k0 * thicknesses[layer - 1] * _sinc(delta))
+                                         k0 * thicknesses[layer - 1] * sinc(delta))
         eta_squared = q[layer] ** 2 / factor[layer] ** 2
         B, C = cos_d * B - 1j * S * C, -1j * eta_squared * S * B + cos_d * C
         scale = np.maximum(np.abs(B), np.abs(C))

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._series import sinc, sinhc
 from .fresnel import fresnel_r, normal_component
 
 __all__ = ["YEH_METHODS", "bloch_dispersion", "cell_coefficients", "yeh_reflectance"]
@@ -25,19 +26,6 @@ __all__ = ["YEH_METHODS", "bloch_dispersion", "cell_coefficients", "yeh_reflecta
 # Beyond this many e-folds an evanescent n2 layer is opaque (transmission e^-70, far below
 # float64 resolution of R); clamping keeps cosh/sinh finite for any thickness.
 _OPAQUE_DECAY = 35.0
-
-
-def _sinc(z):
-    """``sin(z)/z`` (1 at 0) for real ``z``; with ``sinh`` for the evanescent half-phases."""
-    small = np.abs(z) < 1e-4
-    safe = np.where(small, 1.0, z)
-    return np.where(small, 1.0 - z * z / 6.0, np.sin(safe) / safe)
-
-
-def _sinhc(z):
-    small = np.abs(z) < 1e-4
-    safe = np.where(small, 1.0, z)
-    return np.where(small, 1.0 + z * z / 6.0, np.sinh(safe) / safe)
 
 
 def cell_coefficients(n1, n2, d1_nm, d2_nm, wavelength_nm, s, polarization):
@@ -100,10 +88,10 @@ def cell_coefficients(n1, n2, d1_nm, d2_nm, wavelength_nm, s, polarization):
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         S = eta2_factor * np.where(
             opaque, np.sinh(decay) / q2,
-            k0 * d2_nm * np.where(evanescent, _sinhc(phase2), _sinc(phase2)))
+            k0 * d2_nm * np.where(evanescent, sinhc(phase2), sinc(phase2)))
         S_half = eta2_factor * np.where(
             opaque, np.sinh(0.5 * decay) / q2,
-            0.5 * k0 * d2_nm * np.where(evanescent, _sinhc(half), _sinc(half)))
+            0.5 * k0 * d2_nm * np.where(evanescent, sinhc(half), sinc(half)))
     with np.errstate(divide="ignore", invalid="ignore"):
         P = cos2
         Q = -(eta2_squared + eta1 * eta1) * S / (2.0 * eta1)
