@@ -44,21 +44,6 @@ const KIND_AIRY: u32 = 1u;
 const KIND_EDGE: u32 = 2u;
 const KIND_ZERO: u32 = 3u;
 
-// Wavelength-dependent fields of cell_geometry (yeh.wgsl) for an angle already set up in
-// `angle`: the angle's own fields (s, cos_theta, q1, q2sq) are shared by every wavelength.
-fn geometry_at(m: BraggMirror, angle: CellGeometry, wavelength_nm: f32) -> CellGeometry {
-    var g = angle;
-    let inv_wavelength = 1.0 / wavelength_nm;
-    g.delta1_cycles = g.q1 * m.d1_nm * inv_wavelength;
-    let sc_a = half_phase_sin_cos(g.delta1_cycles);
-    g.sa = sc_a.x;
-    g.ca = sc_a.y;
-    let q2 = sqrt(abs(g.q2sq));
-    g.half2 = layer_half_phase(q2, g.q2sq < 0.0, m.d2_nm * inv_wavelength);
-    g.cell_cycles = g.delta1_cycles + q2 * m.d2_nm * inv_wavelength;
-    return g;
-}
-
 // (sin, cos) of 2 pi * cycles, reduced exactly to [-1/4, 1/4] turn (signs kept, unlike
 // half_phase_sin_cos): sin(pi - x) = sin x, cos(pi - x) = -cos x.
 fn sin_cos_cycles(cycles: f32) -> vec2<f32> {

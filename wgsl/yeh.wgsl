@@ -43,6 +43,13 @@ fn cell_geometry(m: BraggMirror, wavelength_nm: f32, theta: f32) -> CellGeometry
     // (n - s)(n + s) instead of n^2 - s^2: no cancellation near the critical angle.
     g.q1 = select(sqrt(max((m.n1 - g.s) * (m.n1 + g.s), 0.0)), m.n1 * sc.y, m.host == m.n1);
     g.q2sq = (m.n2 - g.s) * (m.n2 + g.s);
+    return geometry_at(m, g, wavelength_nm);
+}
+
+// The wavelength-dependent fields of a CellGeometry whose angle fields (s, cos_theta, q1,
+// q2sq) are already set: one angle's setup serves every wavelength of a sweep.
+fn geometry_at(m: BraggMirror, angle: CellGeometry, wavelength_nm: f32) -> CellGeometry {
+    var g = angle;
     let inv_wavelength = 1.0 / wavelength_nm;
     g.delta1_cycles = g.q1 * m.d1_nm * inv_wavelength;
     let sc_a = half_phase_sin_cos(g.delta1_cycles);
