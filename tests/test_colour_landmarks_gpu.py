@@ -4,10 +4,8 @@ The issue's target: numpy and GPU versions of each method agree within CIE dE200
 grid n1 = 1, n2 = 1.5, Lambda in {244, 500, 988} nm, d1 / Lambda in {0.25, 0.5, 0.75},
 N in {3, 5, 10, 20, 100}, theta = 0, 7, ..., 84 degrees; plus an Appendix D mirror (host != n1,
 "averaged" only) and an evanescent-n2 mirror past its critical angle. Measured (lavapipe):
-mean dE 4e-5 (approx, subdivided) and 1.4e-4 (averaged), max 3e-4 and 1.8e-3. The kernel
-integrates the piecewise-linear density exactly where the numpy twin interpolates 0.05 nm
-cumulative moment tables; against an exact float64 integration of the same pieces the kernel
-is within 1e-6 in XYZ (test_averaged_moments_are_exact).
+mean dE 4e-5 (approx, subdivided), max 3e-4; "averaged" uses the numpy twin's Gauss nodes
+and weights, and agrees within 2e-3.
 
 The numpy landmark search (60 bisection steps per landmark) dominates the run time, so the
 module caches ``find_landmarks`` (a pure function of a frozen mirror, angle and polarisation)
@@ -25,16 +23,15 @@ import pytest
 
 from wgbragg import BraggMirror, colour_landmarks_gpu
 from wgbragg import colour_methods as cm
-from wgbragg.colorimetry import delta_e_2000, xyz_density, xyz_to_linear_srgb
+from wgbragg.colorimetry import delta_e_2000, xyz_to_linear_srgb
 from wgbragg.landmarks import find_landmarks
-from wgbragg.optics.yeh import yeh_reflectance
 
 pytestmark = pytest.mark.gpu
 
 ISSUE_DE = 0.1  # the issue: numpy and GPU versions of a method agree within dE2000 0.1
 MEDIAN_DE = 0.01  # typical agreement; measured median 2e-5 .. 4e-5
 LANDMARK_RTOL = 1e-5  # the issue asks 1e-4; measured 4.4e-7 relative in omega (and wavelength)
-MOMENTS_ATOL = 1e-5  # XYZ, GPU vs exact float64 integration of the same pieces; measured 8e-7
+ZONES_ATOL = 1e-4  # XYZ, GPU vs numpy "averaged" at hard single colours
 
 DEG = math.pi / 180.0
 THETA = np.arange(0.0, 90.0, 7.0) * DEG
@@ -138,74 +135,22 @@ def test_landmarks_match_numpy(mirror, pol):
     assert total > 20  # the sweep did meet landmarks
 
 
-# --------------------------------------------------------------------------- float32 moments
-
-
-def exact_piece_integral(a, b, values):
-    """int of the quadratic through the three Chebyshev nodes of [a, b] times the density,
-    exactly (3-point Gauss-Legendre on each 1 nm cell the piece meets: cubic integrands)."""
-    nodes = np.arange(np.floor(a) + 1.0, np.ceil(b))
-    cuts = np.concatenate([[a], nodes[(nodes > a) & (nodes < b)], [b]])
-    x, w = np.polynomial.legendre.leggauss(3)
-    lo, hi = cuts[:-1, None], cuts[1:, None]
-    wavelength = (0.5 * (lo + hi) + 0.5 * (hi - lo) * x).ravel()
-    weight = (0.5 * (hi - lo) * w).ravel()
-    v = (wavelength - 0.5 * (a + b)) / (0.5 * (b - a))
-    r0, r1, r2 = values
-    quadratic = r1 + (r2 - r0) / np.sqrt(3.0) * v + (r0 + r2 - 2.0 * r1) * (2.0 / 3.0) * v * v
-    return (weight * quadratic) @ xyz_density(wavelength)
-
-
-def averaged_exact(mirror, theta):
-    """colour_methods.averaged_xyz with the moments integrated exactly in float64."""
-    out = np.zeros(3)
-    for pol in ("s", "p"):
-        pieces = cm._pieces(mirror, theta, pol)
-        middle, half = pieces.mean(axis=1), 0.5 * np.diff(pieces, axis=1)[:, 0]
-        nodes = middle[:, None] + half[:, None] * cm._NODES[None, :]
-        method = "exact" if mirror.N < cm.AVERAGING_MIN_PERIODS else "phase-averaged"
-        values = yeh_reflectance(mirror.n1, mirror.n2, mirror.d1, mirror.d2, mirror.N, nodes,
-                                 theta, pol, host=mirror.host, method=method)
-        for (a, b), v in zip(pieces, values, strict=True):
-            out += 0.5 * exact_piece_integral(a, b, v)
-    return out
+# --------------------------------------------------------------------------- float32 zones
 
 
 @pytest.mark.parametrize("mirror, theta", [
-    (GRID[42], 0.3),   # Lambda 988, d1 = 0.75 Lambda, N = 20: graded pieces down to 0.5 nm
+    (GRID[42], 0.3),   # Lambda 988, d1 = 0.75 Lambda, N = 20: many narrow zones
     (GRID[18], 1.1),   # Lambda 500, N = 100
-    (GRID[6], 0.0),    # Lambda 244, N = 5: exact R on 2N pieces per pass band
-    (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), 1.5707),  # near grazing: pieces of 1e-4 nm
+    (GRID[6], 0.0),    # Lambda 244, N = 5: exact R, two panels per oscillation
+    (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), 1.5707),  # near grazing: zones of 1e-4 nm
 ])
-def test_averaged_moments_are_exact(mirror, theta):
-    """The kernel's moments (two staggered block grids, closed forms below 1 nm) keep float32
-    from cancelling: it matches an exact float64 integration of the numpy twin's pieces."""
+def test_averaged_zones_match_numpy_in_xyz(mirror, theta):
+    """The edge-clustering map is evaluated without 1 - cos cancellation, so the float32
+    kernel keeps the numpy twin's nodes and weights where zones are narrow."""
     theta32 = float(np.float32(theta))
-    expected = averaged_exact(mirror, theta32)
+    expected = cm.averaged_xyz(mirror, theta32)
     gpu = colour_landmarks_gpu.landmark_xyz(mirror, theta32, "averaged")
-    np.testing.assert_allclose(gpu, expected, rtol=0.0, atol=MOMENTS_ATOL)
-
-
-def test_moment_tables_reproduce_the_density_integrals():
-    """Each table record rebuilds int (lambda - c)^k density from its block start (float64)."""
-    _, moments = colour_landmarks_gpu._tables()
-    records = moments.reshape(colour_landmarks_gpu.MOMENT_LEVELS, 2, 470, 4, 4)
-    rng = np.random.default_rng(3)
-    for level, grid, j in zip(rng.integers(1, 8, 40), rng.integers(0, 2, 40),
-                              rng.integers(0, 470, 40), strict=True):
-        size, half = 2**level, 2 ** (level - 1)
-        start = ((j + grid * half) // size) * size - grid * half  # nm from 360
-        centre = start + half
-        lo = 360.0 + max(start, 0)
-        wavelength = np.linspace(lo, 360.0 + j, 4001)
-        density = xyz_density(wavelength)
-        record = records[level - 1, grid, j]
-        prefix = [record[2, :3], record[3, :3], record[:3, 3]]
-        for k in range(3):
-            integrand = (wavelength - 360.0 - centre)[:, None] ** k * density
-            expected = np.trapezoid(integrand, wavelength, axis=0) if j > lo - 360.0 else 0.0
-            scale = np.abs(integrand).max() * max(j - (lo - 360.0), 1.0)
-            np.testing.assert_allclose(prefix[k], expected, rtol=0.0, atol=1e-5 * scale)
+    np.testing.assert_allclose(gpu, expected, rtol=0.0, atol=ZONES_ATOL)
 
 
 # --------------------------------------------------------------------------- API and edges

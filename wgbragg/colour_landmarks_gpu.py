@@ -8,32 +8,15 @@ interval as it is reached (``wgsl/colour_landmark.wgsl``): O(1) in N, no per-ang
 Pipelines are specialised on the method and on ``host == n1``; ``s`` of "subdivided" is a
 uniform, so any ``s`` reuses one pipeline.
 
-Tables, built once per process in float64 and uploaded as float32 storage buffers:
+Table, built once per process in float64 and uploaded as a float32 storage buffer: ``cmf``,
+the XYZ density at the 1 nm nodes 360..830 nm (:func:`colorimetry.xyz_density`, linear in
+between as there) and its cumulative integral (:func:`colorimetry.cumulative_table`; with the
+exact in-cell quadratic they give :func:`colorimetry.cumulative_xyz`, the boxes of eq 15).
 
-- ``cmf``: the XYZ density at the 1 nm nodes 360..830 nm (:func:`colorimetry.xyz_density`)
-  and its cumulative integral (:func:`colorimetry.cumulative_table`); with the exact in-cell
-  quadratic they give :func:`colorimetry.cumulative_xyz` (the boxes of eq 15).
-- ``moments``: for blocks of ``2**L`` nm (``L = 1..7``) on two grids offset by half a block,
-  the moments ``int (lambda - c)^k density``, ``k = 0, 1, 2``, about the block centre ``c``,
-  cumulative from the block start to each 1 nm node, with the density and its slope on each
-  cell (see :func:`_tables`). A quadratic piece of width ``w > 1`` nm lies inside one block of
-  the smallest level with ``2**L >= 2 w``, whose centre is within ``2.5 w`` of the piece's
-  middle: moving the moments there cancels by a factor ~25 at most in float32 (the numpy
-  twin's moments about 595 nm would cancel by up to 1e7). Narrower pieces use closed forms
-  on their one or two cells.
-
-The kernel integrates the quadratics exactly against the piecewise-linear density: within
-1e-6 in XYZ of float64. The numpy twin interpolates 0.05 nm cumulative tables linearly (and
-takes the density as constant on pieces narrower than 0.5 nm): within dE2000 2e-3 of the
-kernel on the issue's grid.
-
-Speed against the "reference" kernel (471 nodes), GPU time per colour on lavapipe (2 cores,
-4096 angles, ``Kernel.benchmark``, n1 = 1, n2 = 1.5, d1 = d2, Lambda 244 / 500 / 988 nm):
-approx 4.5 - 14x, subdivided (s = 3) 4 - 11x, averaged 1.6 - 2.7x for N >= 16 and 0.4 - 1.7x
-below (the exact R on 2N pieces per pass-band interval). "averaged" evaluates 3 reflectances
-on each of its 20 - 40 pieces per polarisation; the node evaluations and the per-piece table
-reads (vector gathers on lavapipe) take about 40% of its time each, the landmark search and
-the sweep 10 - 15%.
+Speed and accuracy against the "reference" kernel: ``tools/bench_rgb.py``
+(docs/benchmarks.md). "averaged" evaluates R at three Gauss nodes per panel, about 40 per
+polarisation for N >= 16 (two panels per oscillation below); "approx" one envelope value per
+landmark interval.
 """
 
 from __future__ import annotations
@@ -48,7 +31,6 @@ from .materials import BraggMirror
 __all__ = [
     "GPU_LANDMARK_METHODS",
     "MAX_SUBDIVISIONS",
-    "MOMENT_LEVELS",
     "WORKGROUP_SIZE",
     "approx_xyz",
     "averaged_xyz",
@@ -65,9 +47,6 @@ GPU_LANDMARK_METHODS = {"approx": 0, "subdivided": 1, "averaged": 2}
 # device sooner; on lavapipe 16 .. 256 time the same within noise.
 WORKGROUP_SIZE = 64
 
-MOMENT_LEVELS = 7
-"""Block sizes 2, 4, ..., 128 nm: pieces up to 64 nm (the widest is 40 nm)."""
-
 MAX_SUBDIVISIONS = 1 << 16
 """Largest ``s`` of "subdivided" the GPU accepts (sub-boxes are evaluated one by one)."""
 
@@ -81,45 +60,16 @@ PARAMS_DTYPE = gpu.struct_dtype([
 
 
 @functools.cache
-def _tables() -> tuple[np.ndarray, np.ndarray]:
-    """(cmf (942, 4), moments (7 * 2 * 470 * 4, 4)) float32, read-only.
-
-    ``cmf``: the density at the 471 nodes, then its cumulative integral. ``moments``: one
-    record of 4 vec4 per (level L, grid g, cell j): ``(d0, T2.x), (slope, T2.y), (T0, T2.z),
-    (T1, 0)``, ``T_k`` the integral of ``(lambda - c)^k density`` from the start of the
-    block holding cell j to node j, ``c`` the block centre, blocks of ``2**L`` nm starting at
-    ``360 + K 2**L - g 2**(L-1)`` nm; ``d0`` and ``slope`` the density and its slope on cell j.
-    """
+def _cmf_table() -> np.ndarray:
+    """(942, 4) float32, read-only: the density at the 471 nodes (per nm), then its cumulative
+    integral (w = 0)."""
     wavelength, cumulative = colorimetry.cumulative_table()
-    density = colorimetry.xyz_density(wavelength)  # (471, 3) per nm, exact at the nodes
-    nodes = wavelength.size
-    cmf = np.zeros((2 * nodes, 4))
-    cmf[:nodes, :3] = density
-    cmf[nodes:, :3] = cumulative
-    # Each 1 nm cell j: int_0^1 (e + tau)^k (d0 + s tau) dtau, e = node j - block centre,
-    # from I_k = int_0^1 tau^k (d0 + s tau) dtau.
-    d0, slope = density[:-1], np.diff(density, axis=0)
-    i0, i1, i2 = d0 + slope / 2.0, d0 / 2.0 + slope / 3.0, d0 / 3.0 + slope / 4.0
-    cells = np.arange(nodes - 1)
-    records = np.zeros((MOMENT_LEVELS, 2, cells.size, 4, 4))
-    for level in range(1, MOMENT_LEVELS + 1):
-        size, half = 2**level, 2 ** (level - 1)
-        for grid in (0, 1):
-            block = (cells + grid * half) // size
-            e = (cells - (block * size - grid * half + half))[:, None]
-            cell = np.stack([i0, e * i0 + i1, e * e * i0 + 2.0 * e * i1 + i2], axis=1)
-            prefix = np.zeros_like(cell)  # (470, 3 moments, 3 channels)
-            for k in np.unique(block):
-                inside = np.flatnonzero(block == k)
-                prefix[inside[1:]] = np.cumsum(cell[inside], axis=0)[:-1]
-            record = records[level - 1, grid]
-            record[:, 0, :3], record[:, 1, :3] = d0, slope
-            record[:, 2, :3], record[:, 3, :3] = prefix[:, 0], prefix[:, 1]
-            record[:, :3, 3] = prefix[:, 2]
-    tables = (cmf.astype(np.float32), records.reshape(-1, 4).astype(np.float32))
-    for table in tables:
-        table.setflags(write=False)
-    return tables
+    density = colorimetry.xyz_density(wavelength)  # exact at the nodes
+    cmf = np.zeros((2 * wavelength.size, 4), np.float32)
+    cmf[: wavelength.size, :3] = density
+    cmf[wavelength.size :, :3] = cumulative
+    cmf.setflags(write=False)
+    return cmf
 
 
 def _check_mirror(mirror, method: str) -> BraggMirror:
@@ -168,8 +118,7 @@ def _kernel_and_params(mirror: BraggMirror, method: str, subdivisions: int):
 def _buffers(theta) -> tuple[list[np.ndarray], list, tuple[int, ...]]:
     angle = np.asarray(theta, dtype=np.float64)
     flat = np.ascontiguousarray(angle, np.float32).ravel()
-    cmf, moments = _tables()
-    return [flat, cmf, moments], [((flat.size, 4), np.float32)], angle.shape
+    return [flat, _cmf_table()], [((flat.size, 4), np.float32)], angle.shape
 
 
 def landmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3) -> np.ndarray:

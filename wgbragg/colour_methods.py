@@ -4,17 +4,17 @@
   Barla 2024 (sec. 3.2.2, App. B), integrated with cumulative CMF tables (eq 15).
 - ``"averaged"`` (ours): outside band gaps the spectrum averaged over the phase of its N-fold
   oscillation (:func:`wgbragg.optics.yeh_reflectance` with ``method="phase-averaged"``), inside
-  them the exact finite-N reflectance (eq 9). Each interval between landmarks is graded towards
-  its band edges (where the averaged spectrum has a square-root edge) and carries a quadratic
-  through three Chebyshev nodes, integrated exactly against moment tables of the CMF x D65
-  density: a few dozen reflectance evaluations per colour, O(1) in N. Below
-  :data:`AVERAGING_MIN_PERIODS` the oscillations are too few to average, and the exact R is
-  integrated on pieces a fraction of one oscillation wide.
+  them the exact finite-N reflectance (eq 9). The band edges split the visible range into
+  zones; each zone is integrated by three-point Gauss-Legendre panels (at most
+  :data:`PANEL_NM` wide) in a variable that clusters the nodes quadratically at band edges,
+  where the averaged spectrum has a square-root edge and would otherwise need graded pieces.
+  Modes, Airy and zero points are not needed: the integrand is smooth between edges. About 40
+  reflectance evaluations per polarisation, O(1) in N. Below :data:`AVERAGING_MIN_PERIODS`
+  the oscillations are too few to average, and the exact R is integrated with two panels per
+  oscillation.
 """
 
 from __future__ import annotations
-
-import functools
 
 import numpy as np
 
@@ -26,6 +26,7 @@ __all__ = [
     "AVERAGING_MIN_PERIODS",
     "COLOUR_METHODS",
     "GPU_COLOUR_METHODS",
+    "PANEL_NM",
     "THIN_FILM_COLOUR_METHODS",
     "angular_correction",
     "approx_xyz",
@@ -37,17 +38,12 @@ AVERAGING_MIN_PERIODS = 16
 """Smallest N integrated through the phase-averaged spectrum (physics notes, sec. 4: averaging
 costs up to 6 dE2000 at N = 5 and under 0.25 from N = 20)."""
 
-# Widest quadratic piece (nm) and the grading of pieces next to a band edge: fractions of the
-# interval, geometric, so the square-root edge of the averaged spectrum is resolved.
-_MAX_PIECE_NM = 40.0
-_EDGE_GRADING = (0.0, 1.0 / 64.0, 1.0 / 16.0, 0.25, 1.0)
-# Chebyshev nodes of a quadratic on [-1, 1].
-_NODES = np.array([-np.sqrt(3.0) / 2.0, 0.0, np.sqrt(3.0) / 2.0])
-# Moment tables: u = (lambda - center) / half maps 360..830 nm onto [-1, 1].
-_CENTER_NM = 595.0
-_HALF_NM = 235.0
-_TABLE_STEP_NM = 0.05
-_NARROW_PIECE_NM = 0.25
+PANEL_NM = 40.0
+"""Widest Gauss panel (nm) of "averaged": the CMF x D65 density needs ~13 nm node spacing."""
+
+# Three-point Gauss-Legendre rule on [0, 1].
+_GAUSS_NODES = 0.5 + 0.5 * np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)])
+_GAUSS_WEIGHTS = np.array([5.0, 8.0, 5.0]) / 18.0
 
 
 def angular_correction(n1, n2, theta1):
@@ -141,82 +137,70 @@ def approx_xyz(mirror, theta, subdivisions=None):
     return out
 
 
-@functools.cache
-def _moment_tables():
-    """Cumulative integrals of u^k times the XYZ density, k = 0, 1, 2, on a fine grid."""
-    wavelength = np.arange(360.0, 830.0 + 0.5 * _TABLE_STEP_NM, _TABLE_STEP_NM)
-    density = colorimetry.xyz_density(wavelength)
-    u = (wavelength - _CENTER_NM) / _HALF_NM
-    integrand = density[None, :, :] * (u[None, :] ** np.arange(3)[:, None])[..., None]
-    cells = 0.5 * (integrand[:, 1:] + integrand[:, :-1]) * _TABLE_STEP_NM
-    cumulative = np.concatenate([np.zeros((3, 1, 3)), np.cumsum(cells, axis=1)], axis=1)
-    return wavelength, cumulative
+def _zone_map(u, lower_edge, upper_edge):
+    """(s, ds/du) of the map u in [0, 1] -> s in [0, 1] that clusters nodes at band edges.
+
+    At a band edge the averaged spectrum goes like sqrt(distance): with a quadratic map,
+    ``s = sin^2(pi u / 2)`` at both ends or ``1 - cos(pi u / 2)`` at one, it is smooth in u.
+    The forms avoid ``1 - cos`` cancellation, as the float32 twin must.
+    """
+    quarter = 0.5 * np.pi * u
+    if lower_edge and upper_edge:
+        return np.sin(quarter) ** 2, 0.5 * np.pi * np.sin(2.0 * quarter)
+    if lower_edge:
+        return 2.0 * np.sin(0.5 * quarter) ** 2, 0.5 * np.pi * np.sin(quarter)
+    if upper_edge:
+        return np.sin(quarter), 0.5 * np.pi * np.cos(quarter)
+    return u, np.ones_like(u)
 
 
-def _moments(wavelength_nm):
-    """(3 moments, ..., 3) cumulative moments at ``wavelength_nm`` (linear interpolation)."""
-    grid, table = _moment_tables()
-    position = np.clip((wavelength_nm - grid[0]) / _TABLE_STEP_NM, 0.0, grid.size - 1.0)
-    index = np.minimum(position.astype(int), grid.size - 2)
-    fraction = (position - index)[..., None]
-    return table[:, index] * (1.0 - fraction) + table[:, index + 1] * fraction
-
-
-def _pieces(mirror, theta, polarization):
-    """Quadratic pieces [a, b] (nm) between landmarks, graded towards band edges."""
+def _zones(mirror, theta, polarization):
+    """Zones between band edges: (omega_lo, omega_hi, lower is an edge, upper is, pass band)."""
     landmarks = find_landmarks(mirror, theta, polarization)
-    kinds = np.concatenate([["bound"], landmarks.kind[::-1], ["bound"]])
-    bounds = np.concatenate([[360.0], landmarks.wavelength_nm[::-1], [830.0]])
+    edges = landmarks.omega[landmarks.kind == "edge"]
+    bounds = np.concatenate([[VISIBLE_OMEGA[0]], edges, [VISIBLE_OMEGA[1]]])
+    is_edge = np.concatenate([[False], np.ones(edges.size, bool), [False]])
     s = mirror.host * np.sin(theta)
     _, _, _, sin2 = cell_coefficients(mirror.n1, mirror.n2, mirror.d1, mirror.d2,
-                                      0.5 * (bounds[:-1] + bounds[1:]), s, polarization)
-    few_periods = mirror.N < AVERAGING_MIN_PERIODS
-    pieces = []
-    for j in range(bounds.size - 1):
-        a, b = bounds[j], bounds[j + 1]
-        if b - a < 1e-6:
-            continue  # coincident landmarks (a closed gap): nothing to integrate
-        pass_band = sin2[j] > 0.0
-        cuts = np.array([0.0, 1.0])
-        if pass_band and kinds[j] == "edge":
-            cuts = np.array(_EDGE_GRADING)
-        if pass_band and kinds[j + 1] == "edge":
-            cuts = np.unique(np.concatenate([cuts, 1.0 - np.array(_EDGE_GRADING)]))
-        count = int(np.ceil((b - a) / _MAX_PIECE_NM))
-        if pass_band and few_periods:
-            count = max(count, 2 * mirror.N)  # a fraction of one oscillation per piece
-        cuts = np.unique(np.concatenate([cuts, np.linspace(0.0, 1.0, count + 1)]))
-        edges = a + (b - a) * cuts
-        pieces.append(np.stack([edges[:-1], edges[1:]], axis=1))
-    return np.concatenate(pieces) if pieces else np.zeros((0, 2))
+                                      4.0 * np.pi / (bounds[:-1] + bounds[1:]), s, polarization)
+    keep = np.diff(bounds) > 0.0  # coincident edges: a closed gap
+    return (bounds[:-1][keep], bounds[1:][keep], is_edge[:-1][keep], is_edge[1:][keep],
+            (sin2 > 0.0)[keep])
+
+
+def _panel_count(mirror, omega_lo, omega_hi, pass_band):
+    width_nm = 2.0 * np.pi / omega_lo - 2.0 * np.pi / omega_hi
+    count = max(1, int(np.ceil(width_nm / PANEL_NM)))
+    if pass_band and mirror.N < AVERAGING_MIN_PERIODS:
+        count = max(count, 2 * mirror.N)  # two panels per oscillation of the exact spectrum
+    return count
 
 
 def _averaged_polarized(mirror, theta, polarization):
     if _total_reflection(mirror, theta):
         return _white()
-    pieces = _pieces(mirror, theta, polarization)
-    middle = 0.5 * (pieces[:, 0] + pieces[:, 1])
-    half = 0.5 * (pieces[:, 1] - pieces[:, 0])
-    nodes = middle[:, None] + half[:, None] * _NODES[None, :]
     method = "exact" if mirror.N < AVERAGING_MIN_PERIODS else "phase-averaged"
-    values = yeh_reflectance(mirror.n1, mirror.n2, mirror.d1, mirror.d2, mirror.N, nodes, theta,
-                             polarization, host=mirror.host, method=method)
-    # Quadratic c0 + c1 v + c2 v^2 in v = (lambda - middle) / half through the three nodes.
-    c0 = values[:, 1]
-    c1 = (values[:, 2] - values[:, 0]) / np.sqrt(3.0)
-    c2 = (values[:, 0] + values[:, 2] - 2.0 * values[:, 1]) * (2.0 / 3.0)
-    # In u = (lambda - center) / half_range: v = (u - um) / h.
-    um = ((middle - _CENTER_NM) / _HALF_NM)[:, None]
-    h = (half / _HALF_NM)[:, None]
-    m_hi, m_lo = _moments(pieces[:, 1]), _moments(pieces[:, 0])
-    m0, m1, m2 = (m_hi - m_lo)[0], (m_hi - m_lo)[1], (m_hi - m_lo)[2]
-    # Central moments from raw ones cancel like h^2; below a quarter nanometre the density is
-    # constant over the piece to table precision, and int v dens = 0, int v^2 dens = m0 / 3.
-    narrow = (half < _NARROW_PIECE_NM)[:, None]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        v1 = np.where(narrow, 0.0, (m1 - um * m0) / h)
-        v2 = np.where(narrow, m0 / 3.0, (m2 - 2.0 * um * m1 + um * um * m0) / (h * h))
-    return np.sum(c0[:, None] * m0 + c1[:, None] * v1 + c2[:, None] * v2, axis=0)
+    total = np.zeros(3)
+    for lo, hi, lower_edge, upper_edge, pass_band in zip(*_zones(mirror, theta, polarization),
+                                                         strict=True):
+        panels = _panel_count(mirror, lo, hi, pass_band)
+        u = ((np.arange(panels)[:, None] + _GAUSS_NODES[None, :]) / panels).ravel()
+        s, ds = _zone_map(u, lower_edge, upper_edge)
+        omega = lo + (hi - lo) * s
+        wavelength = 2.0 * np.pi / omega
+        # d lambda = 2 pi / omega^2 d omega.
+        weight = np.tile(_GAUSS_WEIGHTS, panels) / panels * (hi - lo) * ds * wavelength / omega
+        values = yeh_reflectance(mirror.n1, mirror.n2, mirror.d1, mirror.d2, mirror.N,
+                                 wavelength, theta, polarization, host=mirror.host,
+                                 method=method)
+        density = colorimetry.xyz_density(wavelength)
+        # The zone's mean R times its exact box integral, plus the rule on R minus that mean:
+        # the rule's error on the D65 x CMF wiggles then scales with the variation of R
+        # rather than R itself (a perfect reflector is exactly white).
+        mean = (weight @ values) / (2.0 * np.pi / lo - 2.0 * np.pi / hi)
+        total += ((values - mean) * weight) @ density
+        total += mean * _box_integral(2.0 * np.pi / hi, 2.0 * np.pi / lo)
+    return total
 
 
 def averaged_xyz(mirror, theta):

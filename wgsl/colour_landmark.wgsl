@@ -3,7 +3,6 @@
 // layer, yeh and landmarks.wgsl. No bindings: the entry point provides the tables through
 //   cmf_density(j)        XYZ density (per nm) at the 1 nm node 360 + j nm, j = 0..470,
 //   cmf_cumulative(j)     colorimetry.cumulative_xyz at that node,
-//   moment_record(L, g, j, i)   vec4 i of the moment record of cell j (see below).
 //
 // One call integrates one polarisation at one angle: the landmarks are visited in increasing
 // omega and each landmark interval is integrated as soon as both its ends are known, so
@@ -11,29 +10,19 @@
 // numpy twin; with host == n1 and a propagating n2 the cell terms at a node come from the
 // closed form in the mode coordinate (landmarks.wgsl, mode_terms): two reduced sin/cos pairs.
 //
-// "averaged" integrates, per piece, the quadratic through three Chebyshev nodes against the
-// piecewise-linear XYZ density (colorimetry.xyz_density). The numpy twin forms the moments of
-// v = (lambda - middle) / half from cumulative tables of u^k, u = (lambda - 595) / 235:
-// (m2 - 2 um m1 + um^2 m0) / h^2 cancels by (|um| / h)^2, 1e4 .. 1e7 for pieces of 5 to
-// 0.5 nm, far beyond float32. Here every moment is taken about a nearby centre:
-// - a piece up to 1 nm wide lies in one or two 1 nm cells, where the density is linear: its
-//   moments are closed forms about its own middle (exact at any width, down to 1e-5 nm);
-// - a wider piece of width w lies inside one block of the smallest size B = 2^L >= 2 w on one
-//   of two block grids offset by B / 2; the tables (built in float64 by
-//   wgbragg/colour_landmarks_gpu.py) hold, per level, grid and cell, the cumulative moments of
-//   (lambda - c)^k from the block start to the cell's node about the block centre c, and the
-//   cell's density and slope for the exact partial cell. The difference of the two ends is
-//   moved to the piece's middle, at most 2.5 w away: a cancellation of ~25 at most.
-// The result is the exact integral against the piecewise-linear density, within 1e-6 in XYZ
-// of a float64 evaluation (the numpy twin interpolates 0.05 nm tables linearly).
+// "averaged" integrates each zone between band edges (or the range ends) with three-point
+// Gauss-Legendre panels in the variable u of colour_methods._zone_map, which clusters nodes
+// quadratically at band edges (the square-root edge of the averaged spectrum is then smooth
+// in u), against the piecewise-linear XYZ density (colorimetry.xyz_density): the nodes and
+// weights of the numpy twin.
 
-const SQRT3: f32 = 1.7320508;
-const HALF_SQRT3: f32 = 0.8660254;
-// colour_methods._MAX_PIECE_NM and AVERAGING_MIN_PERIODS.
-const MAX_PIECE_NM: f32 = 40.0;
+// colour_methods.PANEL_NM and AVERAGING_MIN_PERIODS.
+const PANEL_NM: f32 = 40.0;
 const AVERAGING_MIN_PERIODS: u32 = 16u;
-// Levels of the moment tables: blocks of 2^1 .. 2^MOMENT_LEVELS nm, for pieces up to 64 nm.
-const MOMENT_LEVELS: u32 = 7u;
+// Three-point Gauss-Legendre on [0, 1] (colour_methods._GAUSS_NODES, _GAUSS_WEIGHTS).
+const GAUSS_OFFSET: f32 = 0.38729833;   // sqrt(0.6) / 2
+const GAUSS_OUTER: f32 = 0.27777778;    // 5 / 18
+const GAUSS_INNER: f32 = 0.44444444;    // 8 / 18
 // Evanescent n2: sign changes recorded per scan batch (a batch ends early when full).
 const EVANESCENT_BATCH: u32 = 16u;
 // Landmark intervals shorter than this (nm) are skipped, as in the numpy twin.
@@ -73,115 +62,11 @@ fn white_xyz() -> vec3<f32> {
     return cmf_cumulative(470u) - cmf_cumulative(0u);
 }
 
-// Moments of the density over a piece: m0 = int rho, m1 = int (lambda - centre) rho,
-// m2 = int (lambda - centre)^2 rho, about some centre.
-struct PieceMoments {
-    m0: vec3<f32>,
-    m1: vec3<f32>,
-    m2: vec3<f32>,
-}
-
-// The same moments about centre - shift: lambda - (centre - shift) = (lambda - centre) + shift.
-// For a centre within a few piece widths, no catastrophic cancellation.
-fn shifted(mom: PieceMoments, shift: f32) -> PieceMoments {
-    var out: PieceMoments;
-    out.m0 = mom.m0;
-    out.m1 = mom.m1 + shift * mom.m0;
-    out.m2 = mom.m2 + 2.0 * shift * mom.m1 + (shift * shift) * mom.m0;
-    return out;
-}
-
-// Cell j = min(floor(p), 469) of p in the level-`level` block of grid `grid` holding it: the
-// density there and, with `prefix`, the table's cumulative moments from the block start to
-// node j (about the block centre), which only the block path reads.
-struct CellRecord {
-    j: u32,
-    t: f32,           // p - j, in [0, 1]
-    d0: vec3<f32>,    // density at node j
-    slope: vec3<f32>, // density slope on cell j (per nm)
-    e: f32,           // node j - block centre
-    prefix: PieceMoments,
-}
-
-fn cell_record(level: u32, grid: u32, p: f32, prefix: bool) -> CellRecord {
-    var out: CellRecord;
-    out.j = min(u32(p), 469u);
-    out.t = p - f32(out.j);
-    let half = 1u << (level - 1u);
-    let block = (out.j + grid * half) >> level;
-    // Node j minus the block centre (block start + half), exact.
-    out.e = f32(out.j) - (f32(block << level) - f32(grid * half) + f32(half));
-    let r0 = moment_record(level, grid, out.j, 0u);
-    let r1 = moment_record(level, grid, out.j, 1u);
-    out.d0 = r0.xyz;
-    out.slope = r1.xyz;
-    if (prefix) {
-        let r2 = moment_record(level, grid, out.j, 2u);
-        let r3 = moment_record(level, grid, out.j, 3u);
-        out.prefix = PieceMoments(r2.xyz, r3.xyz, vec3<f32>(r0.w, r1.w, r2.w));
-    }
-    return out;
-}
-
-// Cumulative moments from the block start to p, about the block centre: the record's prefix
-// plus int_0^t (e + tau)^k (d0 + s tau) dtau, from I_k = int_0^t tau^k (d0 + s tau) dtau.
-fn block_moments(r: CellRecord) -> PieceMoments {
-    let t = r.t;
-    let t2 = t * t;
-    let i0 = t * (r.d0 + (0.5 * t) * r.slope);
-    let i1 = t2 * (0.5 * r.d0 + (t / 3.0) * r.slope);
-    let i2 = t2 * t * (r.d0 / 3.0 + (0.25 * t) * r.slope);
-    return PieceMoments(r.prefix.m0 + i0, r.prefix.m1 + r.e * i0 + i1,
-                        r.prefix.m2 + r.e * (r.e * i0 + 2.0 * i1) + i2);
-}
-
-// Moments of [p, q] inside the cell of a record, about (p + q) / 2 moved to mu: closed form
-// for the linear density there, no cancellation at any width.
-fn cell_segment_moments(r: CellRecord, p: f32, q: f32, mu: f32) -> PieceMoments {
-    let g = 0.5 * (q - p);
-    let middle = 0.5 * (p + q);
-    let density = r.d0 + (middle - f32(r.j)) * r.slope;
-    let g3 = (2.0 / 3.0) * g * g * g;
-    return shifted(PieceMoments(2.0 * g * density, g3 * r.slope, g3 * density), middle - mu);
-}
-
-// The three integrals of a piece's quadratic over [lo, hi] (nm, inside 360..830):
-// (int rho, int v rho, int v^2 rho) with v = (lambda - middle) / half width.
-// Up to 1 nm wide, the piece lies in one or two cells: closed forms. Wider, it lies in one
-// block of one of the two grids of the smallest level with 2^level >= 2 (hi - lo) (the grids
-// are offset by half a block), whose centre is within 2.5 piece widths of the middle; its
-// moments are the difference of the cumulative ones at the ends, moved to the middle.
-fn piece_moments(lo: f32, hi: f32) -> PieceMoments {
-    let pa = clamp(lo - LAMBDA_LO_NM, 0.0, 470.0);   // exact for lambda in 360..830
-    let pb = clamp(hi - LAMBDA_LO_NM, 0.0, 470.0);
-    let width = pb - pa;
-    let mu = 0.5 * (pa + pb);
-    var level = u32(max(ceil(log2(2.0 * width)), 1.0));
-    level = min(level + select(0u, 1u, f32(1u << level) < 2.0 * width), MOMENT_LEVELS);
-    let ja = min(u32(pa), 469u);
-    let jb = min(u32(pb), 469u);
-    let grid = select(1u, 0u, (ja >> level) == (jb >> level));
-    let narrow = width <= 1.0;
-    let a = cell_record(level, grid, pa, !narrow);
-    let b = cell_record(level, grid, pb, !narrow);
-    var mom: PieceMoments;
-    if (narrow) {
-        let split = min(f32(a.j + 1u), pb);
-        mom = cell_segment_moments(a, pa, split, mu);
-        if (pb > split) {
-            let rest = cell_segment_moments(b, split, pb, mu);
-            mom = PieceMoments(mom.m0 + rest.m0, mom.m1 + rest.m1, mom.m2 + rest.m2);
-        }
-    } else {
-        let ma = block_moments(a);
-        let mb = block_moments(b);
-        let centre = f32(a.j) - a.e;
-        mom = shifted(PieceMoments(mb.m0 - ma.m0, mb.m1 - ma.m1, mb.m2 - ma.m2), centre - mu);
-    }
-    let inv_h = 2.0 / width;
-    mom.m1 = mom.m1 * inv_h;
-    mom.m2 = mom.m2 * (inv_h * inv_h);
-    return mom;
+// colorimetry.xyz_density: linear between the 1 nm nodes.
+fn density_xyz(wavelength_nm: f32) -> vec3<f32> {
+    let p = clamp(wavelength_nm - LAMBDA_LO_NM, 0.0, LAMBDA_HI_NM - LAMBDA_LO_NM);
+    let j = min(u32(p), 469u);
+    return mix(cmf_density(j), cmf_density(j + 1u), p - f32(j));
 }
 
 // ----------------------------------------------------------------------------- reflectance
@@ -212,9 +97,9 @@ fn averaged_pass_band_reflectance(m: BraggMirror, g: CellGeometry, polarization:
 }
 
 // R at one quadrature node of "averaged": exact below AVERAGING_MIN_PERIODS, else averaged.
-fn node_reflectance(c: ColourSetup, wavelength_nm: f32) -> f32 {
+fn node_reflectance(c: ColourSetup, omega: f32) -> f32 {
     if (c.fast) {
-        let t = 2.0 * c.frame.n_plus / wavelength_nm;
+        let t = omega * c.frame.n_plus * (1.0 / PI);
         let terms = mode_terms(c.frame, t);
         if (c.mirror.periods >= AVERAGING_MIN_PERIODS && terms.sin2 > 0.0) {
             let w = min(abs(terms.W), MAX_AMPLITUDE);
@@ -222,7 +107,7 @@ fn node_reflectance(c: ColourSetup, wavelength_nm: f32) -> f32 {
         }
         return matched_reflectance(terms, 0.5 * t, c.mirror.periods);  // delta1 + delta2 = pi t
     }
-    let g = geometry_at(c.mirror, c.angle, wavelength_nm);
+    let g = geometry_at(c.mirror, c.angle, TWO_PI / omega);
     if (c.mirror.periods < AVERAGING_MIN_PERIODS) {
         return yeh_polarized(c.mirror, g, c.polarization, c.host_matched);
     }
@@ -277,130 +162,108 @@ fn approx_interval(c: ColourSetup, omega_lo: f32, omega_hi: f32, pass_band: bool
     return acc;
 }
 
-// The quadratic through the three Chebyshev nodes of [lo, hi], integrated exactly.
-fn averaged_piece(c: ColourSetup, lo: f32, hi: f32) -> vec3<f32> {
+// colour_methods._zone_map: (s, ds/du) clustering the nodes at the ends that are band edges.
+fn zone_map(u: f32, lower_edge: bool, upper_edge: bool) -> vec2<f32> {
+    if (lower_edge && upper_edge) {
+        let q = sin_cos_cycles(0.25 * u);   // pi u / 2
+        return vec2<f32>(q.x * q.x, PI * q.x * q.y);
+    }
+    if (lower_edge) {
+        let h = sin_cos_cycles(0.125 * u);  // pi u / 4
+        return vec2<f32>(2.0 * h.x * h.x, PI * h.x * h.y);
+    }
+    if (upper_edge) {
+        let q = sin_cos_cycles(0.25 * u);
+        return vec2<f32>(q.x, HALF_PI * q.y);
+    }
+    return vec2<f32>(u, 1.0);
+}
+
+// "averaged" over the zone [lo, hi] (rad/nm) between band edges or range ends: the panels of
+// colour_methods._panel_count, three Gauss nodes each.
+fn averaged_zone(c: ColourSetup, lo: f32, hi: f32, lower_edge: bool, upper_edge: bool,
+                 pass_band: bool) -> vec3<f32> {
     if (!(hi > lo)) {
         return vec3<f32>(0.0);
     }
-    let middle = 0.5 * (lo + hi);
-    let offset = HALF_SQRT3 * (0.5 * (hi - lo));
-    let r0 = node_reflectance(c, middle - offset);
-    let r1 = node_reflectance(c, middle);
-    let r2 = node_reflectance(c, middle + offset);
-    let mom = piece_moments(lo, hi);
-    let c1 = (r2 - r0) * (1.0 / SQRT3);
-    let c2 = (r0 + r2 - 2.0 * r1) * (2.0 / 3.0);
-    return r1 * mom.m0 + c1 * mom.m1 + c2 * mom.m2;
-}
-
-// Grading fractions of an interval next to a band edge (colour_methods._EDGE_GRADING), the
-// lower three at the short-wavelength end, the upper three at the long one.
-fn grading_cut(k: u32) -> f32 {
-    switch k {
-        case 0u: { return 1.0 / 64.0; }
-        case 1u: { return 1.0 / 16.0; }
-        case 2u: { return 0.25; }
-        case 3u: { return 0.75; }
-        case 4u: { return 15.0 / 16.0; }
-        default: { return 63.0 / 64.0; }
-    }
-}
-
-// The first enabled grading cut from k on (6: none): the lower three next to an edge at the
-// short-wavelength end, the upper three next to one at the long end.
-fn next_grading(k: u32, lower: bool, upper: bool) -> u32 {
-    var next = k;
-    if (next < 3u && !lower) {
-        next = 3u;
-    }
-    if (next >= 3u && !upper) {
-        next = 6u;
-    }
-    return next;
-}
-
-// "averaged" over [a, b] (nm): the pieces of colour_methods._pieces, i.e. the union of
-// ceil((b - a) / 40) equal pieces (2N at least in pass bands below AVERAGING_MIN_PERIODS) and
-// the grading cuts towards an end that is a band edge, walked in order without storing them.
-fn averaged_interval(c: ColourSetup, a: f32, b: f32, edge_a: bool, edge_b: bool,
-                     pass_band: bool) -> vec3<f32> {
-    if (b - a < MIN_INTERVAL_NM) {
-        return vec3<f32>(0.0);
-    }
-    var count = u32(ceil((b - a) / MAX_PIECE_NM));
+    var panels = u32(max(ceil((TWO_PI / lo - TWO_PI / hi) * (1.0 / PANEL_NM)), 1.0));
     if (pass_band && c.mirror.periods < AVERAGING_MIN_PERIODS) {
-        count = max(count, 2u * c.mirror.periods);
+        panels = max(panels, 2u * c.mirror.periods);
     }
-    let lower = pass_band && edge_a;
-    let upper = pass_band && edge_b;
-    let inv_count = 1.0 / f32(count);
-    var acc = vec3<f32>(0.0);
-    var next_even = 1u;                              // the next equal cut is next_even / count
-    var k = next_grading(0u, lower, upper);          // the next grading cut
-    var lambda_prev = a;
-    loop {
-        let even_cut = f32(next_even) * inv_count;
-        let graded = select(2.0, grading_cut(k), k < 6u);
-        let cut = min(even_cut, graded);
-        // Coincident cuts are merged (numpy.unique), up to float32 rounding.
-        if (even_cut <= cut + 1e-6) {
-            next_even += 1u;
-        }
-        if (graded <= cut + 1e-6) {
-            k = next_grading(k + 1u, lower, upper);
-        }
-        let last = cut >= 1.0 - 1e-6;
-        let lambda = select(a + (b - a) * cut, b, last);
-        acc += averaged_piece(c, lambda_prev, lambda);
-        if (last) {
-            break;
-        }
-        lambda_prev = lambda;
+    let span = hi - lo;
+    let inv_panels = 1.0 / f32(panels);
+    var rule = vec3<f32>(0.0);      // sum w R density
+    var rule_white = vec3<f32>(0.0); // sum w density
+    var rule_r = 0.0;               // sum w R
+    // One loop over every node keeps a single inlined copy of the reflectance.
+    for (var n = 0u; n < 3u * panels; n++) {
+        let k = n % 3u;
+        let offset = select(select(GAUSS_OFFSET, -GAUSS_OFFSET, k == 0u), 0.0, k == 1u);
+        let map = zone_map((f32(n / 3u) + 0.5 + offset) * inv_panels, lower_edge, upper_edge);
+        let omega = lo + span * map.x;
+        let wavelength = TWO_PI / omega;
+        // The rule's weight times d lambda = 2 pi / omega^2 d omega = lambda^2 / (2 pi) d omega.
+        let weight = select(GAUSS_OUTER, GAUSS_INNER, k == 1u) * inv_panels * span * map.y
+            * wavelength * wavelength * (1.0 / TWO_PI);
+        let r = weight * node_reflectance(c, omega);
+        let density = density_xyz(wavelength);
+        rule += r * density;
+        rule_white += weight * density;
+        rule_r += r;
     }
-    return acc;
+    // As the numpy twin: the zone's mean R times its exact box, plus the rule on the rest.
+    let lambda_lo = TWO_PI / hi;
+    let lambda_hi = TWO_PI / lo;
+    let mean = rule_r / (lambda_hi - lambda_lo);
+    return rule + mean * (cumulative_xyz(lambda_hi) - cumulative_xyz(lambda_lo) - rule_white);
 }
 
 // ----------------------------------------------------------------------------- the sweep
 
-// Landmarks visited in increasing omega; the interval since the previous one is integrated.
+// Landmarks visited in increasing omega. "approx" integrates the interval since the previous
+// landmark; "averaged" the zone since the previous band edge.
 struct Sweep {
     xyz: vec3<f32>,
     omega_prev: f32,
-    lambda_prev: f32,
-    edge_prev: bool,    // the previous landmark is a band edge (graded towards)
-    pass_band: bool,    // the zone since the previous landmark
+    pass_band: bool,    // the interval since the previous landmark
     mode: i32,          // its mode number (subdivided)
+    zone_lo: f32,       // "averaged": the zone's start, a band edge iff zone_edge
+    zone_edge: bool,
+    zone_pass: bool,
 }
 
 fn sweep_start() -> Sweep {
-    return Sweep(vec3<f32>(0.0), OMEGA_LO, LAMBDA_HI_NM, false, false, 0);
+    return Sweep(vec3<f32>(0.0), OMEGA_LO, false, 0, OMEGA_LO, false, false);
 }
 
-// The interval from the previous landmark to (omega, lambda_nm), in which is_edge is the kind
-// of this landmark.
-fn integrate_interval(c: ColourSetup, sweep: ptr<function, Sweep>, omega: f32, lambda_nm: f32,
-                      is_edge: bool) {
-    if (c.method == METHOD_AVERAGED) {
-        (*sweep).xyz += averaged_interval(c, lambda_nm, (*sweep).lambda_prev, is_edge,
-                                          (*sweep).edge_prev, (*sweep).pass_band);
-    } else {
-        (*sweep).xyz += approx_interval(c, (*sweep).omega_prev, omega, (*sweep).pass_band,
-                                        (*sweep).mode);
-    }
+// The status of the range's start: what follows a landmark below the range.
+fn sweep_status(sweep: ptr<function, Sweep>, pass_after: bool, mode: i32) {
+    (*sweep).pass_band = pass_after;
+    (*sweep).zone_pass = pass_after;
+    (*sweep).mode = mode;
 }
 
-// A landmark at omega (wavelength lambda_nm), followed by a zone of status pass_after.
-fn sweep_visit(c: ColourSetup, sweep: ptr<function, Sweep>, omega: f32, lambda_nm: f32,
-               is_edge: bool, pass_after: bool, mode: i32) {
+// A landmark at omega, followed by a zone of status pass_after.
+fn sweep_visit(c: ColourSetup, sweep: ptr<function, Sweep>, omega: f32, is_edge: bool,
+               pass_after: bool, mode: i32) {
     if (omega >= OMEGA_HI) {
         return;  // beyond the range: the zone of the range's end is already known
     }
-    if (omega > OMEGA_LO) {
-        integrate_interval(c, sweep, omega, lambda_nm, is_edge);
-        (*sweep).omega_prev = omega;
-        (*sweep).lambda_prev = lambda_nm;
-        (*sweep).edge_prev = is_edge;
+    if (omega <= OMEGA_LO) {
+        sweep_status(sweep, pass_after, mode);
+        return;
     }
+    if (c.method != METHOD_AVERAGED) {
+        (*sweep).xyz += approx_interval(c, (*sweep).omega_prev, omega, (*sweep).pass_band,
+                                        (*sweep).mode);
+    } else if (is_edge) {
+        (*sweep).xyz += averaged_zone(c, (*sweep).zone_lo, omega, (*sweep).zone_edge, true,
+                                      (*sweep).zone_pass);
+        (*sweep).zone_lo = omega;
+        (*sweep).zone_edge = true;
+        (*sweep).zone_pass = pass_after;
+    }
+    (*sweep).omega_prev = omega;
     (*sweep).pass_band = pass_after;
     (*sweep).mode = mode;
 }
@@ -409,18 +272,23 @@ fn sweep_visit(c: ColourSetup, sweep: ptr<function, Sweep>, omega: f32, lambda_n
 fn sweep_visit_t(c: ColourSetup, f: ModeFrame, sweep: ptr<function, Sweep>, t: f32,
                  is_edge: bool, pass_after: bool, mode: i32) {
     if (t <= f.t_lo) {
-        (*sweep).pass_band = pass_after;
-        (*sweep).mode = mode;
+        sweep_status(sweep, pass_after, mode);
         return;
     }
     if (t >= f.t_hi) {
         return;
     }
-    sweep_visit(c, sweep, PI * t / f.n_plus, 2.0 * f.n_plus / t, is_edge, pass_after, mode);
+    sweep_visit(c, sweep, PI * t / f.n_plus, is_edge, pass_after, mode);
 }
 
 fn sweep_finish(c: ColourSetup, sweep: ptr<function, Sweep>) {
-    integrate_interval(c, sweep, OMEGA_HI, LAMBDA_LO_NM, false);
+    if (c.method == METHOD_AVERAGED) {
+        (*sweep).xyz += averaged_zone(c, (*sweep).zone_lo, OMEGA_HI, (*sweep).zone_edge, false,
+                                      (*sweep).zone_pass);
+    } else {
+        (*sweep).xyz += approx_interval(c, (*sweep).omega_prev, OMEGA_HI, (*sweep).pass_band,
+                                        (*sweep).mode);
+    }
 }
 
 // XYZ of one polarisation at one angle by `method`.
@@ -443,7 +311,7 @@ fn landmark_colour(m: BraggMirror, theta: f32, polarization: u32, method: u32,
     var sweep = sweep_start();
     if (m.bulk != 0u) {
         // No n2 layer: no landmarks, one pass-band interval.
-        sweep.pass_band = true;
+        sweep_status(&sweep, true, 0);
     } else if (c.angle.q2sq > 0.0) {
         let f = mode_frame(m, c.angle, polarization);
         c.frame = f;
@@ -453,17 +321,24 @@ fn landmark_colour(m: BraggMirror, theta: f32, polarization: u32, method: u32,
         let last = i32(ceil(f.t_hi));
         for (var k = first; k < last; k++) {
             let iv = mode_interval(f, k);
-            // In increasing t: mode, rising edge, [zero], Airy point, [zero], falling edge.
-            // A closed gap's falling edge sorts after its mode in the numpy twin: not graded.
-            var t_at = array<f32, 6>(f32(k), iv.rising, -1.0, iv.airy, -1.0, iv.falling);
-            var edge_at = array<bool, 6>(false, true, false, false, false, !iv.falling_closed);
-            var pass_at = array<bool, 6>(false, true, true, true, true, false);
-            if (iv.zero > 0.0) {
-                t_at[select(4, 2, iv.zero < iv.airy)] = iv.zero;
-            }
+            // In increasing t: mode, rising edge, [zero], Airy point, [zero], falling edge
+            // (j = 0..5; a closed gap's edges coincide with its mode: an empty zone for
+            // "averaged"). Picked by selects, not from a private array: lavapipe would keep a
+            // dynamically indexed array in memory, and the loop keeps one copy of the sweep.
+            let zero_low = select(-1.0, iv.zero, iv.zero > 0.0 && iv.zero < iv.airy);
+            let zero_high = select(-1.0, iv.zero, iv.zero > 0.0 && iv.zero >= iv.airy);
             for (var j = 0; j < 6; j++) {
-                if (t_at[j] >= 0.0) {
-                    sweep_visit_t(c, f, &sweep, t_at[j], edge_at[j], pass_at[j], k);
+                var t = f32(k);
+                switch j {
+                    case 1: { t = iv.rising; }
+                    case 2: { t = zero_low; }
+                    case 3: { t = iv.airy; }
+                    case 4: { t = zero_high; }
+                    case 5: { t = iv.falling; }
+                    default: {}
+                }
+                if (t >= 0.0) {
+                    sweep_visit_t(c, f, &sweep, t, j == 1 || j == 5, j >= 1 && j <= 4, k);
                 }
             }
         }
@@ -475,7 +350,7 @@ fn landmark_colour(m: BraggMirror, theta: f32, polarization: u32, method: u32,
         let ef = evanescent_frame(m, c.angle, polarization);
         c.subdivide = false;  // no modes to subdivide by (as the numpy twin)
         var previous = evanescent_pass(ef, OMEGA_LO);
-        sweep.pass_band = previous;
+        sweep_status(&sweep, previous, 0);
         var next = 1u;
         loop {
             var cells: array<u32, EVANESCENT_BATCH>;
@@ -496,7 +371,7 @@ fn landmark_colour(m: BraggMirror, theta: f32, polarization: u32, method: u32,
                 // pass band (scan_edge's lo_negative).
                 let pass_after = !sweep.pass_band;
                 let edge = scan_edge(m, c.angle, polarization, lo, hi, pass_after);
-                sweep_visit(c, &sweep, edge, TWO_PI / edge, true, pass_after, 0);
+                sweep_visit(c, &sweep, edge, true, pass_after, 0);
             }
             if (next >= SCAN_POINTS) {
                 break;

@@ -2,8 +2,7 @@
 // per angle theta[i], both polarisations averaged: the "approx", "subdivided" and "averaged"
 // colour methods (wgbragg/colour_methods.py; physics in colour_landmark.wgsl). Tables
 // (wgbragg/colour_landmarks_gpu.py, built once in float64):
-//   cmf[j] = density at node 360 + j nm (per nm), cmf[471 + j] = its cumulative integral;
-//   moments: moment_prefix and moment_block below.
+//   cmf[j] = density at node 360 + j nm (per nm), cmf[471 + j] = its cumulative integral.
 //! include "harness.wgsl"
 //! include "numerics.wgsl"
 //! include "complex.wgsl"
@@ -31,27 +30,16 @@ struct LandmarkColourParams {
 
 @group(0) @binding(0) var<storage, read> theta: array<f32>;
 @group(0) @binding(1) var<storage, read> cmf: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> moments: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read_write> xyz: array<vec4<f32>>;  // w = 0
-@group(0) @binding(4) var<uniform> params: LandmarkColourParams;
+@group(0) @binding(2) var<storage, read_write> xyz: array<vec4<f32>>;  // w = 0
+@group(0) @binding(3) var<uniform> params: LandmarkColourParams;
 
 const CMF_NODES: u32 = 471u;
-// Records of 4 vec4 per (level L = 1..MOMENT_LEVELS, grid g = 0, 1, cell j = 0..469):
-// (d0, T2.x), (slope, T2.y), (T0, T2.z), (T1, 0), with d0 the density at node j, slope its
-// slope on cell j, and T_k = int (lambda - c)^k density from the start of the block of cell j
-// to node j, about its centre c; blocks of 2^L nm start at 360 nm + K 2^L - g 2^(L-1).
-const MOMENT_CELLS: u32 = 470u;
-
 fn cmf_density(j: u32) -> vec3<f32> {
     return cmf[j].xyz;
 }
 
 fn cmf_cumulative(j: u32) -> vec3<f32> {
     return cmf[CMF_NODES + j].xyz;
-}
-
-fn moment_record(level: u32, grid: u32, j: u32, i: u32) -> vec4<f32> {
-    return moments[((((level - 1u) * 2u + grid) * MOMENT_CELLS + j) * 4u) + i];
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)

@@ -178,7 +178,6 @@ struct ModeInterval {
     airy: f32,
     falling: f32,          // band edge below mode m + 1 (= m + 1 when closed)
     zero: f32,             // the zero point inside the pass band, or -1
-    falling_closed: bool,
 }
 
 // Sign of u(pi t / 2) for t in (m, m + 1): quadrant m mod 4 of pi t / 2.
@@ -189,8 +188,9 @@ fn quadrant_sign(m: i32, cos_type: bool) -> f32 {
 }
 
 // Band edge next to the mode `mode`, on the side of the Airy point `airy` (inside the mode
-// interval [m, m + 1], which fixes the sign of the factors there). Returns (t, closed).
-fn band_edge(f: ModeFrame, mode: i32, m: i32, airy: f32) -> vec2<f32> {
+// interval [m, m + 1], which fixes the sign of the factors there); the mode itself when the
+// gap is closed.
+fn band_edge(f: ModeFrame, mode: i32, m: i32, airy: f32) -> f32 {
     let cos_type = (mode & 1) == 1;
     let tm = f32(mode);
     // At the mode u(pi tm / 2) = 0 and u'(pi tm / 2) = +-1 exactly.
@@ -201,7 +201,7 @@ fn band_edge(f: ModeFrame, mode: i32, m: i32, airy: f32) -> vec2<f32> {
     let du1 = select(select(-1.0, 1.0, q4 == 0), select(-1.0, 1.0, q4 == 3), cos_type);
     let second = (1.0 - f.r) * u2;
     if (second == 0.0) {
-        return vec2<f32>(tm, 1.0);  // closed gap: both factors vanish on the mode
+        return tm;  // closed gap: both factors vanish on the mode
     }
     // The factor with the sign change between the mode and the Airy point, where both
     // factors share the sign of their first term.
@@ -216,7 +216,7 @@ fn band_edge(f: ModeFrame, mode: i32, m: i32, airy: f32) -> vec2<f32> {
     } else {
         root = bracketed_root(f, 1u, cos_type, sigma, airy, tm, at_airy > 0.0, t0);
     }
-    return vec2<f32>(root, 0.0);
+    return root;
 }
 
 fn mode_interval(f: ModeFrame, m: i32) -> ModeInterval {
@@ -228,10 +228,8 @@ fn mode_interval(f: ModeFrame, m: i32) -> ModeInterval {
     let c_mid = sin_cos_cycles(0.5 * (tm + 0.5) * f.delta).y;
     let tau = clamp(parity * f.b * c_mid / (f.a * PI), -0.45, 0.45);
     iv.airy = bracketed_root(f, 0u, false, 1.0, tm, tm + 1.0, parity > 0.0, tm + 0.5 + tau);
-    iv.rising = band_edge(f, m, m, iv.airy).x;
-    let falling = band_edge(f, m + 1, m, iv.airy);
-    iv.falling = falling.x;
-    iv.falling_closed = falling.y > 0.0;
+    iv.rising = band_edge(f, m, m, iv.airy);
+    iv.falling = band_edge(f, m + 1, m, iv.airy);
     // Zero point (eq 12): spacing zero_period >= 1, so at most one inside (m, m + 1); only
     // kept inside the pass band, as the numpy twin keeps those with sin^2 K Lambda > 0.
     let z = floor(tm / f.zero_period) + 1.0;
