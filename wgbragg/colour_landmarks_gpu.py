@@ -106,8 +106,11 @@ def _kernel_and_params(mirror: BraggMirror, method: str, subdivisions: int):
     for name in ("n1", "n2", "d1_nm", "d2_nm", "host", "periods", "bulk"):
         params[name] = base[name]
     params["subdivisions"] = subdivisions
+    host_matched = bool(np.float32(mirror.host) == np.float32(mirror.n1))
     constants = {
-        "HOST_MATCHED": bool(np.float32(mirror.host) == np.float32(mirror.n1)),
+        "HOST_MATCHED": host_matched,
+        "MATCHED_LAYERS": host_matched and not params["bulk"]
+        and bool(np.float32(mirror.n2) >= np.float32(mirror.n1)),
         "METHOD": GPU_LANDMARK_METHODS[method],
         "WORKGROUP_SIZE": WORKGROUP_SIZE,
     }

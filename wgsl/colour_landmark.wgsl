@@ -292,8 +292,10 @@ fn sweep_finish(c: ColourSetup, sweep: ptr<function, Sweep>) {
 }
 
 // XYZ of one polarisation at one angle by `method`.
+// matched_layers: the caller guarantees host == n1 <= n2 and an n2 layer, so every angle takes
+// the mode-coordinate path and the other paths are compiled out.
 fn landmark_colour(m: BraggMirror, theta: f32, polarization: u32, method: u32,
-                   subdivisions: i32, host_matched: bool) -> vec3<f32> {
+                   subdivisions: i32, host_matched: bool, matched_layers: bool) -> vec3<f32> {
     var c: ColourSetup;
     c.mirror = m;
     c.polarization = polarization;
@@ -309,13 +311,13 @@ fn landmark_colour(m: BraggMirror, theta: f32, polarization: u32, method: u32,
     }
     c.correction = angular_correction(m, c.angle);
     var sweep = sweep_start();
-    if (m.bulk != 0u) {
+    if (!matched_layers && m.bulk != 0u) {
         // No n2 layer: no landmarks, one pass-band interval.
         sweep_status(&sweep, true, 0);
-    } else if (c.angle.q2sq > 0.0) {
+    } else if (matched_layers || c.angle.q2sq > 0.0) {
         let f = mode_frame(m, c.angle, polarization);
         c.frame = f;
-        c.fast = host_matched;
+        c.fast = matched_layers || host_matched;
         c.subdivide = method == METHOD_SUBDIVIDED;
         let first = i32(floor(f.t_lo));
         let last = i32(ceil(f.t_hi));

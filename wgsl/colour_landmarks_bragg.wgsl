@@ -13,6 +13,8 @@
 
 // host == n1: eqs 2 and 9 need no complex amplitude (Appendix D is compiled out).
 override HOST_MATCHED: bool = true;
+// host == n1 <= n2 with an n2 layer: only the mode-coordinate path is compiled.
+override MATCHED_LAYERS: bool = false;
 // 0 = approx, 1 = subdivided, 2 = averaged.
 override METHOD: u32 = 2u;
 
@@ -53,7 +55,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
     let m = BraggMirror(p.n1, p.n2, p.d1_nm, p.d2_nm, p.host, p.periods, p.bulk, 0u);
     let s = i32(min(p.subdivisions, 0x7fffffffu));
     let angle = theta[i];
-    let colour = 0.5 * (landmark_colour(m, angle, 0u, METHOD, s, HOST_MATCHED)
-        + landmark_colour(m, angle, 1u, METHOD, s, HOST_MATCHED));
+    let colour = 0.5 * (landmark_colour(m, angle, 0u, METHOD, s, HOST_MATCHED, MATCHED_LAYERS)
+        + landmark_colour(m, angle, 1u, METHOD, s, HOST_MATCHED, MATCHED_LAYERS));
     xyz[i] = vec4<f32>(colour, 0.0);
 }
