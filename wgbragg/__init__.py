@@ -10,12 +10,28 @@ Public API::
                                                polarization)
     wgbragg.gpu   # device, shader loading, cached pipelines, kernel runner
 
+    from wgbragg import RoughBraggLayer, TransmissionFilter
+    TransmissionFilter.bake(alpha, resolution_deg=0.25, psi_samples=1000, backend="gpu")
+    RoughBraggLayer(mirror, alpha).transmissivity(theta_i, wavelength_nm)   # eq 28
+    wgbragg.microfacet.ggx_D(cos_theta_m, alpha); wgbragg.microfacet.ggx_G1(cos_theta, alpha)
+    wgbragg.luts   # LUT files and the cache (``wgbragg bake``)
+
 Units: nm and radians (angles in the host medium).
 """
 
-from . import optics
+from . import microfacet, optics
 from .materials import BraggMirror, ThinFilm
+from .rough_layer import RoughBraggLayer
+from .transmission_filter import TransmissionFilter
 
 __version__ = "0.1.0"
 
-__all__ = ["BraggMirror", "ThinFilm", "__version__", "optics"]
+__all__ = [
+    "BraggMirror",
+    "RoughBraggLayer",
+    "ThinFilm",
+    "TransmissionFilter",
+    "__version__",
+    "microfacet",
+    "optics",
+]

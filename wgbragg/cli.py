@@ -1,18 +1,24 @@
 """The ``wgbragg`` command line.
 
 ``wgbragg info`` shows the adapter and versions; ``wgbragg reflectance`` prints R for one
-mirror; ``wgbragg map`` writes a reflectance map (wavelength x angle) as a PNG.
+mirror; ``wgbragg map`` writes a reflectance map (wavelength x angle) as a PNG; ``wgbragg bake``
+fills the LUT cache (transmission filters and colour tables, see :mod:`wgbragg.luts`).
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 import time
+import warnings
 
 import numpy as np
 
 __all__ = ["main"]
+
+DEFAULT_ALPHAS = (0.05, 0.1, 0.2, 0.4)
+"""GGX roughnesses whose transmission filters ``wgbragg bake`` bakes by default."""
 
 
 def _add_mirror_arguments(parser: argparse.ArgumentParser) -> None:
@@ -72,6 +78,40 @@ def _map(args) -> int:
     return 0
 
 
+def _report(event) -> None:
+    from tqdm import tqdm
+
+    reason = f" ({event.reason})" if event.reason else ""
+    # Through tqdm, so the line lands above the progress bar instead of through it.
+    tqdm.write(f"{event.action}: {event.path}{reason}", file=sys.stdout)
+
+
+def _bake(args) -> int:
+    from tqdm import tqdm
+
+    from . import luts
+
+    # Every parameter is checked before the first bake, so a bad value at the end of the list
+    # does not surface only after minutes of baking the others.
+    for alpha in args.alpha:
+        luts.transmission_filter_parameters(alpha, args.resolution_deg, args.psi_samples)
+    jobs = [
+        functools.partial(luts.transmission_filter, alpha, args.resolution_deg,
+                          args.psi_samples, args.backend)
+        for alpha in args.alpha
+    ]
+    if args.colour_tables:
+        jobs.append(luts.colour_tables)
+    if not jobs:
+        raise ValueError("nothing to bake: give --alpha or leave --colour-tables on")
+    with warnings.catch_warnings():
+        # The "re-baked: PATH (reason)" line already says what a LutWarning would.
+        warnings.simplefilter("ignore", luts.LutWarning)
+        for job in tqdm(jobs, desc="baking LUTs", unit="table", disable=not args.progress):
+            job(cache=args.cache, force=args.force, progress=_report)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="wgbragg", description=__doc__.splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
@@ -88,6 +128,25 @@ def build_parser() -> argparse.ArgumentParser:
     _add_mirror_arguments(mapping)
     mapping.add_argument("-o", "--output", default="out/reflectance_map.png")
     mapping.set_defaults(run=_map)
+    bake = commands.add_parser("bake", help="bake transmission filters and colour tables into "
+                               "the LUT cache")
+    bake.add_argument("--alpha", type=float, nargs="*", default=list(DEFAULT_ALPHAS),
+                      help="GGX roughnesses of the transmission filters (none: skip them)")
+    bake.add_argument("--resolution-deg", type=float, default=0.25,
+                      help="angular step of the filter tables, degrees in (0, 90]")
+    bake.add_argument("--psi-samples", type=int, default=1000,
+                      help="azimuth samples per filter entry, >= 1")
+    bake.add_argument("--backend", choices=("gpu", "numpy"), default="gpu",
+                      help="where filters are baked (not part of the cache key)")
+    bake.add_argument("--cache", default=None,
+                      help="cache folder (default $WGBRAGG_CACHE, else the user cache folder)")
+    bake.add_argument("--colour-tables", action=argparse.BooleanOptionalAction, default=True,
+                      help="bake the colorimetry tables too")
+    bake.add_argument("--force", action="store_true",
+                      help="bake again even where a valid file exists")
+    bake.add_argument("--no-progress", dest="progress", action="store_false",
+                      help="no progress bar")
+    bake.set_defaults(run=_bake)
     return parser
 
 

@@ -16,6 +16,7 @@ __all__ = [
     "BRAGG_MIRROR_DTYPE",
     "THIN_FILM_DTYPE",
     "WORKGROUP_SIZE",
+    "benchmark_bragg",
     "bragg_reflectance",
     "thin_film_reflectance",
 ]
@@ -35,16 +36,16 @@ THIN_FILM_DTYPE = gpu.struct_dtype([
 _POLARIZATION_CODE = {"s": 0, "p": 1, "unpolarized": 2}
 
 
-def _evaluate(shader, constants, params, wavelength_nm, theta):
+def _buffers(wavelength_nm, theta):
     wavelength, angle = np.broadcast_arrays(np.asarray(wavelength_nm), np.asarray(theta))
-    shape = wavelength.shape
-    kernel = gpu.compute_pipeline(shader, constants=constants)
-    (out,) = kernel.run(
-        [np.ascontiguousarray(wavelength, np.float32).ravel(),
-         np.ascontiguousarray(angle, np.float32).ravel()],
-        [(wavelength.size, np.float32)],
-        params,
-    )
+    inputs = [np.ascontiguousarray(wavelength, np.float32).ravel(),
+              np.ascontiguousarray(angle, np.float32).ravel()]
+    return inputs, [(wavelength.size, np.float32)], wavelength.shape
+
+
+def _evaluate(shader, constants, params, wavelength_nm, theta):
+    inputs, outputs, shape = _buffers(wavelength_nm, theta)
+    (out,) = gpu.compute_pipeline(shader, constants=constants).run(inputs, outputs, params)
     return out.reshape(shape).astype(np.float64)
 
 
@@ -56,15 +57,29 @@ def bragg_params(n1, n2, d1_nm, d2_nm, N, host) -> np.ndarray:
     return params
 
 
-def bragg_reflectance(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization, host):
-    """float32 GPU reflectance of a Bragg mirror; arguments as :func:`optics.yeh_reflectance`."""
-    constants = {
+def _bragg_constants(n1, host, polarization):
+    return {
         "POLARIZATION": _POLARIZATION_CODE[polarization],
         "HOST_MATCHED": bool(np.float32(host) == np.float32(n1)),
         "WORKGROUP_SIZE": WORKGROUP_SIZE,
     }
+
+
+def bragg_reflectance(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization, host):
+    """float32 GPU reflectance of a Bragg mirror; arguments as :func:`optics.yeh_reflectance`."""
     params = bragg_params(n1, n2, d1_nm, d2_nm, N, host)
-    return _evaluate("bragg_reflectance.wgsl", constants, params, wavelength_nm, theta)
+    return _evaluate("bragg_reflectance.wgsl", _bragg_constants(n1, host, polarization), params,
+                     wavelength_nm, theta)
+
+
+def benchmark_bragg(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization, host,
+                    repeats=10) -> float:
+    """Median GPU seconds of one :func:`bragg_reflectance` dispatch (buffers uploaded once)."""
+    kernel = gpu.compute_pipeline("bragg_reflectance.wgsl",
+                                  constants=_bragg_constants(n1, host, polarization))
+    inputs, outputs, _ = _buffers(wavelength_nm, theta)
+    return kernel.benchmark(inputs, outputs, bragg_params(n1, n2, d1_nm, d2_nm, N, host),
+                            repeats=repeats)
 
 
 def thin_film_reflectance(host, n_film, d_nm, n_base, k_base, wavelength_nm, theta,

@@ -1,0 +1,152 @@
+"""Rough Bragg layers (Bragg paper sec. 4.2): integrated transmissivity (eq 28), absorption
+(eq 30), transmission probability and weights (eqs 31-33), numpy and GPU.
+
+Filters are baked coarse here (1 degree, 128 azimuth samples, numpy) to keep the suite fast;
+the App. C identity they obey is tested in test_transmission_filter.py.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from wgbragg import BraggMirror, RoughBraggLayer
+from wgbragg.colorimetry import xyz_weights
+from wgbragg.microfacet import ggx_G1
+from wgbragg.optics import yeh_reflectance
+from wgbragg.transmission_filter import TransmissionFilter, ballistic_transmission_reference
+
+IDENTITY_ATOL = 1e-3  # App. C: rows of the filter sum to G1 within this
+THETA = np.radians([0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 85.0])
+MIRROR = BraggMirror(1.0, 1.5, 110.0, 140.0, 8)
+MATCHED = BraggMirror(1.3, 1.3, 110.0, 140.0, 8)  # index-matched: T = 1
+
+
+@pytest.fixture(scope="module")
+def filt():
+    return TransmissionFilter.bake(0.2, resolution_deg=1.0, psi_samples=128, backend="numpy")
+
+
+@pytest.fixture(scope="module")
+def layer(filt):
+    return RoughBraggLayer(MIRROR, 0.2, transmission_filter=filt)
+
+
+def g1(theta, alpha=0.2):
+    return ggx_G1(np.cos(theta), alpha)
+
+
+def test_unit_transmittance_gives_g1(filt):
+    """T = 1 (index-matched layers): f_t cos = G1, what the microfacets leave unshadowed."""
+    matched = RoughBraggLayer(MATCHED, 0.2, transmission_filter=filt)
+    for wavelength in (400.0, 700.0):
+        np.testing.assert_allclose(matched.transmissivity(THETA, wavelength), g1(THETA),
+                                   atol=IDENTITY_ATOL)
+    np.testing.assert_allclose(matched.transmissivity_rgb(THETA), np.repeat(
+        g1(THETA)[:, None], 3, axis=1), atol=2e-3)  # white point: G1 (1, 1, 1)
+
+
+def test_matches_the_eq23_quadrature(layer):
+    """Against a direct 2D quadrature of eq 23 with the same mirror (scipy)."""
+    def transmittance(theta_d):
+        return 1.0 - yeh_reflectance(1.0, 1.5, 110.0, 140.0, 8, 550.0, theta_d)
+
+    for degrees in (20.0, 70.0):
+        theta = math.radians(degrees)
+        expected = ballistic_transmission_reference(transmittance, theta, 0.2, epsabs=1e-6)
+        assert layer.transmissivity(theta, 550.0) == pytest.approx(expected, abs=3e-3)
+
+
+def test_bounded_by_g1_and_nonnegative(layer):
+    wavelength = np.linspace(360.0, 830.0, 48)[:, None]
+    value = layer.transmissivity(THETA, wavelength)
+    assert np.all(value >= 0.0)
+    assert np.all(value <= g1(THETA) + IDENTITY_ATOL)
+
+
+def test_smooth_limit_is_the_mirror_transmittance():
+    """alpha -> 0: the filter tends to G1 delta(theta_d - theta_i), G1 -> 1, so f_t cos tends
+    to the smooth mirror's 1 - R(theta_i)."""
+    # Whole degrees only: no interpolation between rows; 1000 azimuth samples resolve the
+    # narrow lobe.
+    filt = TransmissionFilter.bake(0.01, resolution_deg=1.0, psi_samples=1000, backend="numpy")
+    thin = BraggMirror(1.0, 1.5, 110.0, 140.0, 3)  # T varies slowly with angle
+    rough = RoughBraggLayer(thin, 0.01, transmission_filter=filt)
+    theta = np.radians([0.0, 20.0, 40.0, 60.0])
+    smooth = 1.0 - yeh_reflectance(1.0, 1.5, 110.0, 140.0, 3, 550.0, theta)
+    np.testing.assert_allclose(rough.transmissivity(theta, 550.0), smooth, atol=5e-3)
+
+
+@pytest.mark.gpu
+def test_gpu_table_matches_numpy(layer):
+    gpu = layer.transmissivity_table(backend="gpu")
+    reference = layer.transmissivity_table(backend="numpy")
+    assert gpu.shape == reference.shape == (layer.filter.theta_i.size, xyz_weights()[0].size)
+    np.testing.assert_allclose(gpu, reference, atol=2e-5)
+    np.testing.assert_allclose(layer.transmissivity(THETA, 450.0, backend="gpu"),
+                               layer.transmissivity(THETA, 450.0), atol=2e-5)
+
+
+@pytest.mark.gpu
+@pytest.mark.parametrize("N", [1, 10**6])
+def test_extreme_periods_stay_finite(filt, N):
+    layer = RoughBraggLayer(BraggMirror(1.0, 1.5, 110.0, 140.0, N), 0.2, transmission_filter=filt)
+    for backend in ("numpy", "gpu"):
+        table = layer.transmissivity_table(np.linspace(380.0, 780.0, 41), backend)
+        assert np.all(np.isfinite(table))
+        assert np.all((table >= 0.0) & (table <= 1.0 + 1e-6))
+
+
+def test_absorption_is_one_minus_g1(layer, filt):
+    np.testing.assert_allclose(layer.absorption(THETA), 1.0 - g1(THETA))
+    rows = filt.interpolate(THETA).sum(axis=-1)
+    np.testing.assert_allclose(layer.absorption(THETA), 1.0 - rows, atol=IDENTITY_ATOL)
+
+
+def test_probability_times_weight_is_the_transmissivity(layer):
+    """Eq 31 x eq 32 per wavelength; eq 33 with the wavelength-averaged probability."""
+    wavelength = np.array([420.0, 500.0, 560.0, 620.0, 680.0, 720.0, 800.0])
+    transmitted = layer.transmissivity(THETA, wavelength)
+    single = layer.transmission_probability(THETA, wavelength) * layer.transmission_weight(THETA)
+    np.testing.assert_allclose(single, transmitted, rtol=1e-12)
+    multiplexed = (layer.transmission_probability(THETA)
+                   * layer.transmission_weight(THETA, wavelength))
+    np.testing.assert_allclose(multiplexed, transmitted, rtol=1e-9, atol=1e-15)
+    for probability in (layer.transmission_probability(THETA),
+                        layer.transmission_probability(THETA, wavelength)):
+        assert np.all((probability >= 0.0) & (probability <= 1.0))
+
+
+def test_weight_of_a_single_wavelength_path(layer):
+    np.testing.assert_allclose(layer.transmission_weight(THETA), 0.5 * (1.0 + g1(THETA)))
+
+
+def test_n_dimensional_input(layer):
+    theta = np.radians([[0.0, 30.0], [60.0, 89.0]])
+    value = layer.transmissivity(theta, np.array([450.0, 650.0]))
+    assert value.shape == (2, 2)
+    assert value[1, 0] == pytest.approx(float(layer.transmissivity(theta[1, 0], 450.0)))
+    assert layer.transmissivity_rgb(theta).shape == (2, 2, 3)
+    assert layer.transmission_probability(theta).shape == (2, 2)
+
+
+@pytest.mark.parametrize(("make", "name"), [
+    (lambda f: RoughBraggLayer(BraggMirror(1.59, 1.67, 80.0, 80.0, 8, host=1.0), 0.2), "host"),
+    (lambda f: RoughBraggLayer(MIRROR, 0.001), "alpha"),
+    (lambda f: RoughBraggLayer(MIRROR, 1.5), "alpha"),
+    (lambda f: RoughBraggLayer(MIRROR, 0.3, transmission_filter=f), "alpha"),
+    (lambda f: RoughBraggLayer("mirror", 0.2), "mirror"),
+    (lambda f: RoughBraggLayer(MIRROR, 0.2, transmission_filter=f).transmissivity(2.0, 500.0),
+     "theta_i"),
+    (lambda f: RoughBraggLayer(MIRROR, 0.2, transmission_filter=f).transmissivity(0.1, -5.0),
+     "wavelength"),
+    (lambda f: RoughBraggLayer(MIRROR, 0.2, transmission_filter=f).transmissivity_table(
+        [[500.0]]), "wavelength_nm"),
+    (lambda f: RoughBraggLayer(MIRROR, 0.2, transmission_filter=f).transmissivity_table(
+        backend="cuda"), "backend"),
+])
+def test_bad_input(filt, make, name):
+    with pytest.raises(ValueError, match=name):
+        make(filt)

@@ -1,0 +1,304 @@
+"""Rough Bragg layers: ballistic transmission through a distribution of tilted Bragg mirrors.
+
+Fourneau, Pacanowski & Barla 2024, sec. 4.1-4.2. A rough Bragg layer is a GGX distribution
+(roughness ``alpha``) of identical mirrors embedded in their own ``n1``: light goes through it
+undeviated, and its cosine-weighted transmission is the mirror's transmittance ``T = 1 - R``
+filtered over the difference angle ``theta_d`` by the roughness alone (eq 28)::
+
+    f_t(theta_i) cos(theta_i) = int_0^{pi/2} T(theta_d) F_alpha(theta_i, theta_d) dtheta_d
+
+With the filter baked once per ``alpha`` (:class:`~wgbragg.transmission_filter.TransmissionFilter`,
+cached by :mod:`wgbragg.luts`), a layer's table over (theta_i, wavelength) is one matrix
+product, computed on the GPU by ``wgsl/integrate_transmissivity.wgsl``. Angles are in ``n1``,
+radians; wavelengths in nm.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+import numpy as np
+
+from . import colorimetry, gpu, kernels
+from ._validation import check_angle, check_backend, check_wavelength
+from .materials import BraggMirror
+from .microfacet import ggx_G1
+from .optics.yeh import yeh_reflectance
+from .transmission_filter import TransmissionFilter, check_filter_alpha
+
+__all__ = ["RoughBraggLayer"]
+
+_WORKGROUP_SIZE = 64
+# Filter rows per workgroup of integrate_transmissivity.wgsl (its ROWS).
+_ROWS_PER_GROUP = 8
+_PARAMS_DTYPE = gpu.struct_dtype([
+    ("rows", "u32"), ("quads", "u32"), ("wavelengths", "u32"), ("blocks", "u32"),
+])
+
+
+def _visible_wavelengths() -> np.ndarray:
+    return colorimetry.xyz_weights()[0]
+
+
+@dataclasses.dataclass(frozen=True)
+class RoughBraggLayer:
+    """A GGX-rough layer of Bragg mirrors (sec. 4.1), seen from its host ``n1``.
+
+    Parameters
+    ----------
+    mirror : BraggMirror
+        The mirror of every microfacet, embedded in ``n1`` (``host == n1``).
+    alpha : float
+        GGX roughness in [0.01, 1].
+    transmission_filter : TransmissionFilter, optional
+        The filter of ``alpha``; by default the cached one at 0.25 degrees and 1000 azimuth
+        samples (:func:`wgbragg.luts.transmission_filter`, baked on the GPU on first use).
+
+    Raises
+    ------
+    ValueError
+        If ``mirror`` is not a BraggMirror in its own ``n1``, ``alpha`` is out of range, or
+        the filter was baked for another ``alpha``.
+    """
+
+    mirror: BraggMirror
+    alpha: float
+    transmission_filter: TransmissionFilter | None = dataclasses.field(
+        default=None, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.mirror, BraggMirror):
+            raise ValueError(f"mirror must be a BraggMirror, got {type(self.mirror).__name__}")
+        if self.mirror.host != self.mirror.n1:
+            raise ValueError(
+                "mirror.host must equal mirror.n1: a rough Bragg layer's mirrors are embedded "
+                f"in n1 (got host={self.mirror.host}, n1={self.mirror.n1}); a different "
+                "medium above the layers is a smooth coating of the layered structure"
+            )
+        object.__setattr__(self, "alpha", check_filter_alpha(self.alpha))
+        given = self.transmission_filter
+        if given is not None:
+            if not isinstance(given, TransmissionFilter):
+                raise ValueError("transmission_filter must be a TransmissionFilter, got "
+                                 f"{type(given).__name__}")
+            if not np.isclose(given.alpha, self.alpha, rtol=1e-6, atol=0.0):
+                raise ValueError(f"transmission_filter was baked for alpha={given.alpha}, "
+                                 f"the layer has alpha={self.alpha}")
+
+    @functools.cached_property
+    def filter(self) -> TransmissionFilter:
+        """The transmission filter F_alpha in use (baked or loaded on first access)."""
+        if self.transmission_filter is not None:
+            return self.transmission_filter
+        from . import luts
+
+        return luts.transmission_filter(self.alpha)
+
+    # ------------------------------------------------------------------ eq 28
+
+    def _transmittance(self, wavelength_nm: np.ndarray) -> np.ndarray:
+        """``1 - R`` at (..., the filter's theta_d), unpolarized, float64."""
+        m = self.mirror
+        theta_d = self.filter.theta_d
+        return 1.0 - yeh_reflectance(m.n1, m.n2, m.d1, m.d2, m.N, wavelength_nm[..., None],
+                                     theta_d, "unpolarized", host=m.n1)
+
+    def transmissivity_table(self, wavelength_nm=None, backend="gpu") -> np.ndarray:
+        """``f_t(theta_i) cos(theta_i)`` (eq 28) at every filter row and wavelength.
+
+        Parameters
+        ----------
+        wavelength_nm : array_like, optional
+            1-D wavelengths in nm (default: 360, 361, ..., 830).
+        backend : {"gpu", "numpy"}
+            ``"gpu"``: float32, the transmittances by the Yeh kernel, then their product with
+            the filter (``wgsl/integrate_transmissivity.wgsl``); ``"numpy"``: float64.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape ``(len(filter.theta_i), len(wavelength_nm))``, in [0, G1(theta_i)].
+        """
+        wavelength = self._table_wavelengths(wavelength_nm)
+        backend = check_backend(backend)
+        if backend == "numpy":
+            return self.filter.integrate(self._transmittance(wavelength)).T
+        return self._table_gpu(wavelength)
+
+    def _table_wavelengths(self, wavelength_nm) -> np.ndarray:
+        if wavelength_nm is None:
+            return _visible_wavelengths()
+        wavelength = check_wavelength(wavelength_nm)
+        if wavelength.ndim != 1:
+            raise ValueError(f"wavelength_nm must be 1-D, got shape {wavelength.shape}")
+        return wavelength
+
+    def _table_gpu(self, wavelength: np.ndarray) -> np.ndarray:
+        kernel, inputs, params, outputs, count = self._gpu_setup(wavelength)
+        (table,) = kernel.run(inputs, outputs, params, count=count)
+        return table.reshape(self.filter.theta_i.size, wavelength.size).astype(np.float64)
+
+    def _gpu_setup(self, wavelength: np.ndarray):
+        """The two GPU passes: T = 1 - R on the (theta_d, wavelength) grid (Yeh kernel), then
+        the product with the filter's weights (``integrate_transmissivity.wgsl``)."""
+        filt, m = self.filter, self.mirror
+        rows, angles = filt.weights.shape
+        quads = -(-angles // 4)
+        # Zero-padded to whole vec4s along theta_d: [quad][wavelength][4] for the product pass.
+        padded = np.zeros((wavelength.size, 4 * quads), np.float32)
+        padded[:, :angles] = 1.0 - kernels.bragg_reflectance(
+            m.n1, m.n2, m.d1, m.d2, m.N, wavelength[:, None], filt.theta_d[None, :],
+            "unpolarized", m.n1)
+        transmittance = np.ascontiguousarray(
+            padded.reshape(wavelength.size, quads, 4).transpose(1, 0, 2))
+        weights = np.zeros((rows, 4 * quads), np.float32)
+        weights[:, :angles] = filt.weights
+        params = np.zeros((), _PARAMS_DTYPE)
+        params["rows"], params["quads"], params["wavelengths"] = rows, quads, wavelength.size
+        params["blocks"] = -(-wavelength.size // _WORKGROUP_SIZE)
+        kernel = gpu.compute_pipeline("integrate_transmissivity.wgsl",
+                                      constants={"WORKGROUP_SIZE": _WORKGROUP_SIZE})
+        inputs = [weights.reshape(-1, 4), transmittance.reshape(-1, 4)]
+        outputs = [(rows * wavelength.size, np.float32)]
+        groups = -(-rows // _ROWS_PER_GROUP) * int(params["blocks"])
+        return kernel, inputs, params, outputs, groups * _WORKGROUP_SIZE
+
+    def benchmark_table(self, wavelength_nm=None, repeats: int = 10) -> tuple[float, float]:
+        """Median GPU seconds of :meth:`transmissivity_table`'s two passes (transmittances,
+        then the filter product), buffers uploaded once."""
+        wavelength = self._table_wavelengths(wavelength_nm)
+        kernel, inputs, params, outputs, count = self._gpu_setup(wavelength)
+        m, theta_d = self.mirror, self.filter.theta_d
+        angle, lam = np.broadcast_arrays(theta_d[None, :], wavelength[:, None])
+        reflectance = kernels.benchmark_bragg(m.n1, m.n2, m.d1, m.d2, m.N, lam, angle,
+                                              "unpolarized", m.n1, repeats=repeats)
+        product = kernel.benchmark(inputs, outputs, params, repeats=repeats, count=count)
+        return reflectance, product
+
+    def transmissivity(self, theta_i, wavelength_nm, backend="numpy") -> np.ndarray:
+        """Integrated transmissivity ``f_t(theta_i) cos(theta_i)`` (eq 28).
+
+        Parameters
+        ----------
+        theta_i : array_like
+            Angles of incidence in ``n1``, radians in [0, pi/2].
+        wavelength_nm : array_like
+            Wavelengths in nm; broadcast against ``theta_i``.
+        backend : {"numpy", "gpu"}
+            Both interpolate the filter linearly in ``theta_i``; ``"gpu"`` integrates in
+            float32 (:meth:`transmissivity_table` at the distinct wavelengths).
+
+        Returns
+        -------
+        numpy.ndarray
+            The broadcast shape, in [0, G1(theta_i)] (a smooth, index-matched mirror gives
+            exactly ``G1``: what the microfacets do not shadow).
+        """
+        theta = check_angle(theta_i, "theta_i")
+        wavelength = check_wavelength(wavelength_nm)
+        theta, wavelength = np.broadcast_arrays(theta, wavelength)
+        if check_backend(backend) == "numpy":
+            rows = self.filter.interpolate(theta)
+            return np.sum(rows * self._transmittance(wavelength), axis=-1)
+        distinct, index = np.unique(wavelength, return_inverse=True)
+        table = self._table_gpu(distinct)
+        return self._interpolate_rows(table, theta, index.reshape(theta.shape))
+
+    def _interpolate_rows(self, table: np.ndarray, theta: np.ndarray, column) -> np.ndarray:
+        """Linear interpolation along theta_i of ``table[:, column]`` (rows on the filter grid)."""
+        grid = self.filter.theta_i
+        position = theta / (grid[1] - grid[0])
+        lower = np.clip(np.floor(position).astype(np.intp), 0, grid.size - 2)
+        fraction = position - lower
+        return (1.0 - fraction) * table[lower, column] + fraction * table[lower + 1, column]
+
+    def transmissivity_rgb(self, theta_i, backend="numpy") -> np.ndarray:
+        """Linear sRGB (D65) of the transmissivity spectrum, white where ``T = 1``.
+
+        Parameters
+        ----------
+        theta_i : array_like
+            Angles of incidence in ``n1``, radians in [0, pi/2].
+        backend : {"numpy", "gpu"}
+            Where the spectral table (1 nm, 360-830 nm) is integrated.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape ``theta_i.shape + (3,)``: ``f_t cos`` weighted by the CIE 1931 CMFs under
+            D65, as :meth:`BraggMirror.rgb` weights R (``G1 (1, 1, 1)`` for ``T = 1``).
+        """
+        theta = check_angle(theta_i, "theta_i")
+        xyz = self.transmissivity_table(None, backend) @ colorimetry.xyz_weights()[1]
+        table = colorimetry.xyz_to_linear_srgb(xyz)
+        return np.stack([self._interpolate_rows(table, theta, c) for c in range(3)], axis=-1)
+
+    # ------------------------------------------------------------------ eqs 30-33
+
+    def absorption(self, theta_i) -> np.ndarray:
+        """Eq 30: ``A = 1 - G1(theta_i)``, what the layer neither reflects nor transmits once.
+
+        Parameters
+        ----------
+        theta_i : array_like
+            Angles of incidence in ``n1``, radians in [0, pi/2].
+        """
+        theta = check_angle(theta_i, "theta_i")
+        return 1.0 - ggx_G1(np.cos(theta), self.alpha)
+
+    def _averaged_transmissivity(self, theta: np.ndarray, backend) -> np.ndarray:
+        """``<f_t cos>_lambda`` over the 1 nm visible grid (eq 33's denominator)."""
+        table = self.transmissivity_table(None, backend).mean(axis=1)[:, None]
+        return self._interpolate_rows(table, theta, 0)
+
+    def transmission_probability(self, theta_i, wavelength_nm=None,
+                                 backend="numpy") -> np.ndarray:
+        """Eq 31: ``p = 2 f_t cos / (1 + G1)``, the chance a path is transmitted.
+
+        Parameters
+        ----------
+        theta_i : array_like
+            Angles of incidence in ``n1``, radians in [0, pi/2].
+        wavelength_nm : array_like, optional
+            Per wavelength (broadcast); ``None``: the wavelength-multiplexed probability, with
+            ``f_t cos`` averaged over 360-830 nm (eq 33).
+        backend : {"numpy", "gpu"}
+
+        Returns
+        -------
+        numpy.ndarray
+            In [0, 1].
+        """
+        theta = check_angle(theta_i, "theta_i")
+        if wavelength_nm is None:
+            transmitted = self._averaged_transmissivity(theta, backend)
+        else:
+            transmitted = self.transmissivity(theta, wavelength_nm, backend)
+        return 2.0 * transmitted / (1.0 + ggx_G1(np.cos(theta), self.alpha))
+
+    def transmission_weight(self, theta_i, wavelength_nm=None, backend="numpy") -> np.ndarray:
+        """Weight of a transmission sampled with :meth:`transmission_probability`.
+
+        Eq 32 for ``wavelength_nm=None`` (``(1 + G1) / 2``, wavelength-independent, for a
+        path that carries one wavelength); eq 33 otherwise, ``(1 + G1) / 2`` times
+        ``f_t cos / <f_t cos>_lambda`` for a wavelength-multiplexed path sampled with the
+        averaged probability. Either way, weight x probability is ``f_t cos``.
+
+        Parameters
+        ----------
+        theta_i : array_like
+            Angles of incidence in ``n1``, radians in [0, pi/2].
+        wavelength_nm : array_like, optional
+            Wavelengths (nm) carried by a multiplexed path, broadcast against ``theta_i``.
+        backend : {"numpy", "gpu"}
+        """
+        theta = check_angle(theta_i, "theta_i")
+        base = 0.5 * (1.0 + ggx_G1(np.cos(theta), self.alpha))
+        if wavelength_nm is None:
+            return base
+        averaged = self._averaged_transmissivity(theta, backend)
+        transmitted = self.transmissivity(theta, wavelength_nm, backend)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio = np.where(averaged > 0.0, transmitted / averaged, 0.0)
+        return base * ratio
