@@ -34,6 +34,7 @@ bench: setup
 	$(PY) -m pip install -q -e '.[test,bench]' || echo "wgbragg: tmm_fast not installed, continuing"
 	$(PY) tools/bench_reflectance.py
 	$(PY) tools/bench_rgb.py
+	$(PY) tools/bench_rough.py
 
 clean:
 	rm -rf $(VENV) out build dist .pytest_cache .ruff_cache .hypothesis

@@ -126,6 +126,16 @@ class RoughBraggLayer:
             return self.filter.integrate(self._transmittance(wavelength)).T
         return self._table_gpu(wavelength)
 
+    def _visible_table(self, backend: str) -> np.ndarray:
+        """The 1 nm table, kept per layer and backend: RGB, probabilities and weights all
+        start from it (in the instance dict, as the cached ``filter``)."""
+        tables = self.__dict__.setdefault("_visible_tables", {})
+        if backend not in tables:
+            table = self.transmissivity_table(None, backend)
+            table.setflags(write=False)
+            tables[backend] = table
+        return tables[backend]
+
     def _table_wavelengths(self, wavelength_nm) -> np.ndarray:
         if wavelength_nm is None:
             return _visible_wavelengths()
@@ -230,7 +240,7 @@ class RoughBraggLayer:
             D65, as :meth:`BraggMirror.rgb` weights R (``G1 (1, 1, 1)`` for ``T = 1``).
         """
         theta = check_angle(theta_i, "theta_i")
-        xyz = self.transmissivity_table(None, backend) @ colorimetry.xyz_weights()[1]
+        xyz = self._visible_table(check_backend(backend)) @ colorimetry.xyz_weights()[1]
         table = colorimetry.xyz_to_linear_srgb(xyz)
         return np.stack([self._interpolate_rows(table, theta, c) for c in range(3)], axis=-1)
 
@@ -249,7 +259,7 @@ class RoughBraggLayer:
 
     def _averaged_transmissivity(self, theta: np.ndarray, backend) -> np.ndarray:
         """``<f_t cos>_lambda`` over the 1 nm visible grid (eq 33's denominator)."""
-        table = self.transmissivity_table(None, backend).mean(axis=1)[:, None]
+        table = self._visible_table(check_backend(backend)).mean(axis=1)[:, None]
         return self._interpolate_rows(table, theta, 0)
 
     def transmission_probability(self, theta_i, wavelength_nm=None,
