@@ -144,3 +144,24 @@ def cpu_model() -> str:
     except OSError:
         pass
     return platform.processor() or platform.machine()
+
+
+def add_section_arguments(parser, default_output, quick_help: str) -> None:
+    """The options every benchmark shares: ``--quick``, ``--output`` / ``--no-write`` and
+    ``--no-progress``."""
+    parser.add_argument("--quick", action="store_true", help=quick_help)
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--output", type=Path, default=None,
+                       help=f"markdown file to update (full mode default: {default_output})")
+    where.add_argument("--no-write", action="store_true", help="print the section only")
+    parser.add_argument("--no-progress", action="store_true", help="hide the progress bars")
+
+
+def section_output(args, default_output):
+    """Where a benchmark section goes: ``--output``, else ``default_output`` in full mode only
+    (quick runs, the test suite's, never touch docs/)."""
+    if args.no_write:
+        return None
+    if args.output is not None:
+        return args.output
+    return None if args.quick else default_output

@@ -933,25 +933,16 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         prog="bench_rgb.py",
         description="Colour methods: time per colour, speed-up over reference and dE2000.",
     )
-    parser.add_argument("--quick", action="store_true",
-                        help="tiny grid; writes nothing unless --output / --plot")
-    where = parser.add_mutually_exclusive_group()
-    where.add_argument("--output", type=Path, default=None,
-                       help=f"markdown file to update (full mode default: {DEFAULT_OUTPUT})")
-    where.add_argument("--no-write", action="store_true", help="print the table only")
+    _docs.add_section_arguments(
+        parser, DEFAULT_OUTPUT, "tiny grid; writes nothing unless --output / --plot")
     parser.add_argument("--plot", type=Path, default=None,
                         help=f"trade-off PNG (full mode default: {DEFAULT_PLOT})")
-    parser.add_argument("--no-progress", action="store_true", help="hide the progress bars")
     return parser.parse_args(argv)
 
 
 def output_path(args: argparse.Namespace) -> Path | None:
     """Where the section goes: ``--output``, else docs/benchmarks.md in full mode only."""
-    if args.no_write:
-        return None
-    if args.output is not None:
-        return args.output
-    return None if args.quick else DEFAULT_OUTPUT
+    return _docs.section_output(args, DEFAULT_OUTPUT)
 
 
 def plot_path(args: argparse.Namespace) -> Path | None:

@@ -653,23 +653,14 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         prog="bench_rough.py",
         description="Rough Bragg layers: F_alpha bake, integrated transmissivity, table sizes.",
     )
-    parser.add_argument("--quick", action="store_true",
-                        help="tiny tables (seconds); writes nothing unless --output")
-    where = parser.add_mutually_exclusive_group()
-    where.add_argument("--output", type=Path, default=None,
-                       help=f"markdown file to update (full mode default: {DEFAULT_OUTPUT})")
-    where.add_argument("--no-write", action="store_true", help="print the section only")
-    parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    _docs.add_section_arguments(
+        parser, DEFAULT_OUTPUT, "tiny tables (seconds); writes nothing unless --output")
     return parser.parse_args(argv)
 
 
 def output_path(args: argparse.Namespace) -> Path | None:
     """Where the section goes: ``--output``, else docs/benchmarks.md in full mode only."""
-    if args.no_write:
-        return None
-    if args.output is not None:
-        return args.output
-    return None if args.quick else DEFAULT_OUTPUT
+    return _docs.section_output(args, DEFAULT_OUTPUT)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
