@@ -30,8 +30,10 @@ from .transmission_filter import TransmissionFilter, check_filter_alpha
 __all__ = ["RoughBraggLayer"]
 
 _WORKGROUP_SIZE = 64
-# Filter rows per workgroup of integrate_transmissivity.wgsl (its ROWS).
-_ROWS_PER_GROUP = 8
+# The block of integrate_transmissivity.wgsl: filter rows per workgroup (ROWS), wavelengths
+# per invocation (SPAN).
+_ROWS_PER_GROUP = 4
+_WAVELENGTHS_PER_LANE = 4
 _PARAMS_DTYPE = gpu.struct_dtype([
     ("rows", "u32"), ("quads", "u32"), ("wavelengths", "u32"), ("blocks", "u32"),
 ])
@@ -166,7 +168,7 @@ class RoughBraggLayer:
         weights[:, :angles] = filt.weights
         params = np.zeros((), _PARAMS_DTYPE)
         params["rows"], params["quads"], params["wavelengths"] = rows, quads, wavelength.size
-        params["blocks"] = -(-wavelength.size // _WORKGROUP_SIZE)
+        params["blocks"] = -(-wavelength.size // (_WAVELENGTHS_PER_LANE * _WORKGROUP_SIZE))
         kernel = gpu.compute_pipeline("integrate_transmissivity.wgsl",
                                       constants={"WORKGROUP_SIZE": _WORKGROUP_SIZE})
         inputs = [weights.reshape(-1, 4), transmittance.reshape(-1, 4)]
