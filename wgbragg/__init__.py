@@ -16,10 +16,16 @@ Public API::
     wgbragg.microfacet.ggx_D(cos_theta_m, alpha); wgbragg.microfacet.ggx_G1(cos_theta, alpha)
     wgbragg.luts   # LUT files and the cache (``wgbragg bake``)
 
+    from wgbragg import LayeredBragg
+    s = LayeredBragg(layers=[RoughBraggLayer(m, alpha=0.1)], base_albedo=0.2)
+    s.brdf(wi, wo, wavelength_nm=None, method="single-reflection")   # eq 34
+    wo, weight, pdf = s.sample(wi, u)                                 # eq 35
+
 Units: nm and radians (angles in the host medium).
 """
 
 from . import microfacet, optics
+from .layered import LayeredBragg
 from .materials import BraggMirror, ThinFilm
 from .rough_layer import RoughBraggLayer
 from .transmission_filter import TransmissionFilter
@@ -28,6 +34,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "BraggMirror",
+    "LayeredBragg",
     "RoughBraggLayer",
     "ThinFilm",
     "TransmissionFilter",
