@@ -41,7 +41,7 @@ from .microfacet import _D, _G1_over_cos, ggx_sample_visible_normal
 from .optics.yeh import yeh_reflectance
 from .rough_layer import RoughBraggLayer
 
-__all__ = ["BRDF_METHODS", "LayeredBragg", "coating_reflectance"]
+__all__ = ["BRDF_METHODS", "INTEGRATED", "LayeredBragg", "coating_reflectance"]
 
 BRDF_METHODS = ("single-reflection", "single-reflection-lut")
 """``method=`` of :meth:`LayeredBragg.brdf`: the model with the mirrors' reflectance evaluated
@@ -50,7 +50,12 @@ exactly (Yeh), or read from a table over (theta_d, wavelength) per layer."""
 LUT_RESOLUTION_DEG = 0.25
 """Step in theta_d of the reflectance tables of ``"single-reflection-lut"`` (the filter's step)."""
 
+INTEGRATED = "integrated"
+"""``colour_method`` of an RGB result computed as the colour of the whole spectral BRDF
+(1 nm nodes, 360-830 nm): the exact colour of eq 34."""
+
 _UNIT_TOLERANCE = 1e-5
+_INTEGRATION_CHUNK = 1024
 _TABLE_CACHE_SIZE = 8
 
 
@@ -79,6 +84,8 @@ def coating_reflectance(cos_theta, n) -> np.ndarray:
         ``(R_s + R_p) / 2`` in [0, 1]: 0 for ``n = 1``, 1 at grazing incidence otherwise.
     """
     c = np.clip(np.asarray(cos_theta, dtype=np.float64), 0.0, 1.0)
+    if n == 1.0:
+        return np.zeros(c.shape)
     # n cos' = sqrt(n^2 - sin^2): real for n >= 1, so no total internal reflection from air.
     q = np.sqrt(n * n - (1.0 - c) * (1.0 + c))
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -127,7 +134,7 @@ class _BaseAlbedo:
             self.rgb = np.full(3, float(grey))
             self._spectrum = lambda wavelength: np.full(wavelength.shape, float(grey))
             return
-        if isinstance(value, tuple) and len(value) == 2:
+        if isinstance(value, tuple) and len(value) == 2 and all(np.ndim(v) == 1 for v in value):
             wavelength = check_wavelength(value[0], "base_albedo wavelengths")
             albedo = _check_unit_interval(_as_float_array("base_albedo", value[1]), "base_albedo")
             if wavelength.ndim != 1 or albedo.shape != wavelength.shape or wavelength.size < 2:
@@ -365,6 +372,8 @@ class LayeredBragg:
 
     def _evaluate(self, wi, wo, wavelength, method, backend, colour_method):
         """eq 34 on checked arrays; the result broadcasts over the leading axes."""
+        if wavelength is None and colour_method == INTEGRATED:
+            return self._integrated_rgb(wi, wo, method, backend)
         n = self.host_index
         shape = np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1],
                                     () if wavelength is None else wavelength.shape)
@@ -382,6 +391,20 @@ class LayeredBragg:
                  * (1.0 - coating_reflectance(wo_ok[..., 2], n)) / (n * n))
         scale = np.where(up, scale, 0.0)
         return inner * (scale if wavelength is not None else scale[..., None])
+
+    def _integrated_rgb(self, wi, wo, method, backend):
+        """Linear sRGB of the spectral eq 34 on the 1 nm grid, in chunks of pairs (the
+        spectra of a chunk are its only temporaries)."""
+        shape = np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1])
+        wi = np.broadcast_to(wi, (*shape, 3)).reshape(-1, 1, 3)
+        wo = np.broadcast_to(wo, (*shape, 3)).reshape(-1, 1, 3)
+        grid, weights = colorimetry.xyz_weights()
+        xyz = np.empty((wi.shape[0], 3))
+        for start in range(0, wi.shape[0], _INTEGRATION_CHUNK):
+            chunk = slice(start, start + _INTEGRATION_CHUNK)
+            xyz[chunk] = self._evaluate(wi[chunk], wo[chunk], grid, method, backend,
+                                        INTEGRATED) @ weights
+        return colorimetry.xyz_to_linear_srgb(xyz).reshape(*shape, 3)
 
     def brdf(self, wi, wo, wavelength_nm=None, method="single-reflection", backend="numpy",
              colour_method=None) -> np.ndarray:
@@ -403,8 +426,10 @@ class LayeredBragg:
             Where tables and colours are computed (the transmissivity tables, the LUTs and the
             layer colours); the directions' algebra is float64 numpy.
         colour_method : str, optional
-            RGB only: the :meth:`BraggMirror.rgb` method for each layer's reflectance colour;
-            default "reference" on numpy (its fastest accurate method), "averaged" on the GPU.
+            RGB only. ``"integrated"`` (default): the colour of the spectral BRDF, integrated on
+            1 nm nodes (exact). A colour method of :meth:`BraggMirror.rgb` (e.g.
+            ``"averaged"``): the *factored* RGB of an RGB renderer, the colours of the factors
+            of eq 34 multiplied per channel, each layer's reflectance colour by that method.
 
         Returns
         -------
@@ -413,9 +438,10 @@ class LayeredBragg:
 
         Notes
         -----
-        RGB multiplies per channel the colours of the factors of eq 34 (each layer's
-        reflectance, the transmissivities, the albedo), as an RGB renderer does; the colour of
-        their spectral product differs by the correlation of the factors over wavelength.
+        Factored RGB is exact for one layer over an absorbing base (a scalar lobe times the
+        mirror's colour); otherwise the colour of a product differs from the product of the
+        colours by the factors' correlation over wavelength, which is strong between stacked
+        mirrors (light reflected by a lower layer went through the gaps of the upper one).
         """
         wi = _check_directions(wi, "wi")
         wo = _check_directions(wo, "wo")
@@ -429,12 +455,12 @@ class LayeredBragg:
     @staticmethod
     def _colour_method(colour_method, backend):
         if colour_method is None:
-            return "averaged" if backend == "gpu" else "reference"
+            return INTEGRATED
         from .colour_methods import COLOUR_METHODS
 
-        if colour_method not in COLOUR_METHODS:
-            raise ValueError(f"colour_method must be one of {tuple(COLOUR_METHODS)}, got "
-                             f"{colour_method!r}")
+        accepted = (INTEGRATED, *COLOUR_METHODS)
+        if colour_method not in accepted:
+            raise ValueError(f"colour_method must be one of {accepted}, got {colour_method!r}")
         return colour_method
 
     # ------------------------------------------------------------------ eq 35
