@@ -145,6 +145,31 @@ def test_near_smooth_layer_albedo_is_the_mirror_reflectance(filters, degrees):
     np.testing.assert_allclose(albedo, expected, rtol=0.01, atol=2e-3)
 
 
+def test_layer_seen_from_another_medium(filters):
+    """Appendix D (the jewel beetle in air): the lobe carries R from the host, the layer
+    transmits 1 - R from the host, and it must be the only layer."""
+    mirror = BraggMirror(1.59, 1.67, 81.6, 78.4, 8, host=1.0)
+    layer = rough(mirror, 0.05, filters)
+    assert not layer.ballistic and rough(A, 0.05, filters).ballistic
+    theta = np.radians([10.0, 50.0])
+    T = 1.0 - yeh_reflectance(1.59, 1.67, 81.6, 78.4, 8, 520.0, filters[0.05].theta_d,
+                              host=1.0)
+    filt = filters[0.05]
+    np.testing.assert_allclose(layer.transmissivity(theta, 520.0),
+                               np.interp(theta, filt.theta_i, filt.integrate(T)), rtol=1e-9)
+    s = LayeredBragg([layer])
+    assert s.host_index == 1.0 and not s.has_coating
+    wi, wo = direction(0.3), direction(0.5, np.pi)
+    h = (wi + wo) / np.linalg.norm(wi + wo)
+    R = yeh_reflectance(1.59, 1.67, 81.6, 78.4, 8, 520.0, np.arccos(wi @ h), host=1.0)
+    expected = ggx_D(h[2], 0.05) * ggx_G1(wi[2], 0.05) * ggx_G1(wo[2], 0.05) * R / (
+        4.0 * wi[2] * wo[2])
+    assert s.brdf(wi, wo, 520.0) == pytest.approx(expected, rel=1e-10)
+    with pytest.raises(ValueError, match="only layer"):
+        LayeredBragg([layer, rough(BraggMirror(1.0, 1.5, 10.0, 10.0, 2, host=1.0), 0.05,
+                                   filters)])
+
+
 # ---------------------------------------------------------------------- invariants
 
 

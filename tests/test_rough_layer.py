@@ -133,7 +133,6 @@ def test_n_dimensional_input(layer):
 
 
 @pytest.mark.parametrize(("make", "name"), [
-    (lambda f: RoughBraggLayer(BraggMirror(1.59, 1.67, 80.0, 80.0, 8, host=1.0), 0.2), "host"),
     (lambda f: RoughBraggLayer(MIRROR, 0.001), "alpha"),
     (lambda f: RoughBraggLayer(MIRROR, 1.5), "alpha"),
     (lambda f: RoughBraggLayer(MIRROR, 0.3, transmission_filter=f), "alpha"),

@@ -2,7 +2,8 @@
 
 ``wgbragg info`` shows the adapter and versions; ``wgbragg reflectance`` prints R for one
 mirror; ``wgbragg map`` writes a reflectance map (wavelength x angle) as a PNG; ``wgbragg bake``
-fills the LUT cache (transmission filters and colour tables, see :mod:`wgbragg.luts`).
+fills the LUT cache (transmission filters and colour tables, see :mod:`wgbragg.luts`);
+``wgbragg scatterogram`` renders the reflected hemisphere of a rough Bragg layer as a PNG.
 """
 
 from __future__ import annotations
@@ -112,6 +113,30 @@ def _bake(args) -> int:
     return 0
 
 
+def _scatterogram(args) -> int:
+    from . import BraggMirror, LayeredBragg, RoughBraggLayer
+    from .scatterogram import jewel_beetle, save_scatterogram, scatterogram
+
+    if args.preset is not None:
+        structure = jewel_beetle(args.preset)
+        label = f"jewel beetle, {args.preset} area (Table 3)"
+    else:
+        mirror = BraggMirror(n1=args.n1, n2=args.n2, d1=args.d1, d2=args.d2, N=args.periods,
+                             host=args.host)
+        structure = LayeredBragg([RoughBraggLayer(mirror, args.alpha)],
+                                 base_albedo=args.base_albedo)
+        label = (f"n1={mirror.n1:g} n2={mirror.n2:g} d1={mirror.d1:g} d2={mirror.d2:g} nm "
+                 f"N={mirror.N} alpha={args.alpha:g}")
+    start = time.perf_counter()
+    result = scatterogram(structure, np.radians(args.theta_deg), np.radians(args.phi_deg),
+                          size=args.size, backend=args.backend)
+    seconds = time.perf_counter() - start
+    title = f"{label}\nlight at {args.theta_deg:g} deg; {args.size}x{args.size} in {seconds:.1f} s"
+    save_scatterogram(result, args.output, title, exposure=args.exposure)
+    print(args.output)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="wgbragg", description=__doc__.splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
@@ -147,6 +172,30 @@ def build_parser() -> argparse.ArgumentParser:
     bake.add_argument("--no-progress", dest="progress", action="store_false",
                       help="no progress bar")
     bake.set_defaults(run=_bake)
+    scatter = commands.add_parser(
+        "scatterogram", help="reflected hemisphere of a rough Bragg layer for one light "
+        "direction, as a PNG (Fig. 9)")
+    scatter.add_argument("--preset", choices=("green", "red", "purple"), default=None,
+                         help="a jewel-beetle cuticle area of Table 3 (overrides the mirror)")
+    group = scatter.add_argument_group("Bragg layer (thicknesses in nm), without --preset")
+    group.add_argument("--n1", type=float, default=1.0)
+    group.add_argument("--n2", type=float, default=1.5)
+    group.add_argument("--d1", type=float, default=250.0)
+    group.add_argument("--d2", type=float, default=250.0)
+    group.add_argument("-N", "--periods", type=int, default=10)
+    group.add_argument("--host", type=float, default=None, help="medium above (default n1)")
+    group.add_argument("--alpha", type=float, default=0.1, help="GGX roughness")
+    group.add_argument("--base-albedo", type=float, default=None,
+                       help="grey Lambertian base (default: absorbing)")
+    scatter.add_argument("--theta-deg", type=float, default=0.0,
+                         help="polar angle of the light, degrees in [0, 90)")
+    scatter.add_argument("--phi-deg", type=float, default=0.0, help="azimuth of the light")
+    scatter.add_argument("--size", type=int, default=256, help="image size in pixels")
+    scatter.add_argument("--exposure", type=float, default=None,
+                         help="radiance scale (default: the brightest 0.5%% clip)")
+    scatter.add_argument("--backend", choices=("gpu", "numpy"), default="numpy")
+    scatter.add_argument("-o", "--output", default="out/scatterogram.png")
+    scatter.set_defaults(run=_scatterogram)
     return parser
 
 

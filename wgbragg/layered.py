@@ -193,7 +193,8 @@ class LayeredBragg:
     ----------
     layers : sequence of RoughBraggLayer
         From the top down, at least one. All share their mirrors' ``n1``, the host index of the
-        structure (>= 1).
+        structure (>= 1). A single layer may be seen from another medium (its mirror's
+        ``host``, Appendix D: the jewel beetle in air); it is then the only layer.
     base_albedo : None, float, sequence of 3 floats or (wavelength_nm, albedo), optional
         ``None``: an absorbing base. Otherwise a Lambertian base: a grey albedo, a linear sRGB
         albedo (a bounded spectrum from Mallett & Yuksel's basis in spectral evaluations), or a
@@ -225,13 +226,16 @@ class LayeredBragg:
         for layer in layers:
             if not isinstance(layer, RoughBraggLayer):
                 raise ValueError(f"layers must hold RoughBraggLayer, got {type(layer).__name__}")
-        hosts = {layer.mirror.n1 for layer in layers}
+        hosts = {layer.mirror.host for layer in layers}
         if len(hosts) != 1:
             raise ValueError(f"every layer's mirror must share n1 (the host index), got "
                              f"{sorted(hosts)}")
-        if layers[0].mirror.n1 < 1.0:
+        if layers[0].mirror.host < 1.0:
             raise ValueError(f"the host index n1 must be >= 1 (air above a coating), got "
-                             f"{layers[0].mirror.n1}")
+                             f"{layers[0].mirror.host}")
+        if len(layers) > 1 and not all(layer.ballistic for layer in layers):
+            raise ValueError("a layer whose mirror is seen from another medium (host != n1) "
+                             "transmits non-ballistically: it must be the only layer")
         object.__setattr__(self, "layers", layers)
         object.__setattr__(self, "_base", _BaseAlbedo(self.base_albedo))
         object.__setattr__(self, "_tables", {})
@@ -240,8 +244,9 @@ class LayeredBragg:
 
     @property
     def host_index(self) -> float:
-        """``n1`` of the layers' mirrors: the medium between layers and of the coating."""
-        return self.layers[0].mirror.n1
+        """The medium around the layers and of the coating: the mirrors' host, their ``n1``
+        (or, for a single layer seen from another medium, that medium: Appendix D)."""
+        return self.layers[0].mirror.host
 
     @property
     def has_coating(self) -> bool:
@@ -324,7 +329,7 @@ class LayeredBragg:
             if wavelength is None:
                 return mirror.rgb(theta_d, method=colour_method, backend=backend)
             return yeh_reflectance(mirror.n1, mirror.n2, mirror.d1, mirror.d2, mirror.N,
-                                   wavelength, theta_d, "unpolarized", host=mirror.n1)
+                                   wavelength, theta_d, "unpolarized", host=mirror.host)
         step = np.radians(LUT_RESOLUTION_DEG)
         if wavelength is None:
             table = self._reflectance_rgb_lut(layer_index, backend, colour_method)

@@ -50,7 +50,11 @@ class RoughBraggLayer:
     Parameters
     ----------
     mirror : BraggMirror
-        The mirror of every microfacet, embedded in ``n1`` (``host == n1``).
+        The mirror of every microfacet, embedded in ``n1`` (``host == n1``: the transmission is
+        ballistic, eq 22). A mirror seen from another medium (``host != n1``, Appendix D, such
+        as the jewel beetle's cuticle in air) is accepted for the paper's sec. 5 use: its
+        transmissivity is eq 28 with ``T = 1 - R`` from the host, the energy that crosses the
+        layer, whose directions are then no longer ballistic (see :attr:`ballistic`).
     alpha : float
         GGX roughness in [0.01, 1].
     transmission_filter : TransmissionFilter, optional
@@ -60,7 +64,7 @@ class RoughBraggLayer:
     Raises
     ------
     ValueError
-        If ``mirror`` is not a BraggMirror in its own ``n1``, ``alpha`` is out of range, or
+        If ``mirror`` is not a BraggMirror, ``alpha`` is out of range, or
         the filter was baked for another ``alpha``.
     """
 
@@ -72,12 +76,6 @@ class RoughBraggLayer:
     def __post_init__(self) -> None:
         if not isinstance(self.mirror, BraggMirror):
             raise ValueError(f"mirror must be a BraggMirror, got {type(self.mirror).__name__}")
-        if self.mirror.host != self.mirror.n1:
-            raise ValueError(
-                "mirror.host must equal mirror.n1: a rough Bragg layer's mirrors are embedded "
-                f"in n1 (got host={self.mirror.host}, n1={self.mirror.n1}); a different "
-                "medium above the layers is a smooth coating of the layered structure"
-            )
         object.__setattr__(self, "alpha", check_filter_alpha(self.alpha))
         given = self.transmission_filter
         if given is not None:
@@ -87,6 +85,11 @@ class RoughBraggLayer:
             if not np.isclose(given.alpha, self.alpha, rtol=1e-6, atol=0.0):
                 raise ValueError(f"transmission_filter was baked for alpha={given.alpha}, "
                                  f"the layer has alpha={self.alpha}")
+
+    @property
+    def ballistic(self) -> bool:
+        """Whether transmitted light keeps its direction (the mirror sits in its own ``n1``)."""
+        return self.mirror.host == self.mirror.n1
 
     @functools.cached_property
     def filter(self) -> TransmissionFilter:
@@ -104,7 +107,7 @@ class RoughBraggLayer:
         m = self.mirror
         theta_d = self.filter.theta_d
         return 1.0 - yeh_reflectance(m.n1, m.n2, m.d1, m.d2, m.N, wavelength_nm[..., None],
-                                     theta_d, "unpolarized", host=m.n1)
+                                     theta_d, "unpolarized", host=m.host)
 
     def transmissivity_table(self, wavelength_nm=None, backend="gpu") -> np.ndarray:
         """``f_t(theta_i) cos(theta_i)`` (eq 28) at every filter row and wavelength.
