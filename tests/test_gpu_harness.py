@@ -261,6 +261,107 @@ def test_timestamps_and_benchmark_are_positive_and_finite():
     assert np.isfinite(median) and median > 0
 
 
+# ------------------------------------------------------------------ chained dispatches
+
+TEXTURE_COPY = (
+    '//! include "harness.wgsl"\n'
+    "@group(0) @binding(0) var image: texture_2d<f32>;\n"
+    "@group(0) @binding(1) var<storage, read> scale: array<f32>;\n"
+    "@group(0) @binding(2) var<storage, read_write> out: array<vec4<f32>>;\n"
+    "@compute @workgroup_size(WORKGROUP_SIZE)\n"
+    "fn main(@builtin(global_invocation_id) gid: vec3<u32>,\n"
+    "        @builtin(num_workgroups) nwg: vec3<u32>) {\n"
+    "    let i = global_index(gid, nwg);\n"
+    "    let size = textureDimensions(image);\n"
+    "    if (i >= size.x * size.y) { return; }\n"
+    "    out[i] = scale[0] * textureLoad(image, vec2<u32>(i % size.x, i / size.x), 0);\n"
+    "}\n"
+)
+
+
+def test_chained_dispatches_share_device_arrays():
+    """saxpy twice in one submission, the second reading the first's output on the device."""
+    x = np.random.randint(0, 100, 5000).astype(np.float32)
+    y = np.random.randint(1, 100, 5000).astype(np.float32)
+    kernel = gpu.compute_pipeline("test_kernels/saxpy.wgsl")
+    on_device = gpu.DeviceArray.upload(x)
+    first = kernel.bind([on_device, y], [(x.size, np.float32)], saxpy_params(2.0))
+    second = kernel.bind([first.outputs[0], on_device], [(x.size, np.float32)], saxpy_params(3.0))
+    (out,) = gpu.submit([first, second], read=second.outputs)
+    np.testing.assert_array_equal(out, 3.0 * (2.0 * x + y) + x)
+    np.testing.assert_array_equal(first.outputs[0].read(), 2.0 * x + y)
+    # Running again with a new input overwrites the outputs it was bound to.
+    again = kernel.bind([on_device, on_device], first.outputs, saxpy_params(1.0))
+    gpu.submit([again])
+    np.testing.assert_array_equal(first.outputs[0].read(), 2.0 * x)
+
+
+def test_device_arrays_round_trip():
+    values = np.arange(12, dtype=np.int32).reshape(3, 4)
+    array = gpu.DeviceArray.upload(values)
+    assert (array.shape, array.dtype, array.is_texture) == ((3, 4), np.dtype("<i4"), False)
+    np.testing.assert_array_equal(array.read(), values)
+    empty = gpu.DeviceArray.empty((5, 2), np.uint32)
+    np.testing.assert_array_equal(empty.read(), np.zeros((5, 2), np.uint32))
+    assert gpu.DeviceArray.empty(0, np.float32).read().shape == (0,)
+    with pytest.raises(TypeError, match="float64"):
+        gpu.DeviceArray.upload(np.ones(3))
+
+
+def test_texture_inputs(tmp_shaders):
+    (tmp_shaders / "texture_copy.wgsl").write_text(TEXTURE_COPY)
+    kernel = gpu.compute_pipeline("texture_copy.wgsl")
+    assert kernel.input_textures == (True, False)
+    assert (kernel.n_inputs, kernel.n_outputs, kernel.has_params) == (2, 1, False)
+    image = np.random.standard_normal((5, 7, 4)).astype(np.float32)
+    scale = np.array([2.0], np.float32)
+    (out,) = kernel.run([image, scale], [((35, 4), np.float32)])
+    np.testing.assert_array_equal(out.reshape(5, 7, 4), 2.0 * image)
+    texture = gpu.DeviceArray.upload(image, texture=True)
+    assert texture.is_texture and texture.shape == (5, 7, 4)
+    (out,) = kernel.run([texture, scale], [((35, 4), np.float32)])
+    np.testing.assert_array_equal(out.reshape(5, 7, 4), 2.0 * image)
+    with pytest.raises(TypeError, match="texture_2d"):
+        kernel.run([gpu.DeviceArray.upload(image), scale], [((35, 4), np.float32)])
+    with pytest.raises(TypeError, match="storage buffer"):
+        kernel.run([texture, texture], [((35, 4), np.float32)])
+    with pytest.raises(TypeError, match="output 0 is a storage buffer"):
+        kernel.run([texture, scale], [texture])
+    with pytest.raises(TypeError, match="rgba32float"):
+        gpu.DeviceArray.upload(image[..., :3], texture=True)
+    with pytest.raises(ValueError, match="height and width"):
+        gpu.DeviceArray.upload(np.zeros((0, 3, 4), np.float32), texture=True)
+    with pytest.raises(TypeError, match="read back"):
+        texture.read()
+
+
+def test_texture_after_an_output_breaks_the_convention(tmp_shaders):
+    (tmp_shaders / "bad.wgsl").write_text(
+        '//! include "harness.wgsl"\n'
+        "@group(0) @binding(0) var<storage, read_write> out: array<f32>;\n"
+        "@group(0) @binding(1) var image: texture_2d<f32>;\n"
+        "@compute @workgroup_size(WORKGROUP_SIZE) fn main() {\n"
+        "    out[0] = textureLoad(image, vec2<u32>(0u, 0u), 0).x;\n"
+        "}\n"
+    )
+    with pytest.raises(gpu.ShaderCompileError, match="binding convention"):
+        gpu.compute_pipeline("bad.wgsl")
+
+
+def test_benchmark_times_each_dispatch():
+    n = 1 << 16
+    x = np.ones(n, np.float32)
+    kernel = gpu.compute_pipeline("test_kernels/saxpy.wgsl")
+    first = kernel.bind([x, x], [(n, np.float32)], saxpy_params(2.0))
+    second = kernel.bind([first.outputs[0], x], [(n, np.float32)], saxpy_params(2.0))
+    seconds = gpu.benchmark([first, second], repeats=3)
+    assert len(seconds) == 2
+    assert all(np.isfinite(s) and s > 0 for s in seconds)
+    np.testing.assert_array_equal(second.outputs[0].read(), np.full(n, 7.0, np.float32))
+    with pytest.raises(ValueError, match=r"1\.\.1024"):
+        gpu.benchmark([first, second], repeats=1025)
+
+
 # ------------------------------------------------------------------ adapters
 
 ADAPTERS = [

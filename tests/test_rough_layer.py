@@ -7,12 +7,13 @@ the App. C identity they obey is tested in test_transmission_filter.py.
 
 from __future__ import annotations
 
+import gc
 import math
 
 import numpy as np
 import pytest
 
-from wgbragg import BraggMirror, RoughBraggLayer
+from wgbragg import BraggMirror, RoughBraggLayer, rough_layer
 from wgbragg.colorimetry import xyz_weights
 from wgbragg.microfacet import ggx_G1
 from wgbragg.optics import yeh_reflectance
@@ -87,6 +88,70 @@ def test_gpu_table_matches_numpy(layer):
     np.testing.assert_allclose(gpu, reference, atol=2e-5)
     np.testing.assert_allclose(layer.transmissivity(THETA, 450.0, backend="gpu"),
                                layer.transmissivity(THETA, 450.0), atol=2e-5)
+
+
+@pytest.mark.gpu
+@pytest.mark.parametrize("count", [1, 95, 96, 97, 1000])
+def test_gpu_table_matches_numpy_on_any_grid(layer, count):
+    """Wavelength counts that fill the product pass's blocks (96 per workgroup) or not; the
+    filter's 91 rows are not a multiple of its 16 rows per workgroup either."""
+    wavelength = np.linspace(380.0, 780.0, count)
+    np.testing.assert_allclose(layer.transmissivity_table(wavelength, "gpu"),
+                               layer.transmissivity_table(wavelength, "numpy"), atol=2e-5)
+
+
+@pytest.mark.gpu
+def test_gpu_table_pads_the_difference_angles():
+    """alpha = 0.01 has 474 difference angles, not a whole number of vec4s."""
+    filt = TransmissionFilter.bake(0.01, resolution_deg=1.0, psi_samples=64, backend="numpy")
+    assert filt.theta_d.size % 4 != 0
+    rough = RoughBraggLayer(MIRROR, 0.01, transmission_filter=filt)
+    wavelength = np.linspace(380.0, 780.0, 41)
+    np.testing.assert_allclose(rough.transmissivity_table(wavelength, "gpu"),
+                               rough.transmissivity_table(wavelength, "numpy"), atol=2e-5)
+
+
+@pytest.mark.gpu
+def test_gpu_table_of_no_wavelengths_is_empty(layer):
+    assert layer.transmissivity_table(np.zeros(0), "gpu").shape == (layer.filter.theta_i.size, 0)
+
+
+@pytest.mark.gpu
+def test_gpu_weights_are_uploaded_once_per_filter(filt):
+    """Another mirror with the same filter reuses the filter's weights on the GPU."""
+    wavelength = np.linspace(380.0, 780.0, 41)
+    RoughBraggLayer(MIRROR, 0.2, transmission_filter=filt).transmissivity_table(wavelength)
+    on_gpu = rough_layer._filters_on_gpu[id(filt)]
+    other = RoughBraggLayer(BraggMirror(1.0, 1.7, 90.0, 130.0, 5), 0.2, transmission_filter=filt)
+    np.testing.assert_allclose(other.transmissivity_table(wavelength, "gpu"),
+                               other.transmissivity_table(wavelength, "numpy"), atol=2e-5)
+    assert rough_layer._filters_on_gpu[id(filt)] is on_gpu
+
+
+@pytest.mark.gpu
+def test_gpu_weights_follow_the_filter():
+    """Each filter's own weights, also when a new filter takes the memory (and so the id) of
+    a dropped one; a dropped filter's GPU copy goes with it."""
+    wavelength = np.linspace(380.0, 780.0, 41)
+    keys = []
+    for alpha, resolution, psi_samples in ((0.2, 3.0, 16), (0.5, 3.0, 16), (0.5, 3.0, 64),
+                                           (0.5, 2.0, 16)):
+        filt = TransmissionFilter.bake(alpha, resolution_deg=resolution, psi_samples=psi_samples,
+                                       backend="numpy")
+        rough = RoughBraggLayer(MIRROR, alpha, transmission_filter=filt)
+        np.testing.assert_allclose(rough.transmissivity_table(wavelength, "gpu"),
+                                   rough.transmissivity_table(wavelength, "numpy"), atol=2e-5)
+        keys.append(id(filt))
+        del rough, filt
+        gc.collect()
+        assert keys[-1] not in rough_layer._filters_on_gpu
+
+
+@pytest.mark.gpu
+def test_benchmark_table_times_both_passes(layer):
+    seconds = layer.benchmark_table(np.linspace(380.0, 780.0, 41), repeats=2)
+    assert len(seconds) == 2
+    assert all(np.isfinite(s) and s > 0.0 for s in seconds)
 
 
 @pytest.mark.gpu

@@ -7,10 +7,11 @@ and :class:`Kernel` objects that upload numpy arrays, dispatch and read back.
 
 Binding convention
 ------------------
-Every entry-point kernel run through :meth:`Kernel.run` declares its buffers in
+Every entry-point kernel run through :meth:`Kernel.run` declares its bindings in
 ``@group(0)``, in this order:
 
-- inputs at bindings ``0 .. k-1`` as ``var<storage, read>``,
+- inputs at bindings ``0 .. k-1`` as ``var<storage, read>`` or as
+  ``texture_2d<f32>`` (an ``rgba32float`` texture, read with ``textureLoad``),
 - outputs at bindings ``k .. k+m-1`` as ``var<storage, read_write>``,
 - optionally one params struct at binding ``k+m`` as ``var<uniform>``.
 
@@ -22,9 +23,9 @@ Arrays are uploaded as contiguous little-endian bytes. Allowed dtypes are
 float32, int32, uint32 and structured dtypes whose itemsize is a multiple of 4;
 vector element types are a trailing axis, e.g. ``(n, 4)`` float32 for
 ``array<vec4<f32>>``. In storage arrays ``vec3<f32>`` has a 16-byte stride, so
-pass ``(n, 4)`` for it too. The params struct is a numpy structured scalar or
-1-element array; build its dtype with :func:`struct_dtype` so that the offsets
-follow WGSL's uniform layout.
+pass ``(n, 4)`` for it too. Texture inputs take ``(height, width, 4)`` float32.
+The params struct is a numpy structured scalar or 1-element array; build its
+dtype with :func:`struct_dtype` so that the offsets follow WGSL's uniform layout.
 
 Dispatch
 --------
@@ -38,6 +39,19 @@ The harness dispatches ``G = ceil(count / WORKGROUP_SIZE)`` workgroups as
 take ``@builtin(global_invocation_id)`` and ``@builtin(num_workgroups)``, and
 must bounds-check the index (``arrayLength(&out)``, or a count in params),
 because the last row of workgroups is over-dispatched.
+
+Chained dispatches
+------------------
+:meth:`Kernel.run` uploads, dispatches and reads back in one go. To keep data on
+the device between kernels, bind arguments with :meth:`Kernel.bind`: inputs and
+outputs may be :class:`DeviceArray` objects (uploaded once and reused, or the
+outputs of an earlier :class:`Dispatch`), and :func:`submit` runs several
+dispatches in order in one submission and reads back only the arrays asked for;
+:func:`benchmark` times each of them with GPU timestamps::
+
+    first = kernel_a.bind([x], [(n, np.float32)], params_a)
+    second = kernel_b.bind([first.outputs[0], weights], [(n, np.float32)])
+    (result,) = submit([first, second], read=second.outputs)
 
 Environment
 -----------
@@ -66,10 +80,13 @@ import numpy as np
 import wgpu
 
 __all__ = [
+    "DeviceArray",
+    "Dispatch",
     "Kernel",
     "ShaderCompileError",
     "ShaderSource",
     "adapter_info",
+    "benchmark",
     "compute_pipeline",
     "get_device",
     "load_shader",
@@ -77,10 +94,13 @@ __all__ = [
     "select_adapter",
     "shader_dir",
     "struct_dtype",
+    "submit",
 ]
 
 DEFAULT_WORKGROUP_SIZE = 64
 """WORKGROUP_SIZE the harness sets when the caller's constants do not."""
+
+_MAX_QUERIES = 4096  # WebGPU's limit on the size of a query set
 
 _OPTIONAL_FEATURES = ("timestamp-query", "shader-f64")
 
@@ -425,7 +445,7 @@ def struct_dtype(fields: Sequence[tuple[str, str]]) -> np.dtype:
 _COMMENT_RE = re.compile(r"/\*.*?\*/|//[^\n]*", re.DOTALL)
 _BINDING_RE = re.compile(
     r"@(group|binding)\s*\(\s*(\d+)\s*\)\s*@(group|binding)\s*\(\s*(\d+)\s*\)\s*"
-    r"var\s*<\s*(\w+)\s*(?:,\s*(\w+)\s*)?>"
+    r"var\s*(?:<\s*(\w+)\s*(?:,\s*(\w+)\s*)?>|\w+\s*:\s*(texture_2d\s*<\s*f32\s*>))"
 )
 _OVERRIDE_RE = re.compile(r"(?:@id\s*\(\s*\d+\s*\)\s*)?override\s+(\w+)")
 _LOCATION_RE = re.compile(r"(┌─\s*)\S*?:(\d+):(\d+)")
@@ -440,14 +460,17 @@ def _strip_comments(code: str) -> str:
     return _COMMENT_RE.sub(lambda m: re.sub(r"[^\n]", " ", m.group(0)), code)
 
 
-def _reflect_bindings(source: ShaderSource) -> tuple[int, int, bool]:
-    """(inputs, outputs, has_params) declared by ``source``, checked against the convention."""
+def _reflect_bindings(source: ShaderSource) -> str:
+    """One letter per binding of ``source``, checked against the convention: ``r`` storage
+    read, ``t`` texture_2d<f32>, ``w`` storage read_write, ``u`` uniform."""
     code = _strip_comments(source.code)
     found = []
     for m in _BINDING_RE.finditer(code):
         attrs = {m.group(1): int(m.group(2)), m.group(3): int(m.group(4))}
         space, access = m.group(5), m.group(6) or "read"
         kind = {"storage": access, "uniform": "uniform"}.get(space, space)
+        if m.group(7):
+            kind = "texture"
         found.append((attrs.get("binding", -1), attrs.get("group", -1), kind))
     found.sort()
 
@@ -456,15 +479,20 @@ def _reflect_bindings(source: ShaderSource) -> tuple[int, int, bool]:
         return ShaderCompileError(*source.locate(line), f"binding convention: {detail}")
 
     if len(found) != len(re.findall(r"@binding\s*\(", code)):
-        raise fail("only var<storage, read>, var<storage, read_write> and var<uniform> buffers")
+        raise fail(
+            "only var<storage, read>, var<storage, read_write> and var<uniform> buffers and "
+            "texture_2d<f32> textures"
+        )
     if [b for b, _, _ in found] != list(range(len(found))) or any(g != 0 for _, g, _ in found):
         raise fail(f"bindings must be @group(0) @binding(0..n-1), got {found}")
-    kinds = "".join({"read": "r", "read_write": "w", "uniform": "u"}.get(k, "?") for *_, k in found)
-    if re.fullmatch(r"r*w*u?", kinds) is None:
+    letters = {"read": "r", "texture": "t", "read_write": "w", "uniform": "u"}
+    kinds = "".join(letters.get(k, "?") for *_, k in found)
+    if re.fullmatch(r"[rt]*w*u?", kinds) is None:
         raise fail(
-            f"order must be inputs (read), outputs (read_write), params (uniform); got {found}"
+            "order must be inputs (read, texture_2d<f32>), outputs (read_write), "
+            f"params (uniform); got {found}"
         )
-    return kinds.count("r"), kinds.count("w"), "u" in kinds
+    return kinds
 
 
 def _wrap_gpu_error(source: ShaderSource, exc: Exception, entry: str) -> ShaderCompileError:
@@ -532,20 +560,21 @@ def compute_pipeline(
         If a constant names no ``override`` of the shader.
     """
     source = load_shader(name)
+    merged = {"WORKGROUP_SIZE": DEFAULT_WORKGROUP_SIZE, **(constants or {})}
+    key = (source.code, entry, tuple(sorted(merged.items())))
+    kernel = _pipeline_cache.get(key)
+    if kernel is not None:
+        # Checked when it was built: scanning the source again costs ~1 ms per call.
+        _cache_stats["hits"] += 1
+        return kernel
     declared = set(_OVERRIDE_RE.findall(_strip_comments(source.code)))
     if "WORKGROUP_SIZE" not in declared:
         raise ValueError(f'{name}: declares no `override WORKGROUP_SIZE`; include "harness.wgsl"')
-    merged = {"WORKGROUP_SIZE": DEFAULT_WORKGROUP_SIZE, **(constants or {})}
     unknown = sorted(k for k in merged if k not in declared and not k.isdigit())
     if unknown:
         raise ValueError(
             f"{name}: unknown override constants {unknown}; shader declares {sorted(declared)}"
         )
-    key = (source.code, entry, tuple(sorted(merged.items())))
-    kernel = _pipeline_cache.get(key)
-    if kernel is not None:
-        _cache_stats["hits"] += 1
-        return kernel
     _cache_stats["misses"] += 1
     kernel = Kernel(source, entry, merged)
     _pipeline_cache[key] = kernel
@@ -605,16 +634,6 @@ def _timestamp_period(device: wgpu.GPUDevice) -> float:
     except Exception:
         return 1.0
 
-
-@dataclasses.dataclass
-class _Bound:
-    """Buffers and bind group of one set of arguments, reusable across dispatches."""
-
-    bind_group: Any
-    outputs: list[tuple[Any, tuple[int, ...], np.dtype]]
-    count: int
-
-
 class Kernel:
     """A compiled compute pipeline following the harness binding convention.
 
@@ -629,6 +648,8 @@ class Kernel:
     workgroup_size : int
     n_inputs, n_outputs : int
     has_params : bool
+    input_textures : tuple of bool
+        Which inputs are declared ``texture_2d<f32>`` rather than storage buffers.
     """
 
     def __init__(self, source: ShaderSource, entry: str, constants: Mapping[str, Any]):
@@ -636,23 +657,27 @@ class Kernel:
         self.entry = entry
         self.constants = dict(constants)
         self.workgroup_size = int(self.constants["WORKGROUP_SIZE"])
-        self.n_inputs, self.n_outputs, self.has_params = _reflect_bindings(source)
+        kinds = _reflect_bindings(source)
+        self.n_inputs = sum(k in "rt" for k in kinds)
+        self.n_outputs = kinds.count("w")
+        self.has_params = "u" in kinds
+        self.input_textures = tuple(k == "t" for k in kinds[: self.n_inputs])
         device = get_device()
         self._device = device
-        storage = wgpu.BufferBindingType
-        kinds = (
-            [storage.read_only_storage] * self.n_inputs
-            + [storage.storage] * self.n_outputs
-            + [storage.uniform] * self.has_params
-        )
+        buffer_type = {
+            "r": wgpu.BufferBindingType.read_only_storage,
+            "w": wgpu.BufferBindingType.storage,
+            "u": wgpu.BufferBindingType.uniform,
+        }
+        texture = {"sample_type": wgpu.TextureSampleType.unfilterable_float, "view_dimension": "2d"}
+        entries = [
+            {"binding": i, "visibility": wgpu.ShaderStage.COMPUTE}
+            | ({"texture": texture} if k == "t" else {"buffer": {"type": buffer_type[k]}})
+            for i, k in enumerate(kinds)
+        ]
         try:
             module = device.create_shader_module(label=source.name, code=source.code)
-            self._layout = device.create_bind_group_layout(
-                entries=[
-                    {"binding": i, "visibility": wgpu.ShaderStage.COMPUTE, "buffer": {"type": k}}
-                    for i, k in enumerate(kinds)
-                ]
-            )
+            self._layout = device.create_bind_group_layout(entries=entries)
             self.pipeline = device.create_compute_pipeline(
                 label=f"{source.name}:{entry}",
                 layout=device.create_pipeline_layout(bind_group_layouts=[self._layout]),
@@ -666,7 +691,6 @@ class Kernel:
         except wgpu.GPUError as exc:
             raise _wrap_gpu_error(source, exc, entry) from None
         self._max_groups = int(device.limits["max-compute-workgroups-per-dimension"])
-        self._has_timestamps = "timestamp-query" in device.features
 
     def __repr__(self) -> str:
         return f"Kernel({self.source.name!r}, entry={self.entry!r}, constants={self.constants})"
@@ -680,7 +704,8 @@ class Kernel:
             return int(count)
         if not outputs:
             raise ValueError("count= is required for a kernel without outputs")
-        shape = outputs[0][0]
+        first = outputs[0]
+        shape = first.shape if isinstance(first, DeviceArray) else first[0]
         shape = (shape,) if isinstance(shape, int | np.integer) else tuple(shape)
         return int(shape[0]) if shape else 1
 
@@ -693,39 +718,27 @@ class Kernel:
                 f"params={want[2]}; got {got[0]} inputs, {got[1]} outputs, params={got[2]}"
             )
 
-    def _bind(self, inputs, outputs, params, count) -> _Bound:
-        device = self._device
-        usage = wgpu.BufferUsage
-        buffers = [
-            device.create_buffer_with_data(
-                data=_as_bytes(a, f"input {i}", 4), usage=usage.STORAGE | usage.COPY_DST
-            )
-            for i, a in enumerate(inputs)
-        ]
-        out = []
-        for i, (shape, dtype) in enumerate(outputs):
-            shape = (int(shape),) if isinstance(shape, int | np.integer) else tuple(shape)
-            dtype = _check_dtype(dtype, f"output {i}")
-            nbytes = math.prod(shape) * dtype.itemsize
-            buf = device.create_buffer(
-                size=_padded_size(nbytes), usage=usage.STORAGE | usage.COPY_SRC
-            )
-            buffers.append(buf)
-            out.append((buf, shape, dtype))
-        if params is not None:
-            buffers.append(
-                device.create_buffer_with_data(
-                    data=_as_bytes(params, "params", 16), usage=usage.UNIFORM | usage.COPY_DST
-                )
-            )
-        bind_group = device.create_bind_group(
-            layout=self._layout,
-            entries=[
-                {"binding": i, "resource": {"buffer": b, "offset": 0, "size": b.size}}
-                for i, b in enumerate(buffers)
-            ],
-        )
-        return _Bound(bind_group, out, count)
+    def _input(self, i: int, array) -> DeviceArray:
+        texture = self.input_textures[i]
+        if not isinstance(array, DeviceArray):
+            try:
+                return DeviceArray.upload(array, texture=texture)
+            except (TypeError, ValueError) as exc:
+                raise type(exc)(f"{self.source.name}: input {i}: {exc}") from None
+        if array.is_texture != texture:
+            want = "a texture_2d<f32>" if texture else "a storage buffer"
+            raise TypeError(f"{self.source.name}: input {i} is {want}, got {array!r}")
+        return array
+
+    def _output(self, i: int, output) -> DeviceArray:
+        if not isinstance(output, DeviceArray):
+            try:
+                return DeviceArray.empty(*output)
+            except TypeError as exc:
+                raise TypeError(f"{self.source.name}: output {i}: {exc}") from None
+        if output.is_texture:
+            raise TypeError(f"{self.source.name}: output {i} is a storage buffer, got {output!r}")
+        return output
 
     def _grid(self, count: int) -> tuple[int, int, int]:
         groups = -(-count // self.workgroup_size)
@@ -734,65 +747,63 @@ class Kernel:
             raise ValueError(f"count {count} needs more than {self._max_groups}**2 workgroups")
         return gx, gy, 1
 
-    def _dispatch(self, bound: _Bound, repeats: int, timestamps: bool) -> list[float]:
-        """Encode ``repeats`` passes in one submission; seconds per pass if timed."""
-        device = self._device
-        grid = self._grid(bound.count)
-        encoder = device.create_command_encoder()
-        use_queries = timestamps and self._has_timestamps
-        if use_queries:
-            query_set = device.create_query_set(type="timestamp", count=2 * repeats)
-        for r in range(repeats):
-            writes = None
-            if use_queries:
-                writes = {
-                    "query_set": query_set,
-                    "beginning_of_pass_write_index": 2 * r,
-                    "end_of_pass_write_index": 2 * r + 1,
-                }
-            compute_pass = encoder.begin_compute_pass(timestamp_writes=writes)
-            compute_pass.set_pipeline(self.pipeline)
-            compute_pass.set_bind_group(0, bound.bind_group)
-            compute_pass.dispatch_workgroups(*grid)
-            compute_pass.end()
-        if not timestamps:
-            device.queue.submit([encoder.finish()])
-            return []
-        if use_queries:
-            resolved = device.create_buffer(
-                size=16 * repeats, usage=wgpu.BufferUsage.QUERY_RESOLVE | wgpu.BufferUsage.COPY_SRC
-            )
-            encoder.resolve_query_set(query_set, 0, 2 * repeats, resolved, 0)
-            device.queue.submit([encoder.finish()])
-            ticks = np.frombuffer(device.queue.read_buffer(resolved), np.uint64).astype(np.int64)
-            period_s = _timestamp_period(device) * 1e-9
-            return [float(d) * period_s for d in ticks[1::2] - ticks[0::2]]
-        # No timestamp-query on this adapter: host wall clock up to a 4-byte readback.
-        warnings.warn(
-            "adapter lacks timestamp-query; timing with the host clock",
-            RuntimeWarning,
-            stacklevel=3,
-        )
-        start = time.perf_counter()
-        device.queue.submit([encoder.finish()])
-        device.queue.read_buffer(bound.outputs[0][0], 0, 4)
-        return [(time.perf_counter() - start) / repeats] * repeats
-
-    def _read(self, bound: _Bound) -> list[np.ndarray]:
-        result = []
-        for buf, shape, dtype in bound.outputs:
-            nbytes = math.prod(shape) * dtype.itemsize
-            raw = self._device.queue.read_buffer(buf)
-            data = np.frombuffer(raw, np.uint8, count=nbytes).copy()
-            result.append(data.view(dtype).reshape(shape))
-        return result
-
     # ---- public
+
+    def bind(
+        self,
+        inputs: Sequence[np.ndarray | DeviceArray],
+        outputs: Sequence[tuple[tuple[int, ...] | int, Any] | DeviceArray],
+        params: np.ndarray | None = None,
+        *,
+        count: int | None = None,
+    ) -> Dispatch:
+        """Bind arguments for :func:`submit` and :func:`benchmark`, uploading what is not
+        on the device yet.
+
+        Parameters
+        ----------
+        inputs : sequence of numpy.ndarray or DeviceArray
+            Bound at bindings ``0 .. k-1``; arrays are uploaded (as textures where the kernel
+            declares ``texture_2d<f32>``).
+        outputs : sequence of (shape, dtype) or DeviceArray
+            The read_write buffers at ``k .. k+m-1``: new zero-filled ones, or existing ones
+            (e.g. to be overwritten on every run).
+        params : numpy.ndarray, optional
+            Structured scalar or 1-element array bound as the uniform at ``k+m``.
+        count : int, optional
+            Number of invocations; default: first axis of the first output.
+
+        Returns
+        -------
+        Dispatch
+        """
+        self._check_arity(inputs, outputs, params)
+        n = self._count(outputs, count)
+        device = self._device
+        resources = [self._input(i, a) for i, a in enumerate(inputs)]
+        out = tuple(self._output(i, o) for i, o in enumerate(outputs))
+        bindings: list[Any] = [a.resource for a in (*resources, *out)]
+        if params is not None:
+            bindings.append(
+                device.create_buffer_with_data(
+                    data=_as_bytes(params, "params", 16),
+                    usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST,
+                )
+            )
+        entries = [
+            {"binding": i, "resource": r.create_view()}
+            if isinstance(r, wgpu.GPUTexture)
+            else {"binding": i, "resource": {"buffer": r, "offset": 0, "size": r.size}}
+            for i, r in enumerate(bindings)
+        ]
+        bind_group = device.create_bind_group(layout=self._layout, entries=entries)
+        grid = self._grid(n) if n else (0, 1, 1)
+        return Dispatch(self, out, n, grid, bind_group)
 
     def run(
         self,
-        inputs: Sequence[np.ndarray],
-        outputs: Sequence[tuple[tuple[int, ...] | int, Any]],
+        inputs: Sequence[np.ndarray | DeviceArray],
+        outputs: Sequence[tuple[tuple[int, ...] | int, Any] | DeviceArray],
         params: np.ndarray | None = None,
         *,
         count: int | None = None,
@@ -802,11 +813,11 @@ class Kernel:
 
         Parameters
         ----------
-        inputs : sequence of numpy.ndarray
+        inputs : sequence of numpy.ndarray or DeviceArray
             Bound read-only at bindings ``0 .. k-1``.
-        outputs : sequence of (shape, dtype)
+        outputs : sequence of (shape, dtype) or DeviceArray
             Shapes and dtypes of the read_write buffers at ``k .. k+m-1``
-            (zero-initialised).
+            (zero-initialised), or existing buffers.
         params : numpy.ndarray, optional
             Structured scalar or 1-element array bound as the uniform at ``k+m``.
         count : int, optional
@@ -825,18 +836,22 @@ class Kernel:
         if n == 0:
             # wgpu rejects zero-size buffers; nothing would run anyway.
             empty = [
-                np.zeros(s, _check_dtype(d, f"output {i}")) for i, (s, d) in enumerate(outputs)
+                np.zeros(o.shape, o.dtype)
+                if isinstance(o, DeviceArray)
+                else np.zeros(o[0], _check_dtype(o[1], f"output {i}"))
+                for i, o in enumerate(outputs)
             ]
             return (empty, 0.0) if timestamps else empty
-        bound = self._bind(inputs, outputs, params, n)
-        seconds = self._dispatch(bound, 1, timestamps)
-        result = self._read(bound)
-        return (result, seconds[0]) if timestamps else result
+        dispatch = self.bind(inputs, outputs, params, count=n)
+        if not timestamps:
+            return submit([dispatch], read=dispatch.outputs)
+        seconds = _timings([dispatch], 1)[0][0]
+        return submit([], read=dispatch.outputs), seconds
 
     def benchmark(
         self,
-        inputs: Sequence[np.ndarray],
-        outputs: Sequence[tuple[tuple[int, ...] | int, Any]],
+        inputs: Sequence[np.ndarray | DeviceArray],
+        outputs: Sequence[tuple[tuple[int, ...] | int, Any] | DeviceArray],
         params: np.ndarray | None = None,
         *,
         repeats: int = 10,
@@ -857,12 +872,275 @@ class Kernel:
             Median duration of the compute pass in seconds, from GPU timestamps
             (host clock, with a warning, where the adapter has none).
         """
-        if not 1 <= repeats <= 2048:
-            raise ValueError(f"repeats must be in 1..2048, got {repeats}")
+        if not 1 <= repeats <= _MAX_QUERIES // 2:
+            raise ValueError(f"repeats must be in 1..{_MAX_QUERIES // 2}, got {repeats}")
         self._check_arity(inputs, outputs, params)
-        n = self._count(outputs, count)
-        if n == 0:
+        if self._count(outputs, count) == 0:
             return 0.0
-        bound = self._bind(inputs, outputs, params, n)
-        self._dispatch(bound, 1, False)
-        return statistics.median(self._dispatch(bound, repeats, True))
+        return benchmark([self.bind(inputs, outputs, params, count=count)], repeats)[0]
+
+
+# --------------------------------------------------------------------------- chained dispatches
+
+
+class DeviceArray:
+    """An array kept on the device, so that dispatches can be chained without host round trips.
+
+    A storage buffer holds any shape of the dtypes the harness allows (see the module
+    docstring); a texture holds ``(height, width, 4)`` float32 as ``rgba32float``, for the
+    inputs a kernel declares ``texture_2d<f32>`` and reads with ``textureLoad``. Make one with
+    :meth:`upload` or :meth:`empty`, or take the outputs of a :class:`Dispatch`; read a buffer
+    back with :meth:`read` or :func:`submit` (textures are inputs only).
+
+    Attributes
+    ----------
+    shape : tuple of int
+    dtype : numpy.dtype
+    is_texture : bool
+    resource : wgpu.GPUBuffer or wgpu.GPUTexture
+    """
+
+    def __init__(self, resource: Any, shape: tuple[int, ...], dtype: np.dtype, is_texture: bool):
+        self.resource = resource
+        self.shape = shape
+        self.dtype = dtype
+        self.is_texture = is_texture
+
+    def __repr__(self) -> str:
+        kind = "texture" if self.is_texture else "buffer"
+        return f"DeviceArray({kind}, shape={self.shape}, dtype={self.dtype})"
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the array (the buffer may be padded beyond them)."""
+        return math.prod(self.shape) * self.dtype.itemsize
+
+    @classmethod
+    def upload(cls, array: np.ndarray, *, texture: bool = False) -> DeviceArray:
+        """Copy ``array`` to a new storage buffer, or to an ``rgba32float`` texture.
+
+        Parameters
+        ----------
+        array : numpy.ndarray
+            For a buffer: a dtype the harness allows. For a texture: float32 of shape
+            ``(height, width, 4)``, both at most the device's ``max-texture-dimension-2d``.
+        texture : bool
+            Make a texture (for ``texture_2d<f32>`` inputs) instead of a buffer.
+
+        Returns
+        -------
+        DeviceArray
+        """
+        device = get_device()
+        array = np.asarray(array)
+        if not texture:
+            data = _as_bytes(array, "array", 4)
+            usage = wgpu.BufferUsage.STORAGE | wgpu.BufferUsage.COPY_DST | wgpu.BufferUsage.COPY_SRC
+            buffer = device.create_buffer_with_data(data=data, usage=usage)
+            return cls(buffer, array.shape, _check_dtype(array.dtype, "array"), False)
+        if array.dtype != np.float32 or array.ndim != 3 or array.shape[2] != 4:
+            raise TypeError(
+                f"a texture takes (height, width, 4) float32 (rgba32float); got shape "
+                f"{array.shape}, dtype {array.dtype}"
+            )
+        height, width = array.shape[:2]
+        largest = int(device.limits["max-texture-dimension-2d"])
+        if not (0 < height <= largest and 0 < width <= largest):
+            raise ValueError(
+                f"a texture's height and width must be in 1..{largest} on this device, got "
+                f"shape {array.shape}"
+            )
+        texture_object = device.create_texture(
+            size=(width, height, 1),
+            format=wgpu.TextureFormat.rgba32float,
+            usage=wgpu.TextureUsage.TEXTURE_BINDING | wgpu.TextureUsage.COPY_DST,
+        )
+        device.queue.write_texture(
+            {"texture": texture_object},
+            np.ascontiguousarray(array, "<f4").tobytes(),
+            {"bytes_per_row": 16 * width, "rows_per_image": height},
+            (width, height, 1),
+        )
+        return cls(texture_object, array.shape, np.dtype("<f4"), True)
+
+    @classmethod
+    def empty(cls, shape: tuple[int, ...] | int, dtype: Any) -> DeviceArray:
+        """A new zero-filled storage buffer.
+
+        Parameters
+        ----------
+        shape : int or tuple of int
+        dtype : numpy.dtype
+            One the harness allows.
+
+        Returns
+        -------
+        DeviceArray
+        """
+        shape = (int(shape),) if isinstance(shape, int | np.integer) else tuple(shape)
+        dtype = _check_dtype(dtype, "array")
+        usage = wgpu.BufferUsage
+        buffer = get_device().create_buffer(
+            size=_padded_size(math.prod(shape) * dtype.itemsize),
+            usage=usage.STORAGE | usage.COPY_DST | usage.COPY_SRC,
+        )
+        return cls(buffer, shape, dtype, False)
+
+    def read(self) -> np.ndarray:
+        """Copy the buffer back to the host: :func:`submit` with no dispatch."""
+        return submit([], read=[self])[0]
+
+
+@dataclasses.dataclass(frozen=True)
+class Dispatch:
+    """One kernel dispatch with its arguments bound, made by :meth:`Kernel.bind`.
+
+    Run it with :func:`submit` or time it with :func:`benchmark`, alone or after other
+    dispatches; it can run any number of times.
+
+    Attributes
+    ----------
+    kernel : Kernel
+    outputs : tuple of DeviceArray
+        Its read_write buffers in binding order: inputs of a later dispatch, or arrays to read.
+    count : int
+        Invocations (0: the dispatch does nothing).
+    grid : tuple of int
+        Workgroups dispatched along x, y, z.
+    bind_group : wgpu.GPUBindGroup
+    """
+
+    kernel: Kernel
+    outputs: tuple[DeviceArray, ...]
+    count: int
+    grid: tuple[int, int, int]
+    bind_group: Any = dataclasses.field(repr=False)
+
+
+def _record(encoder: Any, dispatches: Sequence[Dispatch], repeats: int, query_set: Any) -> None:
+    """Encode ``repeats`` rounds of ``dispatches``, one compute pass each (so that each sees
+    what the one before wrote), with begin/end timestamps when ``query_set`` is given."""
+    for r in range(repeats):
+        for j, dispatch in enumerate(dispatches):
+            writes = None
+            if query_set is not None:
+                first = 2 * (r * len(dispatches) + j)
+                writes = {
+                    "query_set": query_set,
+                    "beginning_of_pass_write_index": first,
+                    "end_of_pass_write_index": first + 1,
+                }
+            compute_pass = encoder.begin_compute_pass(timestamp_writes=writes)
+            if dispatch.count:
+                compute_pass.set_pipeline(dispatch.kernel.pipeline)
+                compute_pass.set_bind_group(0, dispatch.bind_group)
+                compute_pass.dispatch_workgroups(*dispatch.grid)
+            compute_pass.end()
+
+
+def _stage(encoder: Any, arrays: Sequence[DeviceArray]) -> list[Any]:
+    """Encode copies of ``arrays`` into new mappable buffers."""
+    device = get_device()
+    staging = []
+    for array in arrays:
+        if array.is_texture:
+            raise TypeError("textures are kernel inputs only and cannot be read back")
+        size = array.resource.size
+        buffer = device.create_buffer(
+            size=size, usage=wgpu.BufferUsage.MAP_READ | wgpu.BufferUsage.COPY_DST
+        )
+        encoder.copy_buffer_to_buffer(array.resource, 0, buffer, 0, size)
+        staging.append(buffer)
+    return staging
+
+
+def _unstage(staging: Sequence[Any], arrays: Sequence[DeviceArray]) -> list[np.ndarray]:
+    result = []
+    for buffer, array in zip(staging, arrays, strict=True):
+        buffer.map_sync(wgpu.MapMode.READ)
+        raw = np.frombuffer(buffer.read_mapped(copy=False), np.uint8, count=array.nbytes).copy()
+        buffer.unmap()
+        result.append(raw.view(array.dtype).reshape(array.shape))
+    return result
+
+
+def submit(dispatches: Sequence[Dispatch], read: Sequence[DeviceArray] = ()) -> list[np.ndarray]:
+    """Run ``dispatches`` in order in one command submission, then read arrays back.
+
+    Parameters
+    ----------
+    dispatches : sequence of Dispatch
+        Each runs in its own compute pass, so it sees what the ones before it wrote.
+    read : sequence of DeviceArray
+        Buffers to copy back after the last dispatch, in the same submission.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        Copies of ``read``, with their shapes and dtypes. Without ``read`` this returns as
+        soon as the work is submitted.
+    """
+    encoder = get_device().create_command_encoder()
+    _record(encoder, dispatches, 1, None)
+    staging = _stage(encoder, read)
+    get_device().queue.submit([encoder.finish()])
+    return _unstage(staging, read)
+
+
+def _timings(dispatches: Sequence[Dispatch], repeats: int) -> list[list[float]]:
+    """Seconds of each of ``repeats`` runs of each dispatch, all in one submission."""
+    device = get_device()
+    if "timestamp-query" not in device.features:
+        # No timestamp-query on this adapter: host wall clock, each dispatch on its own, up to
+        # a 4-byte readback.
+        warnings.warn(
+            "adapter lacks timestamp-query; timing with the host clock",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+        seconds = []
+        for dispatch in dispatches:
+            encoder = device.create_command_encoder()
+            _record(encoder, [dispatch], repeats, None)
+            start = time.perf_counter()
+            device.queue.submit([encoder.finish()])
+            device.queue.read_buffer(dispatch.outputs[0].resource, 0, 4)
+            seconds.append([(time.perf_counter() - start) / repeats] * repeats)
+        return seconds
+    count = 2 * repeats * len(dispatches)
+    query_set = device.create_query_set(type="timestamp", count=count)
+    encoder = device.create_command_encoder()
+    _record(encoder, dispatches, repeats, query_set)
+    resolved = device.create_buffer(
+        size=8 * count, usage=wgpu.BufferUsage.QUERY_RESOLVE | wgpu.BufferUsage.COPY_SRC
+    )
+    encoder.resolve_query_set(query_set, 0, count, resolved, 0)
+    device.queue.submit([encoder.finish()])
+    ticks = np.frombuffer(device.queue.read_buffer(resolved), np.uint64).astype(np.int64)
+    durations = (ticks[1::2] - ticks[0::2]) * (_timestamp_period(device) * 1e-9)
+    return [[float(s) for s in column] for column in durations.reshape(repeats, -1).T]
+
+
+def benchmark(dispatches: Sequence[Dispatch], repeats: int = 10) -> list[float]:
+    """Median GPU seconds of each dispatch, run in order as :func:`submit` runs them.
+
+    Parameters
+    ----------
+    dispatches : sequence of Dispatch
+    repeats : int
+        Timed rounds over all dispatches, after one untimed round; at most
+        ``2048 // len(dispatches)``, as a query set holds 4096 timestamps.
+
+    Returns
+    -------
+    list of float
+        One median per dispatch, from GPU timestamps (host clock, with a warning, where the
+        adapter has none).
+    """
+    most = _MAX_QUERIES // (2 * max(1, len(dispatches)))
+    if not 1 <= repeats <= most:
+        raise ValueError(f"repeats must be in 1..{most}, got {repeats}")
+    if not dispatches:
+        return []
+    submit(dispatches)
+    return [statistics.median(seconds) for seconds in _timings(dispatches, repeats)]
