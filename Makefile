@@ -35,6 +35,7 @@ bench: setup
 	$(PY) tools/bench_reflectance.py
 	$(PY) tools/bench_rgb.py
 	$(PY) tools/bench_rough.py
+	$(PY) tools/bench_layered.py
 
 clean:
 	rm -rf $(VENV) out build dist .pytest_cache .ruff_cache .hypothesis

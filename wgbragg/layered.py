@@ -428,8 +428,11 @@ class LayeredBragg:
             per layer over theta_d (0.25 degrees) and wavelength (1 nm; RGB: one colour per
             theta_d).
         backend : {"numpy", "gpu"}
-            Where tables and colours are computed (the transmissivity tables, the LUTs and the
-            layer colours); the directions' algebra is float64 numpy.
+            ``"numpy"``: float64, tables and colours computed in numpy. ``"gpu"``: the float32
+            WGSL kernel of ``wgsl/layered_brdf.wgsl`` evaluates eq 34 from float32 tables built
+            on the GPU (:mod:`wgbragg.layered_gpu`), with wavelengths in 360-830 nm (its tables
+            are linear between 1 nm nodes) and, for factored RGB without LUT, a colour method
+            of :data:`wgbragg.layered_gpu.FACTORED_COLOUR_METHODS`.
         colour_method : str, optional
             RGB only. ``"integrated"`` (default): the colour of the spectral BRDF, integrated on
             1 nm nodes (exact). A colour method of :meth:`BraggMirror.rgb` (e.g.
@@ -455,6 +458,10 @@ class LayeredBragg:
             raise ValueError(f"method must be one of {BRDF_METHODS}, got {method!r}")
         wavelength = None if wavelength_nm is None else check_wavelength(wavelength_nm)
         colour_method = self._colour_method(colour_method, backend)
+        if backend == "gpu":
+            from . import layered_gpu
+
+            return layered_gpu.brdf(self, wi, wo, wavelength, method, colour_method)
         return self._evaluate(wi, wo, wavelength, method, backend, colour_method)
 
     @staticmethod
@@ -524,11 +531,16 @@ class LayeredBragg:
         """Density (1/sr) with which :meth:`sample` draws ``wo`` from its continuous components.
 
         It integrates to the probability of not sampling the coating's Dirac reflection, less
-        what leaves below the horizon or is totally reflected inside the coating.
+        what leaves below the horizon or is totally reflected inside the coating. With
+        ``backend="gpu"`` the float32 kernel (:mod:`wgbragg.layered_gpu`) evaluates it.
         """
         wi = _check_directions(wi, "wi")
         wo = _check_directions(wo, "wo")
-        return self._pdf(wi, wo, check_backend(backend))
+        if check_backend(backend) == "gpu":
+            from . import layered_gpu
+
+            return layered_gpu.pdf(self, wi, wo)
+        return self._pdf(wi, wo, backend)
 
     def sample(self, wi, u, wavelength_nm=None, method="single-reflection", backend="numpy",
                colour_method=None):
@@ -547,7 +559,9 @@ class LayeredBragg:
             Uniform numbers in [0, 1): ``u[..., 0]`` picks the component, the others the
             direction.
         wavelength_nm, method, backend, colour_method
-            As for :meth:`brdf`: the weight is spectral or RGB.
+            As for :meth:`brdf`: the weight is spectral or RGB. ``backend="gpu"``: the float32
+            kernel draws the sample and computes its weight and pdf (same ``u``, same
+            ``wo`` up to float32 rounding).
 
         Returns
         -------
@@ -575,6 +589,10 @@ class LayeredBragg:
             raise ValueError("wi must lie strictly above the horizon: wi[..., 2] in (0, 1]")
         wavelength = None if wavelength_nm is None else check_wavelength(wavelength_nm)
         colour_method = self._colour_method(colour_method, backend)
+        if backend == "gpu":
+            from . import layered_gpu
+
+            return layered_gpu.sample(self, wi, u, wavelength, method, colour_method)
         shape = np.broadcast_shapes(wi.shape[:-1], u.shape[:-1])
         wi, u = np.broadcast_to(wi, (*shape, 3)), np.broadcast_to(u, (*shape, 3))
         n = self.host_index
@@ -655,3 +673,16 @@ class LayeredBragg:
         wl = None if wavelength is None else np.broadcast_to(wavelength, shape)[..., None]
         _, weight, _ = self.sample(wi[..., None, :], u, wl, method, backend, colour_method)
         return weight.mean(axis=-2 if wavelength is None else -1)
+
+    def simulate(self, wi, wo=None, wavelength_nm=None, paths=65536, mode="all",
+                 transmission="ballistic", seed=0, return_error=False, max_bounces=64):
+        """Monte Carlo simulation of the structure's light transport on the GPU (sec. 4.2).
+
+        The BRDF at ``wo`` by next-event estimation (every path, or ``mode="single"``: eq 34),
+        or with ``wo=None`` the exit directions and weights of the paths. Parameters and
+        results: :func:`wgbragg.layered_simulation.simulate`.
+        """
+        from .layered_simulation import simulate
+
+        return simulate(self, wi, wo, wavelength_nm, paths, mode, transmission, seed,
+                        return_error, max_bounces)

@@ -30,6 +30,10 @@ fn coating_reflectance_inside(cos_inner: f32, n: f32) -> f32 {
 
 // A direction in air (z >= 0) refracted into n >= 1.
 fn refract_in(w: vec3<f32>, n: f32) -> vec3<f32> {
+    // Without a coating the direction is kept as is: 1 - |t|^2 rounds to 0 near grazing.
+    if (n == 1.0) {
+        return w;
+    }
     let t = w.xy / n;
     return vec3<f32>(t, sqrt(max(0.0, 1.0 - dot(t, t))));
 }
@@ -49,13 +53,26 @@ fn reflect_about(i: vec3<f32>, m: vec3<f32>) -> vec3<f32> {
     return 2.0 * dot(i, m) * m - i;
 }
 
+// GGX D (eq 18) of a unit half vector, its sin^2 from h.xy: the float32 rounding of h.z
+// (6e-8) is 1e-3 of sin^2 = (1 - h.z)(1 + h.z) ~ alpha^2 at alpha = 0.01, which ggx_D(h.z)
+// would pass on to the peak of a narrow lobe.
+fn half_vector_D(h: vec3<f32>, alpha: f32) -> f32 {
+    if (h.z <= 0.0) {
+        return 0.0;
+    }
+    let a2 = alpha * alpha;
+    let d = a2 * h.z * h.z + dot(h.xy, h.xy);
+    return a2 / (PI * d * d);
+}
+
 // D(h) G1(i) G1(o) / (4 cos_i cos_o) of eq 17 (all but the mirror's reflectance), with the
 // G1 / cos form that stays finite at grazing angles. ci, co > 0; h the unit half vector.
-fn layer_lobe(ci: f32, co: f32, cos_h: f32, alpha: f32) -> f32 {
-    return 0.25 * ggx_D(cos_h, alpha) * ggx_G1_over_cos(ci, alpha) * ggx_G1_over_cos(co, alpha);
+fn layer_lobe(ci: f32, co: f32, h: vec3<f32>, alpha: f32) -> f32 {
+    return 0.25 * half_vector_D(h, alpha) * ggx_G1_over_cos(ci, alpha)
+        * ggx_G1_over_cos(co, alpha);
 }
 
 // Density of reflecting i into o = reflect_about(i, h) with h a visible GGX normal (1/sr).
-fn layer_lobe_pdf(ci: f32, cos_h: f32, alpha: f32) -> f32 {
-    return 0.25 * ggx_G1_over_cos(ci, alpha) * ggx_D(cos_h, alpha);
+fn layer_lobe_pdf(ci: f32, h: vec3<f32>, alpha: f32) -> f32 {
+    return 0.25 * ggx_G1_over_cos(ci, alpha) * half_vector_D(h, alpha);
 }

@@ -1,0 +1,75 @@
+"""``tools/bench_layered.py`` in its quick mode: it runs, writes its section between its markers
+and every table holds finite numbers (no speed is asserted: the full run reports the targets)."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+
+import numpy as np
+import pytest
+from conftest import load_tool
+
+pytestmark = pytest.mark.gpu
+
+
+@pytest.fixture(scope="module")
+def bench():
+    with load_tool("bench_layered") as module:
+        yield module
+
+
+@pytest.fixture(scope="module")
+def run(bench, tmp_path_factory):
+    path = tmp_path_factory.mktemp("docs") / "benchmarks.md"
+    path.write_text(f"# Benchmarks\n\n{bench.BEGIN_MARKER}\nstale\n{bench.END_MARKER}\n",
+                    encoding="utf-8")
+    with contextlib.redirect_stdout(io.StringIO()) as capture:
+        assert bench.main(["--quick", "--no-progress", "--output", str(path)]) == 0
+    return path.read_text(encoding="utf-8"), capture.getvalue()
+
+
+def _rows(text: str, heading: str) -> list[list[str]]:
+    lines = text[text.index(heading):].splitlines()[1:]
+    rows = []
+    for line in lines:
+        if line.startswith("|"):
+            rows.append([c.strip() for c in line.strip().strip("|").split("|")])
+        elif rows:
+            break
+    return rows[2:]
+
+
+def test_section_written_once(bench, run):
+    text, printed = run
+    assert text.count(bench.BEGIN_MARKER) == 1 and "stale" not in text
+    assert "Quick mode" in text and bench.BEGIN_MARKER in printed
+
+
+def test_every_estimator_is_timed_and_scored(bench, run):
+    text, _ = run
+    rows = _rows(text, "### Time, SMAPE")
+    labels = [label for label, *_ in bench.QUICK.structures]
+    assert [(r[0], r[1]) for r in rows] == [
+        (label, "GT (all paths)" if e == "GT" else e) for label in labels
+        for e in bench.ESTIMATORS]
+    for row in rows:
+        if row[1] != "GT (all paths)":
+            assert 0.0 <= float(row[4]) < 1.0
+    targets = _rows(text, "### Targets")
+    assert len(targets) == 2 and all(r[2] in ("yes", "no") for r in targets)
+
+
+def test_environment_sampling_matches_its_density(bench):
+    """The environment sampler's density integrates to 1 and its samples follow it (mean of
+    1 / pdf estimates the sphere's area)."""
+    rng = np.random.default_rng(0)
+    direction, pdf = bench.sample_environment(rng, (200_000,))
+    np.testing.assert_allclose(np.linalg.norm(direction, axis=-1), 1.0, atol=1e-9)
+    assert np.mean(1.0 / pdf) == pytest.approx(4.0 * np.pi, rel=0.02)
+    np.testing.assert_allclose(pdf, bench.environment_pdf(direction), rtol=1e-12)
+
+
+def test_smape(bench):
+    assert bench.smape(np.array([1.0, 0.0]), np.array([1.0, 0.0])) == 0.0
+    assert bench.smape(np.array([1.0]), np.array([3.0])) == pytest.approx(0.5)

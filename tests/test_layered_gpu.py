@@ -1,0 +1,360 @@
+"""LayeredBragg's single-reflection model by the float32 WGSL kernel (``backend="gpu"``,
+wgsl/layered_brdf.wgsl) against the float64 numpy model (``backend="numpy"``).
+
+Both sides get the same float32-rounded directions and whole-nanometre wavelengths (where the
+kernel's 1 nm tables need no interpolation in wavelength). What remains is float32: the
+kernel's arithmetic, and its tables, built on the GPU by the float32 Yeh kernel and filter
+product. Tolerances, relative to the largest value of a batch (per wavelength or channel),
+about ten times the largest difference measured on lavapipe (``pytest -s`` prints them):
+
+- ``F_RTOL`` on ``f`` and ``pdf`` (measured: 1.9e-5, the coated structure, spectral): the
+  float32 tables and direction algebra; the half vector moves by ~1e-7 rad, a relative change
+  of 2/alpha * 1e-7 in a GGX peak.
+- ``WEIGHT_RTOL`` on sample weights (measured 5.8e-5): ``f cos / pdf`` at a wo that itself
+  moved by up to ``WO_ATOL``.
+- ``LANDMARK_RTOL`` for factored RGB with in-kernel landmark colours (measured 5.4e-6, but
+  the GPU landmark colours may differ from numpy's by 1e-4 in XYZ, tests/
+  test_colour_landmarks_gpu).
+- ``WO_ATOL`` on sampled directions (measured 1.1e-5): the VNDF map u -> m is
+  ill-conditioned near the rim of its disk, where float32 rounding moves m as a 2-ulp change
+  of u does (tests/test_microfacet).
+
+N = 10**6 is checked for finiteness and bounds only: there float32 cannot resolve the phase of
+the pass-band oscillation and the kernel returns its average (yeh.wgsl), as it does inside the
+tables; the float64 model keeps the oscillation, sampled at whatever angles it is evaluated.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer
+from wgbragg import layered_gpu
+from wgbragg.layered import _refract_in
+from wgbragg.transmission_filter import TransmissionFilter
+
+pytestmark = pytest.mark.gpu
+
+F_RTOL = 2e-4
+WEIGHT_RTOL = 5e-4
+LANDMARK_RTOL = 1e-3
+WO_ATOL = 1e-4
+# Samples whose u picks a component within this of eq 35's boundary may pick the neighbour:
+# the GPU's mean transmissivity tables differ from numpy's in float32.
+PICK_MARGIN = 1e-4
+
+A = BraggMirror(1.0, 1.5, 250.0, 250.0, 10)
+B = BraggMirror(1.0, 1.6, 180.0, 220.0, 20)
+COATED = BraggMirror(1.35, 1.5, 250.0, 250.0, 10)
+COATED_LOWER = BraggMirror(1.35, 1.6, 200.0, 200.0, 5)
+THIN = BraggMirror(1.0, 1.5, 120.0, 180.0, 1)
+THICK = BraggMirror(1.0, 1.5, 250.0, 250.0, 10**6)
+BEETLE = BraggMirror(1.59, 1.67, 81.6, 78.4, 8, host=1.0)  # Appendix D: seen from air
+
+WAVELENGTHS = np.array([380.0, 451.0, 550.0, 642.0, 829.0])
+METHODS = ("single-reflection", "single-reflection-lut")
+
+
+@pytest.fixture(scope="module")
+def filters():
+    # Coarse filters (1 degree, 128 azimuths) keep the set-up fast; the twins share them.
+    return {a: TransmissionFilter.bake(a, resolution_deg=1.0, psi_samples=128, backend="numpy")
+            for a in (0.01, 0.05, 0.1, 0.4, 1.0)}
+
+
+@pytest.fixture(scope="module")
+def structures(filters):
+    def rough(mirror, alpha):
+        return RoughBraggLayer(mirror, alpha, transmission_filter=filters[alpha])
+
+    return {
+        # The default filter (0.25 degrees): another grid than the coarse ones.
+        "one-layer": LayeredBragg([RoughBraggLayer(A, 0.1)]),
+        "two-layers": LayeredBragg([rough(A, 0.05), rough(B, 0.4)], base_albedo=(0.8, 0.5, 0.2)),
+        "coated": LayeredBragg([rough(COATED, 0.1), rough(COATED_LOWER, 1.0)], base_albedo=0.5),
+        "N1-alpha0.01": LayeredBragg([rough(THIN, 0.01)], base_albedo=0.3),
+        "N1e6-alpha1": LayeredBragg([rough(THICK, 1.0)], base_albedo=0.3),
+        "appendix-D": LayeredBragg([rough(BEETLE, 0.1)]),
+    }
+
+
+COMPARED = ("one-layer", "two-layers", "coated", "N1-alpha0.01")
+
+
+def unit(theta, phi):
+    return np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)],
+                    axis=-1)
+
+
+def float32_directions(directions):
+    """What the kernel sees (float32), in float64 for the numpy twin."""
+    return np.asarray(directions, np.float64).astype(np.float32).astype(np.float64)
+
+
+def random_directions(n, seed):
+    rng = np.random.default_rng(seed)
+    return float32_directions(unit(np.arccos(rng.uniform(0.0, 1.0, n)),
+                                   rng.uniform(-np.pi, np.pi, n)))
+
+
+def edge_pairs():
+    """Normal incidence, wi == wo, the specular pair, grazing (z -> 0 and exactly 0)."""
+    normal = np.array([0.0, 0.0, 1.0])
+    tilted = unit(0.7, 0.3)
+    grazing = [np.array([math.sqrt(1.0 - z * z), 0.0, z]) for z in (1e-3, 1e-5, 1e-7)]
+    horizon = np.array([1.0, 0.0, 0.0])
+    below = np.array([0.6, 0.0, -0.8])
+    mirrored = tilted * np.array([-1.0, -1.0, 1.0])
+    listed = [(normal, normal), (tilted, tilted), (tilted, mirrored), (normal, tilted),
+              (horizon, normal), (normal, horizon), (horizon, horizon), (below, normal)]
+    for g in grazing:
+        listed += [(g, normal), (normal, g), (g, g), (g, g * np.array([-1.0, 1.0, 1.0])),
+                   (g, tilted)]
+    wi, wo = (np.array(side) for side in zip(*listed, strict=True))
+    return float32_directions(wi), float32_directions(wo)
+
+
+def pairs(n, seed):
+    wi, wo = edge_pairs()
+    return (np.concatenate([wi, random_directions(n, seed)]),
+            np.concatenate([wo, random_directions(n, seed + 1)]))
+
+
+def assert_close(gpu, reference, rtol, what):
+    """|gpu - reference| <= rtol * max|reference| along each wavelength or channel."""
+    assert gpu.shape == reference.shape
+    assert np.all(np.isfinite(gpu)), f"{what}: non-finite GPU values"
+    scale = np.abs(reference).reshape(-1, *reference.shape[-1:]).max(axis=0)
+    error = np.abs(gpu - reference).reshape(-1, *reference.shape[-1:]).max(axis=0)
+    print(f"{what}: max |gpu - numpy| / max|numpy| = {np.max(error / scale):.2e}")
+    assert np.all(error <= rtol * scale), f"{what}: {error / scale} > {rtol}"
+
+
+# --------------------------------------------------------------------------- layouts
+
+
+def test_struct_layouts():
+    assert layered_gpu.LAYER_DTYPE.itemsize == 64
+    assert layered_gpu.PARAMS_DTYPE.itemsize == 64
+    assert layered_gpu.PARAMS_DTYPE.fields["count"][1] == 48  # after a 48-byte LayeredStructure
+
+
+# --------------------------------------------------------------------------- eq 34
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("name", COMPARED)
+def test_brdf_spectral(structures, name, method):
+    s = structures[name]
+    wi, wo = pairs(400, seed=1)
+    # Multiplexed: one invocation per pair, five wavelengths each.
+    args = (wi[:, None], wo[:, None], WAVELENGTHS)
+    gpu = s.brdf(*args, method=method, backend="gpu")
+    assert_close(gpu, s.brdf(*args, method=method), F_RTOL, f"{name} {method} spectral")
+    up = (wi[:, 2] > 0) & (wo[:, 2] > 0)
+    assert np.all(gpu[~up] == 0.0)
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("name", COMPARED)
+def test_brdf_integrated_rgb(structures, name, method):
+    s = structures[name]
+    wi, wo = pairs(40, seed=2)
+    gpu = s.brdf(wi, wo, method=method, backend="gpu")
+    assert_close(gpu, s.brdf(wi, wo, method=method), F_RTOL, f"{name} {method} integrated")
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("name", COMPARED)
+def test_brdf_factored_rgb(structures, name, method):
+    """Factored RGB, each layer's colour by "reference": from the LUT, or in the kernel."""
+    s = structures[name]
+    wi, wo = pairs(60, seed=3)
+    gpu = s.brdf(wi, wo, method=method, backend="gpu", colour_method="reference")
+    reference = s.brdf(wi, wo, method=method, colour_method="reference")
+    assert_close(gpu, reference, F_RTOL, f"{name} {method} reference")
+
+
+def few_pairs(seed):
+    """Normal, grazing, wi == wo, and random pairs: a dozen, for numpy's slow colour methods."""
+    wi, wo = edge_pairs()
+    pick = [0, 1, 2, 3, 8, 12, 18, 21]
+    return (np.concatenate([wi[pick], random_directions(4, seed)]),
+            np.concatenate([wo[pick], random_directions(4, seed + 1)]))
+
+
+@pytest.mark.parametrize(("name", "colour_method"), [("two-layers", "averaged"),
+                                                     ("coated", "approx")])
+def test_brdf_factored_landmark_colours(structures, name, colour_method):
+    """In-kernel landmark colours (colour_landmark.wgsl) against numpy's."""
+    s = structures[name]
+    wi, wo = few_pairs(seed=4)
+    gpu = s.brdf(wi, wo, backend="gpu", colour_method=colour_method)
+    assert_close(gpu, s.brdf(wi, wo, colour_method=colour_method), LANDMARK_RTOL,
+                 f"{name} {colour_method}")
+
+
+def test_layer_seen_from_another_medium(structures):
+    """Appendix D host (Yeh's complex amplitude path, HOST_MATCHED = false), over an absorbing
+    base, where the layer's transmissivity does not enter eq 34."""
+    s = structures["appendix-D"]
+    wi, wo = pairs(200, seed=5)
+    for method in METHODS:
+        args = (wi[:, None], wo[:, None], WAVELENGTHS)
+        assert_close(s.brdf(*args, method=method, backend="gpu"), s.brdf(*args, method=method),
+                     F_RTOL, f"appendix-D {method}")
+    wi, wo = few_pairs(seed=5)
+    assert_close(s.brdf(wi, wo, backend="gpu", colour_method="averaged"),
+                 s.brdf(wi, wo, colour_method="averaged"), LANDMARK_RTOL, "appendix-D averaged")
+
+
+# --------------------------------------------------------------------------- eq 35
+
+
+@pytest.mark.parametrize("name", COMPARED)
+def test_pdf(structures, name):
+    s = structures[name]
+    wi, wo = pairs(1000, seed=6)
+    gpu = s.pdf(wi, wo, backend="gpu")
+    assert_close(gpu[:, None], s.pdf(wi, wo)[:, None], F_RTOL, f"{name} pdf")
+    assert np.all(gpu[(wi[:, 2] <= 0) | (wo[:, 2] <= 0)] == 0.0)
+
+
+def sample_inputs(n, seed):
+    """wi from normal to grazing incidence; u with its corners."""
+    rng = np.random.default_rng(seed)
+    wi = np.concatenate([float32_directions([[0.0, 0.0, 1.0], [math.sqrt(1 - 1e-14), 0.0, 1e-7],
+                                             [0.6, 0.0, 0.8], [0.6, 0.0, 0.8]]),
+                         random_directions(n, seed)])
+    wi = wi[wi[:, 2] > 0.0]
+    u = rng.random((wi.shape[0], 3)).astype(np.float32).astype(np.float64)
+    u[:4] = [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [0.5, 0.0, 1.0], [0.999, 1.0, 0.0]]
+    return wi, u
+
+
+def near_component_boundary(s, wi, u):
+    """Samples whose u[..., 0] lies within PICK_MARGIN of a boundary of eq 35's choice."""
+    n = s.host_index
+    fresnel = s.coating_reflectance(wi)
+    pick = (u[:, 0] - fresnel) / (1.0 - fresnel)
+    edges = np.cumsum(s._component_probabilities(_refract_in(wi, n)[:, 2], "numpy"), axis=-1)
+    near_pick = np.min(np.abs(pick[:, None] - edges), axis=-1) < PICK_MARGIN
+    return near_pick | (np.abs(u[:, 0] - fresnel) < PICK_MARGIN)
+
+
+@pytest.mark.parametrize("spectral", [True, False], ids=["spectral", "rgb"])
+@pytest.mark.parametrize("name", COMPARED)
+def test_sample(structures, name, spectral):
+    s = structures[name]
+    wi, u = sample_inputs(2000, seed=7)
+    wavelength = np.resize(WAVELENGTHS, wi.shape[0]) if spectral else None
+    # RGB: the LUT's factored colours keep the numpy side fast.
+    options = {} if spectral else {"method": "single-reflection-lut", "colour_method": "reference"}
+    wo, weight, pdf = s.sample(wi, u, wavelength, backend="gpu", **options)
+    wo_np, weight_np, pdf_np = s.sample(wi, u, wavelength, **options)
+    same = ~near_component_boundary(s, wi, u)
+    assert np.count_nonzero(same) > 0.99 * wi.shape[0]
+    moved = np.abs(wo - wo_np).max(axis=-1)
+    print(f"{name} sample: max |wo - wo_numpy| = {moved[same].max():.2e}")
+    assert np.all(moved[same] <= WO_ATOL)
+    assert np.all(np.isfinite(weight)) and np.all(np.isfinite(pdf)) and np.all(np.isfinite(wo))
+    weight_np, weight = weight_np[same], weight[same]
+    if spectral:
+        weight, weight_np = weight[:, None], weight_np[:, None]
+    assert_close(weight, weight_np, WEIGHT_RTOL, f"{name} sample weight")
+    # A narrow lobe's density moves with wo: 1e-6 rad shifts a GGX peak of width 0.01 by 0.1%,
+    # and near-grazing back-scattering (|wi + wo| ~ 0.01) magnifies that 100 times in the half
+    # vector. So compare the density at the GPU's own float32 wo, not renormalised. 0 marks
+    # the Dirac lobe and rejected directions.
+    continuous = pdf > 0.0
+    assert np.array_equal(continuous[same], pdf_np[same] > 0.0)
+    assert_close(pdf[continuous][:, None], s.pdf(wi[continuous], wo[continuous])[:, None],
+                 F_RTOL, f"{name} sample pdf")
+
+
+def test_albedo(structures):
+    s = structures["coated"]
+    theta = np.radians([0.0, 40.0, 80.0])
+    gpu = s.albedo(theta, 550.0, samples=1024, backend="gpu")
+    assert_close(gpu[:, None], s.albedo(theta, 550.0, samples=1024)[:, None], WEIGHT_RTOL,
+                 "coated albedo")
+    rgb = s.albedo(theta, samples=256, backend="gpu")
+    assert np.all(np.isfinite(rgb)) and np.all(rgb >= 0.0) and np.all(rgb <= 1.0 + 1e-3)
+
+
+# --------------------------------------------------------------------------- extremes, shapes
+
+
+@pytest.mark.parametrize("name", ["N1e6-alpha1", *COMPARED])
+def test_extremes_are_finite(structures, name):
+    s = structures[name]
+    wi, wo = edge_pairs()
+    up = (wi[:, 2] > 0) & (wo[:, 2] > 0)
+    for method in METHODS:
+        f = s.brdf(wi[:, None], wo[:, None], WAVELENGTHS, method=method, backend="gpu")
+        rgb = s.brdf(wi, wo, method=method, backend="gpu")
+        for value in (f, rgb):
+            assert np.all(np.isfinite(value)) and np.all(value[~up] == 0.0)
+        assert np.all(f >= 0.0)
+    assert np.all(np.isfinite(s.pdf(wi, wo, backend="gpu")))
+    wi_s, u = sample_inputs(60, seed=8)
+    wo_s, weight, pdf = s.sample(wi_s, u, 550.0, backend="gpu")
+    for value in (wo_s, weight, pdf):
+        assert np.all(np.isfinite(value))
+    assert np.all(weight >= 0.0) and np.all(pdf >= 0.0)
+    np.testing.assert_allclose(np.linalg.norm(wo_s, axis=-1), 1.0, atol=1e-6)
+
+
+def test_thick_mirror_albedo_bounded(structures):
+    s = structures["N1e6-alpha1"]
+    albedo = s.albedo(np.radians([0.0, 60.0]), WAVELENGTHS[:, None], samples=512, backend="gpu")
+    assert np.all(albedo >= 0.0) and np.all(albedo <= 1.0 + 1e-2)
+
+
+def test_shapes_and_multiplexing(structures):
+    """Multiplexed, per-pair and broadcast wavelengths give the same values (pipelines with
+    other WAVELENGTHS may contract float operations differently: 1e-6)."""
+    s = structures["two-layers"]
+    wi, wo = random_directions(6, seed=9), random_directions(6, seed=10)
+    grid = s.brdf(wi[:, None], wo[:, None], WAVELENGTHS, backend="gpu")
+    assert grid.shape == (6, WAVELENGTHS.size)
+    for k, wavelength in enumerate(WAVELENGTHS):
+        np.testing.assert_allclose(grid[:, k], s.brdf(wi, wo, wavelength, backend="gpu"),
+                                   rtol=1e-6)
+    # Each pair its own wavelengths, multiplexed; then one wavelength per pair.
+    sets = WAVELENGTHS - np.arange(6)[:, None]
+    mixed = s.brdf(wi[:, None], wo[:, None], sets, backend="gpu")
+    for k in range(WAVELENGTHS.size):
+        np.testing.assert_allclose(mixed[:, k], s.brdf(wi, wo, sets[:, k], backend="gpu"),
+                                   rtol=1e-6)
+    np.testing.assert_allclose(mixed[0], grid[0], rtol=1e-6)
+    assert s.brdf(wi.reshape(2, 3, 3), wo[:3], backend="gpu").shape == (2, 3, 3)
+    u = np.random.default_rng(11).random((4, 3))
+    wo_s, weight, pdf = s.sample(wi[:, None], u, WAVELENGTHS[:, None, None], backend="gpu")
+    assert wo_s.shape == (6, 4, 3) and pdf.shape == (6, 4)
+    assert weight.shape == (WAVELENGTHS.size, 6, 4)
+    one = s.sample(wi[:, None], u, WAVELENGTHS[0], backend="gpu")
+    np.testing.assert_array_equal(one[0], wo_s)
+    np.testing.assert_allclose(one[1], weight[0], rtol=1e-6)
+    empty = s.brdf(np.zeros((0, 3)), wo[0], backend="gpu")
+    assert empty.shape == (0, 3)
+
+
+@pytest.mark.parametrize(("call", "match"), [
+    (lambda s: s.brdf([0, 0, 1.0], [0, 0, 1.0], 300.0, backend="gpu"), "360-830 nm"),
+    (lambda s: s.sample([0, 0, 1.0], [0.5] * 3, 900.0, backend="gpu"), "360-830 nm"),
+    (lambda s: s.brdf([0, 0, 1.0], [0, 0, 1.0], backend="gpu", colour_method="spectral"),
+     "single-reflection-lut"),
+])
+def test_gpu_refusals(structures, call, match):
+    with pytest.raises(ValueError, match=match):
+        call(structures["one-layer"])
+
+
+def test_landmark_colours_need_matched_hosts(structures):
+    with pytest.raises(ValueError, match="host == n1"):
+        structures["appendix-D"].brdf([0, 0, 1.0], [0, 0, 1.0], backend="gpu",
+                                      colour_method="approx")

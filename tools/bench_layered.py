@@ -1,0 +1,403 @@
+"""Efficiency of the single-reflection model against Monte Carlo simulations (issue 6, item 5;
+the Bragg paper's Table 2).
+
+A sphere (orthographic, ``size`` x ``size`` pixels) of a layered Bragg structure under a
+procedural environment (a sky, a warm ground and two small bright lamps) is rendered, per pixel
+``L(v) = int f(v, w) L_env(w) cos dw`` in the local frame of the pixel's normal (BRDFs are
+reciprocal, so paths start from the viewer), with four estimators that sample outgoing
+directions and look the environment up there:
+
+- **GT**: the all-paths simulation (:meth:`LayeredBragg.simulate`, ballistic, ``gt_spp``
+  paths per pixel): the reference;
+- **SR sim.**: the simulation restricted to single-reflection paths (``spp`` paths);
+- **model**: what the model makes possible and a simulation cannot (sec. 4.3): next-event
+  estimation. Per sample, one direction by :meth:`LayeredBragg.sample` (eq 35, weight
+  ``f cos / pdf``) and one from the environment's lamps or sky, evaluated by
+  :meth:`LayeredBragg.brdf` (eq 34), combined by the power heuristic with
+  :meth:`LayeredBragg.pdf`; all on the GPU (``backend="gpu"``);
+- **model-LUT**: the same with ``method="single-reflection-lut"``;
+- **model, BRDF sampling only**: ``sample`` alone, the model used as a simulation is.
+
+Every estimator is spectral with four hero wavelengths per path or sample (stratified over
+360-830 nm, one random offset each), turned into linear sRGB with the CIE 1931 / D65 weights;
+the environment is RGB and multiplies the colour of each sample. Times are wall clock of the
+whole estimator (GPU work, readback, the environment lookups), pipelines compiled and tables
+built beforehand. Accuracy is SMAPE against GT over the sphere's pixels and the three
+channels, ``mean |a - b| / (|a| + |b|)``; efficiency ``Eff = time_GT / (time x SMAPE)``.
+
+Usage::
+
+    python tools/bench_layered.py                 # full run (minutes): docs/benchmarks.md
+    python tools/bench_layered.py --no-write      # full run, print only
+    python tools/bench_layered.py --quick         # tiny sizes (seconds), print only
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import shlex
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+_TOOLS = str(Path(__file__).resolve().parent)
+if _TOOLS not in sys.path:
+    sys.path.insert(0, _TOOLS)
+
+import _docs  # noqa: E402
+from bench_rgb import _environment, _table, human_ratio, human_time  # noqa: E402
+
+__all__ = [
+    "BEGIN_MARKER",
+    "END_MARKER",
+    "ESTIMATORS",
+    "FULL",
+    "QUICK",
+    "Config",
+    "main",
+    "render_section",
+    "run_benchmarks",
+    "smape",
+]
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_OUTPUT = REPO_ROOT / "docs" / "benchmarks.md"
+BEGIN_MARKER, END_MARKER = _docs.markers("bench_layered")
+
+BRDF_SAMPLING_ONLY = "model, BRDF sampling only"
+ESTIMATORS = ("GT", "SR sim.", "model", "model-LUT", BRDF_SAMPLING_ONLY)
+HERO = 4
+TARGET_MODEL = 3.0  # model efficiency / SR simulation efficiency
+TARGET_LUT = 4.0
+PAPER_RATIOS = "2.1-5x (model), higher with the LUT (Table 2)"
+RHO = "\u03c1"
+ALPHA = "\u03b1"
+
+
+@dataclasses.dataclass(frozen=True)
+class Config:
+    """Sizes of one run: image ``size``, samples per pixel of the compared estimators and of
+    GT, pixels per GPU call, and the structures (label, d1 = d2 in nm, alpha, base albedo)."""
+
+    name: str
+    size: int
+    spp: int
+    gt_spp: int
+    chunk: int
+    structures: tuple[tuple[str, float, float, float | None], ...]
+
+
+FIG7 = (("A, \u03c1_d = 0", 250.0, 0.1, None), ("A, \u03c1_d = 0.5", 250.0, 0.1, 0.5),
+        ("B, \u03c1_d = 0.5", 494.0, 0.05, 0.5))
+FULL = Config("full", size=40, spp=256, gt_spp=8192, chunk=64, structures=FIG7)
+QUICK = Config("quick", size=6, spp=16, gt_spp=64, chunk=16, structures=FIG7[:2])
+
+
+def structure(d_nm: float, alpha: float, albedo):
+    """Fig. 7's configurations: n1 = 1, n2 = 1.5, N = 10, d1 = d2."""
+    from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer
+
+    mirror = BraggMirror(1.0, 1.5, d_nm, d_nm, 10)
+    return LayeredBragg([RoughBraggLayer(mirror, alpha)], base_albedo=albedo)
+
+
+# --------------------------------------------------------------------------- the scene
+
+
+LAMPS = (((0.5, 0.3, 0.81), (12.0, 10.0, 8.0)), ((-0.7, 0.2, 0.3), (3.0, 5.0, 9.0)))
+LAMP_KAPPA = 250.0  # sharpness of a lamp: radiance ~ exp(kappa (d.axis - 1))
+SKY_PROBABILITY = 0.3  # share of environment samples drawn uniformly on the sphere
+
+
+def _lamp_axes() -> np.ndarray:
+    axes = np.array([axis for axis, _ in LAMPS])
+    return axes / np.linalg.norm(axes, axis=-1, keepdims=True)
+
+
+def environment(direction: np.ndarray) -> np.ndarray:
+    """Linear sRGB radiance of the procedural environment towards world ``direction`` (z up)."""
+    z = direction[..., 2:3]
+    sky = np.where(z > 0.0, np.array([0.35, 0.5, 0.8]) * (0.4 + 0.6 * z),
+                   np.array([0.25, 0.18, 0.12]))
+    glow = np.exp(LAMP_KAPPA * (direction @ _lamp_axes().T - 1.0))
+    return sky + glow @ np.array([colour for _, colour in LAMPS])
+
+
+def _lamp_density(cosine: np.ndarray) -> np.ndarray:
+    """von Mises-Fisher density on the sphere (1/sr) of a lamp's lobe."""
+    k = LAMP_KAPPA
+    return k / (2.0 * np.pi * (1.0 - np.exp(-2.0 * k))) * np.exp(k * (cosine - 1.0))
+
+
+def environment_pdf(direction: np.ndarray) -> np.ndarray:
+    """Density (1/sr) of :func:`sample_environment`."""
+    lamps = _lamp_density(direction @ _lamp_axes().T).mean(axis=-1)
+    return SKY_PROBABILITY / (4.0 * np.pi) + (1.0 - SKY_PROBABILITY) * lamps
+
+
+def sample_environment(rng, shape) -> tuple[np.ndarray, np.ndarray]:
+    """Directions drawn from the lamps' lobes (exactly) and uniformly on the sphere; with
+    their density."""
+    u = rng.random((*shape, 3))
+    # Uniform on the sphere.
+    z = 1.0 - 2.0 * u[..., 1]
+    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+    phi = 2.0 * np.pi * u[..., 2]
+    uniform = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
+    # A lamp's lobe: the cosine to its axis by inverting the vMF CDF, then an azimuth.
+    k = LAMP_KAPPA
+    xi = (u[..., 0] - SKY_PROBABILITY) / (1.0 - SKY_PROBABILITY)
+    lamp = np.minimum((np.clip(xi, 0.0, 1.0) * len(LAMPS)).astype(int), len(LAMPS) - 1)
+    xi2 = np.clip(xi * len(LAMPS) - lamp, 1e-12, 1.0)
+    cosine = 1.0 + np.log(xi2 + (1.0 - xi2) * np.exp(-2.0 * k)) / k
+    sine = np.sqrt(np.maximum(0.0, 1.0 - cosine * cosine))
+    axis = _lamp_axes()[lamp]
+    tangent = np.cross(axis, [0.0, 0.0, 1.0])
+    tangent /= np.linalg.norm(tangent, axis=-1, keepdims=True)
+    bitangent = np.cross(axis, tangent)
+    around = (np.cos(phi)[..., None] * tangent + np.sin(phi)[..., None] * bitangent)
+    lobe = cosine[..., None] * axis + sine[..., None] * around
+    direction = np.where((u[..., 0] < SKY_PROBABILITY)[..., None], uniform, lobe)
+    direction /= np.linalg.norm(direction, axis=-1, keepdims=True)
+    return direction, environment_pdf(direction)
+
+
+@dataclasses.dataclass(frozen=True)
+class Sphere:
+    """Visible pixels of the unit sphere seen along +z: the view direction in each pixel's
+    local frame and that frame (tangent, bitangent, normal as rows)."""
+
+    inside: np.ndarray
+    view: np.ndarray
+    frames: np.ndarray
+
+
+def sphere(size: int) -> Sphere:
+    centre = (np.arange(size) + 0.5) / size * 2.0 - 1.0
+    x, y = np.meshgrid(centre, -centre)
+    inside = x * x + y * y < 0.95  # off the silhouette, where views graze
+    normal = np.stack([x[inside], y[inside], np.sqrt(1.0 - x[inside] ** 2 - y[inside] ** 2)], -1)
+    tangent = np.cross([0.0, 1.0, 0.0], normal)
+    tangent /= np.linalg.norm(tangent, axis=-1, keepdims=True)
+    bitangent = np.cross(normal, tangent)
+    frames = np.stack([tangent, bitangent, normal], axis=-2)
+    view = frames @ np.array([0.0, 0.0, 1.0])
+    return Sphere(inside, view / np.linalg.norm(view, axis=-1, keepdims=True), frames)
+
+
+def _hero_wavelengths(rng, shape) -> np.ndarray:
+    offset = rng.random((*shape, 1))
+    return 360.0 + 470.0 * ((offset + np.arange(HERO) / HERO) % 1.0)
+
+
+def _spectral_to_rgb(weight: np.ndarray, wavelength: np.ndarray) -> np.ndarray:
+    """Colour of hero-wavelength samples: sum_k w_k xyz(lambda_k) * 470 / K, in sRGB."""
+    from wgbragg import colorimetry
+
+    xyz = np.einsum("...k,...kc->...c", weight, colorimetry.xyz_density(wavelength))
+    return colorimetry.xyz_to_linear_srgb(xyz * (470.0 / HERO))
+
+
+def _model_samples(s, view, frames, rng, spp, method, next_event):
+    """Colour of ``spp`` samples of the model per pixel: BRDF sampling, and with
+    ``next_event`` one environment sample more each, combined by the power heuristic."""
+    wavelength = _hero_wavelengths(rng, (view.shape[0], spp))
+    local, weight, pdf_brdf = s.sample(view[:, None, None, :],
+                                       rng.random((view.shape[0], spp, 1, 3)), wavelength,
+                                       method=method, backend="gpu")
+    world = np.einsum("pij,psi->psj", frames, local[:, :, 0])
+    colour = _spectral_to_rgb(weight, wavelength) * environment(world)
+    if not next_event:
+        return colour
+    pdf_brdf = pdf_brdf[:, :, 0]
+    pdf_env = environment_pdf(world)
+    colour = colour * (pdf_brdf**2 / np.maximum(pdf_brdf**2 + pdf_env**2, 1e-300))[..., None]
+    light, pdf_light = sample_environment(rng, (view.shape[0], spp))
+    light_local = np.einsum("pij,psj->psi", frames, light)
+    above = light_local[..., 2] > 0.0
+    light_local = np.where(above[..., None], light_local, [0.0, 0.0, 1.0])
+    f = s.brdf(view[:, None, None, :], light_local[:, :, None, :], wavelength, method=method,
+               backend="gpu")
+    pdf_other = s.pdf(view[:, None, :], light_local, backend="gpu")
+    mis = np.where(above, pdf_light / np.maximum(pdf_light**2 + pdf_other**2, 1e-300), 0.0)
+    weight_light = f * (light_local[..., 2] * mis)[..., None]
+    return colour + _spectral_to_rgb(weight_light, wavelength) * environment(light)
+
+
+def _render(s, scene: Sphere, spp: int, chunk: int, estimator: str, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    pixels = np.empty((scene.view.shape[0], 3))
+    for start in range(0, pixels.shape[0], chunk):
+        part = slice(start, start + chunk)
+        view, frames = scene.view[part], scene.frames[part]
+        if estimator in ("GT", "SR sim."):
+            local, weights = s.simulate(view, paths=spp, mode="all" if estimator == "GT"
+                                        else "single", seed=seed + start)
+            world = np.einsum("pij,psi->psj", frames, local)
+            colour = weights * environment(world)
+        else:
+            method = ("single-reflection-lut" if estimator.startswith("model-LUT")
+                      else "single-reflection")
+            colour = _model_samples(s, view, frames, rng, spp, method,
+                                    next_event=estimator != BRDF_SAMPLING_ONLY)
+        pixels[part] = np.mean(colour, axis=1)
+    return pixels
+
+
+def smape(a: np.ndarray, b: np.ndarray) -> float:
+    """``mean |a - b| / (|a| + |b|)`` over the entries where either is nonzero."""
+    total = np.abs(a) + np.abs(b)
+    keep = total > 0.0
+    return float(np.mean(np.abs(a - b)[keep] / total[keep]))
+
+
+# --------------------------------------------------------------------------- the run
+
+
+@dataclasses.dataclass
+class Results:
+    config: Config
+    environment: dict
+    seconds: dict = dataclasses.field(default_factory=dict)   # (structure, estimator) -> s
+    errors: dict = dataclasses.field(default_factory=dict)    # (structure, estimator) -> SMAPE
+    model_vs_sr: dict = dataclasses.field(default_factory=dict)  # structure -> SMAPE
+
+    def efficiency(self, label: str, estimator: str) -> float:
+        error = self.errors[label, estimator]
+        return self.seconds[label, "GT"] / (self.seconds[label, estimator] * error)
+
+
+def _timed(call: Callable[[], np.ndarray]) -> tuple[np.ndarray, float]:
+    start = time.perf_counter()
+    value = call()
+    return value, time.perf_counter() - start
+
+
+def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
+    meter = _docs.LoadMeter()
+    results = Results(cfg, _environment(None))
+    scene = sphere(cfg.size)
+    bar = tqdm(total=len(cfg.structures) * len(ESTIMATORS), desc="layered efficiency",
+               disable=not progress)
+    for label, d_nm, alpha, albedo in cfg.structures:
+        s = structure(d_nm, alpha, albedo)
+        # Compile pipelines, bake or load the filter, build tables: none of it is timed.
+        warm = Sphere(scene.inside, scene.view[:2], scene.frames[:2])
+        for estimator in ESTIMATORS:
+            _render(s, warm, 2, cfg.chunk, estimator, 0)
+        images = {}
+        for index, estimator in enumerate(ESTIMATORS):
+            spp = cfg.gt_spp if estimator == "GT" else cfg.spp
+            images[estimator], results.seconds[label, estimator] = _timed(
+                lambda e=estimator, n=spp, k=index, m=s: _render(m, scene, n, cfg.chunk, e, 1 + k))
+            bar.update()
+        for estimator in ESTIMATORS[1:]:
+            results.errors[label, estimator] = smape(images[estimator], images["GT"])
+        results.model_vs_sr[label] = smape(images["model"], images["SR sim."])
+    bar.close()
+    results.environment["background_cores"] = meter.background_cores()
+    return results
+
+
+# --------------------------------------------------------------------------- the section
+
+
+def render_section(results: Results, command: str) -> str:
+    cfg, env = results.config, results.environment
+    lines = [
+        BEGIN_MARKER,
+        "## Layered Bragg structures: model efficiency against simulation "
+        "(`tools/bench_layered.py`)",
+        "",
+        "_Generated by the command below; do not edit between the markers._",
+        "",
+        f"- Command: `{command}`",
+        f"- Date: {env['date']}",
+        f"- Adapter: {env['adapter']}",
+        f"- CPU: {env['cpu']}, {env['cores']} cores available",
+        "- Other processes on the machine during the run: "
+        + ("unknown" if env.get("background_cores") is None
+           else f"{env['background_cores']:.2f} cores busy on average (from /proc/stat)"),
+        f"- Python {env['python']}; "
+        + ", ".join(f"{k} {v}" for k, v in env["versions"].items()),
+        f"- Scene: a sphere, {cfg.size} x {cfg.size} pixels, under a procedural environment; "
+        f"{cfg.spp} paths or samples per pixel, GT {cfg.gt_spp}; {HERO} hero wavelengths each.",
+        "- Structures (Fig. 7): n1 = 1, n2 = 1.5, N = 10; A: d1 = d2 = 250 nm, "
+        f"{ALPHA} = 0.1; B: d1 = d2 = 494 nm, {ALPHA} = 0.05; absorbing or Lambertian base.",
+        *(["- Quick mode: tiny sizes for the tests; the numbers mean nothing.", ""]
+          if cfg.name == "quick" else [""]),
+        "### Time, SMAPE against GT and efficiency",
+        "",
+    ]
+    rows = []
+    for label, *_ in cfg.structures:
+        sr = results.efficiency(label, "SR sim.")
+        rows.append([label, "GT (all paths)", f"{cfg.gt_spp}",
+                     human_time(results.seconds[label, "GT"]), "0", "—", "—"])
+        for estimator in ESTIMATORS[1:]:
+            eff = results.efficiency(label, estimator)
+            rows.append([label, estimator, f"{cfg.spp}",
+                         human_time(results.seconds[label, estimator]),
+                         f"{results.errors[label, estimator]:.4f}", f"{eff:,.0f}",
+                         human_ratio(eff / sr)])
+    lines += _table(["structure", "estimator", "spp", "time", "SMAPE vs GT", "Eff",
+                     "Eff / Eff(SR sim.)"], rows)
+    lines += ["", "### Model against the single-reflection simulation", ""]
+    lines += _table(["structure", "SMAPE(model, SR sim.)"],
+                    [[label, f"{results.model_vs_sr[label]:.4f}"]
+                     for label, *_ in cfg.structures])
+    model = [results.efficiency(label, "model") / results.efficiency(label, "SR sim.")
+             for label, *_ in cfg.structures]
+    lut = [results.efficiency(label, "model-LUT") / results.efficiency(label, "SR sim.")
+           for label, *_ in cfg.structures]
+    lines += ["", "### Targets", ""]
+    lines += _table(["target", "measured", "met"], [
+        [f"model >= {TARGET_MODEL:g}x the SR simulation's efficiency (paper: {PAPER_RATIOS})",
+         f"worst {human_ratio(min(model))}", "yes" if min(model) >= TARGET_MODEL else "no"],
+        [f"model-LUT >= {TARGET_LUT:g}x", f"worst {human_ratio(min(lut))}",
+         "yes" if min(lut) >= TARGET_LUT else "no"],
+    ])
+    lines += [
+        "",
+        "Notes:",
+        "",
+        "1. SMAPE against GT includes the single-reflection approximation's bias (paths that "
+        "reflect more than once), largest over a bright base; the SR simulation and the model "
+        "estimate the same single-reflection image.",
+        "2. Each time is one run; the GPU is lavapipe on the same cores as the numpy "
+        "environment lookups.",
+        END_MARKER,
+    ]
+    return "\n".join(lines)
+
+
+def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        prog="bench_layered.py",
+        description="Efficiency of the single-reflection model against simulations.")
+    _docs.add_section_arguments(parser, DEFAULT_OUTPUT,
+                                "a tiny sphere (seconds); writes nothing unless --output")
+    return parser.parse_args(argv)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run, print the section and write it (docs/benchmarks.md in full mode)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = parse_args(argv)
+    results = run_benchmarks(QUICK if args.quick else FULL, progress=not args.no_progress)
+    section = render_section(results, shlex.join(["python", "tools/bench_layered.py", *argv]))
+    print(section)
+    path = _docs.section_output(args, DEFAULT_OUTPUT)
+    if path is not None:
+        _docs.write_section(path, section, BEGIN_MARKER, END_MARKER)
+        print(f"wrote {path}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,399 @@
+"""Dispatch of the float32 single-reflection kernels (``wgsl/layered_brdf_eval.wgsl``): the GPU
+twins of :meth:`LayeredBragg.brdf` (eq 34), :meth:`LayeredBragg.sample` (eq 35) and
+:meth:`LayeredBragg.pdf`, reached through ``backend="gpu"``.
+
+The physics is ``wgsl/layered_brdf.wgsl``, written for a renderer to include; this module builds
+its buffers and runs one invocation per pair ``(wi, wo)`` or sample ``(wi, u)``:
+
+- ``layers``: one :data:`LAYER_DTYPE` record per rough layer (its mirror, ``alpha``, filter
+  grid and the offsets of its tables);
+- ``tables``: float32, a fixed header (the colour-matching block of the landmark colour kernel,
+  XYZ -> linear sRGB, the 1 nm XYZ weights), then per layer the tables a variant reads: those
+  derived from the layer's 1 nm transmissivity table
+  (:meth:`RoughBraggLayer.transmissivity_table`, computed on the GPU) and, for
+  ``"single-reflection-lut"``, the structure's reflectance LUTs (computed on the GPU);
+- the structure's own values (host index, base albedo) in the uniform.
+
+They are built once per structure and kind (spectral, factored RGB, density; LUT or not) and
+kept in the structure's table cache. Pipelines are specialised (override constants) on the
+number of layers, the coating, the base, the host (Appendix D), LUT or exact, integrated or
+factored RGB and its colour method, and the number of wavelengths per invocation.
+
+Wavelengths. The transmissivity tables, the spectral LUTs and the base's spectrum are tabulated
+at 360, 361, ..., 830 nm and interpolated linearly in between, so spectral results agree with
+the float64 model (which integrates the transmissivity at each requested wavelength) to float32
+rounding at whole nanometres, and to the tables' interpolation error between them. Wavelengths
+outside 360-830 nm are refused. A trailing wavelength axis along which the directions do not
+vary is multiplexed: one invocation evaluates the directions once for all its wavelengths.
+
+RGB. ``colour_method="integrated"`` (the default) integrates the spectral model over the 471
+nodes in the kernel. Factored RGB multiplies the colours of eq 34's factors: with
+``"single-reflection"`` each layer's colour at theta_d is computed in the kernel, by a landmark
+method (``wgsl/colour_landmark.wgsl``: "averaged", "approx", "subdivided") or by the 1 nm sum
+("reference"); ``"single-reflection-lut"`` reads colours tabulated by :meth:`BraggMirror.rgb`
+with any method.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from . import colorimetry, gpu, kernels
+from .colour_landmarks_gpu import GPU_LANDMARK_METHODS, _check_mirror, _cmf_table
+from .layered import INTEGRATED
+
+__all__ = [
+    "FACTORED_COLOUR_METHODS",
+    "LAYER_DTYPE",
+    "OPERATIONS",
+    "PARAMS_DTYPE",
+    "WAVELENGTH_RANGE_NM",
+    "benchmark",
+    "brdf",
+    "pdf",
+    "sample",
+]
+
+WORKGROUP_SIZE = 64
+
+WAVELENGTH_RANGE_NM = (360.0, 830.0)
+"""Wavelengths the GPU tables cover (nm, 1 nm apart)."""
+
+FACTORED_COLOUR_METHODS = {**GPU_LANDMARK_METHODS, "reference": 3}
+"""``colour_method`` values whose layer colours the kernel computes in place (factored RGB
+without LUT), with their ``COLOUR_METHOD`` codes."""
+
+OPERATIONS = {"brdf": "evaluate", "sample": "sample", "pdf": "density"}
+"""Entry point of each operation in ``layered_brdf_eval.wgsl``."""
+
+LAYER_DTYPE = gpu.struct_dtype([
+    ("n1", "f32"), ("n2", "f32"), ("d1_nm", "f32"), ("d2_nm", "f32"), ("host", "f32"),
+    ("periods", "u32"), ("bulk", "u32"), ("_pad", "u32"),
+    ("alpha", "f32"), ("rows", "u32"), ("rows_per_radian", "f32"),
+    ("transmissivity", "u32"), ("transmissivity_mean", "u32"), ("transmissivity_rgb", "u32"),
+    ("reflectance", "u32"), ("reflectance_rgb", "u32"),
+])
+"""``RoughLayer`` of layered_brdf.wgsl: 16 four-byte words (no padding in storage either)."""
+
+PARAMS_DTYPE = gpu.struct_dtype([
+    ("base_rgb", "vec3<f32>"), ("host", "f32"), ("base_mean", "f32"), ("first_layer", "u32"),
+    ("base_spectrum", "u32"), ("lut_rows", "u32"), ("lut_rows_per_radian", "f32"),
+    ("_pad0", "u32"), ("_pad1", "u32"), ("_pad2", "u32"),
+    ("count", "u32"), ("wavelength_stride", "u32"),
+])
+"""``Params`` of layered_brdf_eval.wgsl: a ``LayeredStructure`` (48 bytes), then the batch."""
+
+_VISIBLE_NODES = 471
+
+# What a kernel reads besides the transmission probabilities: the spectral tables (spectral
+# and integrated RGB results), the factored RGB tables, or nothing more (the density).
+_SPECTRAL, _FACTORED, _DENSITY = "spectral", "factored", "density"
+
+
+@dataclasses.dataclass(frozen=True)
+class _Variant:
+    """Buffers of one structure for one kind of table, and its structure-level constants."""
+
+    layers: np.ndarray
+    tables: np.ndarray
+    params: np.ndarray
+    constants: dict
+
+
+def _kind(operation: str, wavelength, colour_method: str) -> str:
+    if operation == "pdf":
+        return _DENSITY
+    return _SPECTRAL if wavelength is not None or colour_method == INTEGRATED else _FACTORED
+
+
+def _variant(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
+    lut = lut and kind != _DENSITY
+    key = ("gpu", kind, lut, colour_method if kind == _FACTORED and lut else None)
+    return structure._cached(key, lambda: _build(structure, kind, lut, colour_method))
+
+
+def _header() -> list[np.ndarray]:
+    """The tables' fixed start: the CMF block, XYZ -> linear sRGB, the 1 nm XYZ weights."""
+    grid, weights = colorimetry.xyz_weights()
+    if grid.size != _VISIBLE_NODES or grid[0] != WAVELENGTH_RANGE_NM[0]:
+        raise RuntimeError("layered_brdf.wgsl assumes the 1 nm grid 360..830 nm")
+    matrix = np.zeros((3, 4), np.float32)
+    matrix[:, :3] = colorimetry.XYZ_TO_LINEAR_SRGB
+    return [_cmf_table().ravel(), matrix.ravel(), weights.astype(np.float32).ravel()]
+
+
+def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
+    blocks = _header()
+    size = sum(block.size for block in blocks)
+
+    def append(table) -> int:
+        nonlocal size
+        offset = size
+        blocks.append(np.ascontiguousarray(table, np.float32).ravel())
+        size += blocks[-1].size
+        return offset
+
+    records = np.zeros(len(structure.layers), LAYER_DTYPE)
+    for index, layer in enumerate(structure.layers):
+        record = records[index]  # a view: structured scalars write through
+        m = layer.mirror
+        mirror = kernels.bragg_params(m.n1, m.n2, m.d1, m.d2, m.N, m.host)
+        for name in ("n1", "n2", "d1_nm", "d2_nm", "host", "periods", "bulk"):
+            record[name] = mirror[name]
+        visible = layer._visible_table("gpu")
+        theta_i = layer.filter.theta_i
+        record["alpha"] = layer.alpha
+        record["rows"] = theta_i.size
+        record["rows_per_radian"] = 1.0 / (theta_i[1] - theta_i[0])
+        record["transmissivity_mean"] = append(visible.mean(axis=1))
+        if kind == _SPECTRAL:
+            record["transmissivity"] = append(visible)
+            if lut:
+                record["reflectance"] = append(structure._reflectance_lut(index, "gpu"))
+        elif kind == _FACTORED:
+            weights = colorimetry.xyz_weights()[1]
+            record["transmissivity_rgb"] = append(colorimetry.xyz_to_linear_srgb(visible @ weights))
+            if lut:
+                record["reflectance_rgb"] = append(
+                    structure._reflectance_rgb_lut(index, "gpu", colour_method))
+    params = np.zeros((), PARAMS_DTYPE)
+    params["base_rgb"] = structure.base_rgb
+    params["host"] = structure.host_index
+    params["base_mean"] = 0.0 if structure.absorbing_base else structure._base.mean()
+    lut_grid = structure._lut_grid()
+    params["lut_rows"] = lut_grid.size
+    params["lut_rows_per_radian"] = 1.0 / (lut_grid[1] - lut_grid[0])
+    if kind == _SPECTRAL and not structure.absorbing_base:
+        params["base_spectrum"] = append(structure.base_spectrum(colorimetry.xyz_weights()[0]))
+    tables = np.concatenate(blocks)
+    for array in (tables, records, params):
+        array.setflags(write=False)
+    host_matched = all(np.float32(r["host"]) == np.float32(r["n1"]) for r in records)
+    constants = {
+        "LAYERS": len(structure.layers),
+        "COATING": structure.has_coating,
+        "BASE": int(not structure.absorbing_base),
+        "HOST_MATCHED": host_matched,
+        "MATCHED_LAYERS": host_matched and all(
+            not r["bulk"] and np.float32(r["n2"]) >= np.float32(r["n1"]) for r in records),
+        "WORKGROUP_SIZE": WORKGROUP_SIZE,
+    }
+    return _Variant(records, tables, params, constants)
+
+
+def _constants(variant: _Variant, kind: str, lut: bool, colour_method: str,
+               wavelengths: int) -> dict:
+    """Override constants of a request: only those its code paths read, so that requests
+    differing elsewhere share a pipeline."""
+    constants = {name: variant.constants[name]
+                 for name in ("LAYERS", "COATING", "BASE", "HOST_MATCHED", "WORKGROUP_SIZE")}
+    if kind == _DENSITY:
+        return constants
+    constants["LUT"] = lut
+    constants["WAVELENGTHS"] = wavelengths
+    constants["INTEGRATED"] = kind == _SPECTRAL
+    if kind == _FACTORED and not lut:
+        constants["COLOUR_METHOD"] = FACTORED_COLOUR_METHODS[colour_method]
+        if colour_method in GPU_LANDMARK_METHODS:
+            constants["MATCHED_LAYERS"] = variant.constants["MATCHED_LAYERS"]
+    return constants
+
+
+def _check_request(structure, wavelength, method: str, colour_method: str) -> None:
+    if wavelength is not None:
+        low, high = WAVELENGTH_RANGE_NM
+        if not np.all((wavelength >= low) & (wavelength <= high)):
+            raise ValueError(f"backend='gpu' tabulates the model over {low:g}-{high:g} nm: "
+                             "wavelength_nm must lie in that range (use backend='numpy' "
+                             "outside it)")
+        return
+    if colour_method == INTEGRATED or method == "single-reflection-lut":
+        return
+    if colour_method not in FACTORED_COLOUR_METHODS:
+        raise ValueError(
+            f"backend='gpu' computes factored layer colours in the kernel with colour_method "
+            f"in {tuple(FACTORED_COLOUR_METHODS)}, got {colour_method!r}: use one of them, or "
+            "method='single-reflection-lut', which tabulates any colour method")
+    if colour_method in GPU_LANDMARK_METHODS:
+        for layer in structure.layers:
+            _check_mirror(layer.mirror, colour_method)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Batch:
+    """How a broadcast request maps onto invocations: ``count`` invocations over the leading
+    shape ``invocations`` (the request's shape with a multiplexed axis kept as 1), each with
+    ``wavelengths`` wavelengths (0: RGB) from ``wavelength`` (flat, ``stride`` per invocation)."""
+
+    shape: tuple
+    invocations: tuple
+    count: int
+    wavelengths: int
+    wavelength: np.ndarray
+    stride: int
+
+
+def _batch(direction_shape: tuple, wavelength) -> _Batch:
+    if wavelength is None:
+        count = int(np.prod(direction_shape, dtype=np.int64))
+        return _Batch(direction_shape, direction_shape, count, 0, np.zeros(1, np.float32), 0)
+    shape = np.broadcast_shapes(direction_shape, wavelength.shape)
+    padded = (1,) * (len(shape) - len(direction_shape)) + tuple(direction_shape)
+    multiplexed = len(shape) > 0 and padded[-1] == 1 and shape[-1] > 1
+    invocations = (*shape[:-1], 1) if multiplexed else shape
+    per_invocation = shape[-1] if multiplexed else 1
+    count = int(np.prod(invocations, dtype=np.int64))
+    wl_padded = (1,) * (len(shape) - wavelength.ndim) + wavelength.shape
+    if multiplexed and all(n == 1 for n in wl_padded[:-1]):
+        # The same wavelengths for every invocation: upload them once.
+        flat = np.ascontiguousarray(np.broadcast_to(wavelength, shape[-1:]), np.float32)
+        stride = 0
+    else:
+        flat = np.ascontiguousarray(np.broadcast_to(wavelength, shape), np.float32).ravel()
+        stride = per_invocation
+    return _Batch(shape, invocations, count, per_invocation, flat, stride)
+
+
+def _vec4(array, shape) -> np.ndarray:
+    out = np.zeros((int(np.prod(shape, dtype=np.int64)), 4), np.float32)
+    out[:, :3] = np.broadcast_to(array, (*shape, 3)).reshape(-1, 3)
+    return out
+
+
+def _setup(structure, operation: str, first, second, wavelength, batch: _Batch, method: str,
+           colour_method: str):
+    kind = _kind(operation, wavelength, colour_method)
+    lut = method == "single-reflection-lut" and kind != _DENSITY
+    variant = _variant(structure, kind, lut, colour_method)
+    kernel = gpu.compute_pipeline(
+        "layered_brdf_eval.wgsl", OPERATIONS[operation],
+        _constants(variant, kind, lut, colour_method, batch.wavelengths))
+    params = variant.params.copy()
+    params["count"], params["wavelength_stride"] = batch.count, batch.stride
+    channels = 1 if operation == "pdf" else (batch.wavelengths or 3)
+    directions = batch.count if operation == "sample" else 1
+    inputs = [_vec4(first, batch.invocations), _vec4(second, batch.invocations),
+              batch.wavelength, variant.layers, variant.tables]
+    outputs = [(batch.count * channels, np.float32), ((directions, 4), np.float32)]
+    return kernel, inputs, outputs, params
+
+
+def _run(structure, operation, first, second, wavelength, batch, method, colour_method):
+    if batch.count == 0:
+        return np.zeros(0, np.float32), np.zeros((0, 4), np.float32)
+    kernel, inputs, outputs, params = _setup(structure, operation, first, second, wavelength,
+                                             batch, method, colour_method)
+    return kernel.run(inputs, outputs, params, count=batch.count)
+
+
+def _values(value: np.ndarray, batch: _Batch) -> np.ndarray:
+    value = value.astype(np.float64)
+    if batch.wavelengths == 0:
+        return value.reshape((*batch.shape, 3))
+    return value.reshape(batch.shape)
+
+
+def brdf(structure, wi, wo, wavelength, method: str, colour_method: str) -> np.ndarray:
+    """Eq 34 by the float32 kernel; arguments as :meth:`LayeredBragg.brdf`, checked.
+
+    Parameters
+    ----------
+    structure : LayeredBragg
+    wi, wo : numpy.ndarray, shape (..., 3)
+        Unit directions in air.
+    wavelength : numpy.ndarray or None
+        Wavelengths in nm, in 360-830; ``None`` for linear sRGB.
+    method : {"single-reflection", "single-reflection-lut"}
+    colour_method : str
+        RGB: "integrated"; or factored, by a method of :data:`FACTORED_COLOUR_METHODS` (any
+        colour method with the LUT).
+
+    Returns
+    -------
+    numpy.ndarray
+        float64 ``f`` in 1/sr, shaped as :meth:`LayeredBragg.brdf`'s result.
+    """
+    _check_request(structure, wavelength, method, colour_method)
+    batch = _batch(np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1]), wavelength)
+    value, _ = _run(structure, "brdf", wi, wo, wavelength, batch, method, colour_method)
+    return _values(value, batch)
+
+
+def pdf(structure, wi, wo) -> np.ndarray:
+    """:meth:`LayeredBragg.pdf` by the float32 kernel (1/sr), for checked unit directions."""
+    batch = _batch(np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1]), None)
+    value, _ = _run(structure, "pdf", wi, wo, None, batch, "single-reflection", INTEGRATED)
+    return value.astype(np.float64).reshape(batch.shape)
+
+
+def sample(structure, wi, u, wavelength, method: str, colour_method: str):
+    """Eq 35 and the chosen lobe by the float32 kernel; as :meth:`LayeredBragg.sample`.
+
+    Parameters
+    ----------
+    structure : LayeredBragg
+    wi : numpy.ndarray, shape (..., 3)
+        Unit directions in air with ``z > 0``.
+    u : numpy.ndarray, shape (..., 3)
+        Uniform numbers in [0, 1].
+    wavelength, method, colour_method
+        As for :func:`brdf`.
+
+    Returns
+    -------
+    wo, weight, pdf : numpy.ndarray
+        float64, shaped as :meth:`LayeredBragg.sample`'s results.
+    """
+    _check_request(structure, wavelength, method, colour_method)
+    sample_shape = np.broadcast_shapes(wi.shape[:-1], u.shape[:-1])
+    batch = _batch(sample_shape, wavelength)
+    value, drawn = _run(structure, "sample", wi, u, wavelength, batch, method, colour_method)
+    drawn = _reduce(drawn.astype(np.float64).reshape((*batch.invocations, 4)), sample_shape)
+    return drawn[..., :3], _values(value, batch), drawn[..., 3]
+
+
+def _reduce(array: np.ndarray, shape: tuple) -> np.ndarray:
+    """``array`` (leading shape broadcast from ``shape``, one trailing axis) back on ``shape``:
+    along the axes that broadcasting added or stretched, the values repeat, so take the first."""
+    extra = array.ndim - 1 - len(shape)
+    index = (0,) * extra + tuple(slice(0, 1) if n == 1 else slice(None) for n in shape)
+    return array[index].reshape((*shape, array.shape[-1]))
+
+
+def benchmark(structure, operation: str, wi, second, wavelength=None,
+              method: str = "single-reflection", colour_method: str = INTEGRATED,
+              repeats: int = 5) -> float:
+    """Median GPU seconds of one dispatch (buffers uploaded once), as the operations above.
+
+    Parameters
+    ----------
+    structure : LayeredBragg
+    operation : {"brdf", "sample", "pdf"}
+    wi : array_like, shape (..., 3)
+        Unit directions in air.
+    second : array_like, shape (..., 3)
+        ``wo`` (brdf, pdf) or ``u`` (sample).
+    wavelength : array_like, optional
+        nm, in 360-830; ``None``: RGB.
+    method, colour_method
+        As for :meth:`LayeredBragg.brdf`.
+    repeats : int
+        Timed dispatches.
+
+    Returns
+    -------
+    float
+        Seconds; ``count / seconds`` is the evaluation rate (pairs or samples per second).
+    """
+    if operation not in OPERATIONS:
+        raise ValueError(f"operation must be one of {tuple(OPERATIONS)}, got {operation!r}")
+    wi, second = np.asarray(wi, np.float64), np.asarray(second, np.float64)
+    wavelength = None if wavelength is None else np.asarray(wavelength, np.float64)
+    _check_request(structure, wavelength, method, colour_method)
+    batch = _batch(np.broadcast_shapes(wi.shape[:-1], second.shape[:-1]),
+                   None if operation == "pdf" else wavelength)
+    kernel, inputs, outputs, params = _setup(structure, operation, wi, second, wavelength,
+                                             batch, method, colour_method)
+    return kernel.benchmark(inputs, outputs, params, repeats=repeats, count=batch.count)

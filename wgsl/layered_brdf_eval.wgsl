@@ -1,0 +1,103 @@
+// Entry points of the single-reflection model (layered_brdf.wgsl), one invocation per pair
+// (wi, wo) or sample (wi, u), run by wgbragg/layered_gpu.py:
+//   evaluate:  f(wi, wo) at WAVELENGTHS wavelengths, or as linear sRGB  -> value
+//   sample:    eq 35 from (wi, u = operand.xyz) -> directions = (wo, pdf), value = weights
+//   density:   pdf(wi, wo)                                             -> value
+// value holds WAVELENGTHS floats per invocation (spectral) or 3 (RGB, WAVELENGTHS = 0).
+//! include "harness.wgsl"
+//! include "numerics.wgsl"
+//! include "complex.wgsl"
+//! include "layer.wgsl"
+//! include "yeh.wgsl"
+//! include "landmarks.wgsl"
+//! include "colour_landmark.wgsl"
+//! include "ggx.wgsl"
+//! include "layered.wgsl"
+//! include "layered_brdf.wgsl"
+
+// Wavelengths per invocation, sharing its directions (multiplexing); 0: RGB.
+override WAVELENGTHS: u32 = 0u;
+
+struct Params {
+    structure: LayeredStructure,
+    count: u32,               // invocations
+    wavelength_stride: u32,   // WAVELENGTHS, or 0 when every invocation has the same ones
+}
+
+@group(0) @binding(0) var<storage, read> incoming: array<vec4<f32>>;   // wi (xyz)
+@group(0) @binding(1) var<storage, read> operand: array<vec4<f32>>;    // wo, or u of sample
+@group(0) @binding(2) var<storage, read> wavelengths: array<f32>;      // nm
+@group(0) @binding(3) var<storage, read> layers: array<RoughLayer>;
+@group(0) @binding(4) var<storage, read> tables: array<f32>;
+@group(0) @binding(5) var<storage, read_write> value: array<f32>;
+@group(0) @binding(6) var<storage, read_write> directions: array<vec4<f32>>;
+@group(0) @binding(7) var<uniform> params: Params;
+
+fn wavelength_at(index: u32, k: u32) -> f32 {
+    return wavelengths[index * params.wavelength_stride + k];
+}
+
+fn store_rgb(index: u32, rgb: vec3<f32>) {
+    value[3u * index] = rgb.x;
+    value[3u * index + 1u] = rgb.y;
+    value[3u * index + 2u] = rgb.z;
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>,
+            @builtin(num_workgroups) nwg: vec3<u32>) {
+    let index = global_index(gid, nwg);
+    if (index >= params.count) {
+        return;
+    }
+    let s = params.structure;
+    let pair = layered_pair(s, incoming[index].xyz, operand[index].xyz);
+    if (WAVELENGTHS == 0u) {
+        store_rgb(index, layered_eval_rgb(s, pair));
+        return;
+    }
+    for (var k = 0u; k < WAVELENGTHS; k++) {
+        value[index * WAVELENGTHS + k] = layered_eval_spectral(s, pair, wavelength_at(index, k));
+    }
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn sample(@builtin(global_invocation_id) gid: vec3<u32>,
+          @builtin(num_workgroups) nwg: vec3<u32>) {
+    let index = global_index(gid, nwg);
+    if (index >= params.count) {
+        return;
+    }
+    let s = params.structure;
+    let wi = incoming[index].xyz;
+    let drawn = layered_sample(s, wi, operand[index].xyz);
+    directions[index] = vec4<f32>(drawn.wo, drawn.pdf);
+    // The Dirac lobe and rejected directions need no evaluation.
+    let continuous = drawn.cos_over_pdf > 0.0;
+    let pair = layered_pair(s, wi, drawn.wo);
+    if (WAVELENGTHS == 0u) {
+        var weight = vec3<f32>(drawn.dirac);
+        if (continuous) {
+            weight += layered_eval_rgb(s, pair) * drawn.cos_over_pdf;
+        }
+        store_rgb(index, weight);
+        return;
+    }
+    for (var k = 0u; k < WAVELENGTHS; k++) {
+        var weight = drawn.dirac;
+        if (continuous) {
+            weight += layered_eval_spectral(s, pair, wavelength_at(index, k)) * drawn.cos_over_pdf;
+        }
+        value[index * WAVELENGTHS + k] = weight;
+    }
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn density(@builtin(global_invocation_id) gid: vec3<u32>,
+           @builtin(num_workgroups) nwg: vec3<u32>) {
+    let index = global_index(gid, nwg);
+    if (index >= params.count) {
+        return;
+    }
+    value[index] = layered_pdf(params.structure, incoming[index].xyz, operand[index].xyz);
+}
