@@ -20,6 +20,7 @@ Public API::
     s = LayeredBragg(layers=[RoughBraggLayer(m, alpha=0.1)], base_albedo=0.2)
     s.brdf(wi, wo, wavelength_nm=None, method="single-reflection")   # eq 34
     wo, weight, pdf = s.sample(wi, u)                                 # eq 35
+    s.simulate(wi, wo, paths=65536, mode="all", transmission="ballistic")  # MC reference
 
 Units: nm and radians (angles in the host medium).
 """
