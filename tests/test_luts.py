@@ -425,6 +425,9 @@ def fake_filter(monkeypatch) -> types.ModuleType:
 def test_transmission_filter_through_the_cache(cache, fake_filter):
     events = []
     baked = luts.transmission_filter(0.2, 10, 16, backend="numpy", progress=events.append)
+    # Read again in this process: the same object, the file not even reopened.
+    assert luts.transmission_filter(0.2, 10.0, 16, backend="gpu") is baked
+    luts._loaded_filters.clear()  # as a new process would
     loaded = luts.transmission_filter(0.2, 10.0, 16, backend="gpu", progress=events.append)
     assert fake_filter.bakes == [(0.2, 10.0, 16, "numpy")]  # backend is not in the key
     assert [e.action for e in events] == ["baked", "loaded"]
@@ -436,6 +439,21 @@ def test_transmission_filter_through_the_cache(cache, fake_filter):
     assert loaded.values.shape == (10, 9)
     luts.transmission_filter(0.4, 10, 16, backend="numpy")
     assert len(fake_filter.bakes) == 2 and len(list(cache.iterdir())) == 2
+
+
+def test_shared_filter_is_dropped_when_its_file_changes(cache, fake_filter):
+    """A file rewritten (or removed) since it was read is read and verified again, so a
+    corrupted file is never served from memory either."""
+    first = luts.transmission_filter(0.2, 10, 16, backend="numpy")
+    path = luts.lut_path(luts.TRANSMISSION_FILTER, luts.transmission_filter_parameters(0.2, 10,
+                                                                                       16))
+    path.write_bytes(path.read_bytes()[:-10])  # truncated
+    events = []
+    with pytest.warns(luts.LutWarning):
+        again = luts.transmission_filter(0.2, 10, 16, backend="numpy", progress=events.append)
+    assert again is not first and [e.action for e in events] == ["re-baked"]
+    assert luts.transmission_filter(0.2, 10, 16, backend="numpy") is again
+    assert luts.transmission_filter(0.2, 10, 16, backend="numpy", force=True) is not again
 
 
 def test_transmission_filter_parameters_are_normalised():
@@ -473,6 +491,7 @@ def test_real_transmission_filter_round_trip(cache):
     """The real module, once it exists: a tiny numpy bake, then the same filter from disk."""
     module = pytest.importorskip("wgbragg.transmission_filter")
     baked = luts.transmission_filter(0.3, 5, 64, backend="numpy")
+    luts._loaded_filters.clear()  # as a new process would
     events = []
     loaded = luts.transmission_filter(0.3, 5, 64, backend="numpy", progress=events.append)
     assert [e.action for e in events] == ["loaded"]

@@ -661,9 +661,30 @@ def transmission_filter(alpha, resolution_deg=0.25, psi_samples=1000, backend="g
         baked = TransmissionFilter.bake(**settings, backend=backend)
         return {name: getattr(baked, name) for name in _FILTER_ARRAYS}
 
+    path = lut_path(TRANSMISSION_FILTER, parameters, cache)
+    if not force:
+        known = _loaded_filters.get(path)
+        if known is not None and known[0] == _file_stamp(path):
+            return known[1]
     arrays = cached(TRANSMISSION_FILTER, parameters, bake, cache=cache, force=force,
                     progress=progress)
-    return TransmissionFilter.from_arrays(**settings, **arrays)
+    result = TransmissionFilter.from_arrays(**settings, **arrays)
+    _loaded_filters[path] = (_file_stamp(path), result)
+    return result
+
+
+# Filters read in this process, by file, with the file's stamp when read: layers that ask for
+# the same roughness share one filter object (and so its GPU weights) as long as the file is
+# the one that was verified. A changed, replaced or removed file is read (and checked) again.
+_loaded_filters: dict[Path, tuple[tuple[int, int, int] | None, object]] = {}
+
+
+def _file_stamp(path: Path) -> tuple[int, int, int] | None:
+    try:
+        status = path.stat()
+    except OSError:
+        return None
+    return status.st_ino, status.st_size, status.st_mtime_ns
 
 
 def _bake_colour_tables() -> dict[str, np.ndarray]:
