@@ -453,6 +453,10 @@ def test_shared_filter_is_dropped_when_its_file_changes(cache, fake_filter):
         again = luts.transmission_filter(0.2, 10, 16, backend="numpy", progress=events.append)
     assert again is not first and [e.action for e in events] == ["re-baked"]
     assert luts.transmission_filter(0.2, 10, 16, backend="numpy") is again
+    events.clear()
+    unshared = luts.transmission_filter(0.2, 10, 16, backend="numpy", shared=False,
+                                        progress=events.append)
+    assert unshared is not again and [e.action for e in events] == ["loaded"]
     assert luts.transmission_filter(0.2, 10, 16, backend="numpy", force=True) is not again
 
 

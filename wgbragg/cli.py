@@ -97,8 +97,9 @@ def _bake(args) -> int:
     for alpha in args.alpha:
         luts.transmission_filter_parameters(alpha, args.resolution_deg, args.psi_samples)
     jobs = [
+        # shared=False: baking means checking every file, even one read before.
         functools.partial(luts.transmission_filter, alpha, args.resolution_deg,
-                          args.psi_samples, args.backend)
+                          args.psi_samples, args.backend, shared=False)
         for alpha in args.alpha
     ]
     if args.colour_tables:

@@ -616,7 +616,7 @@ def transmission_filter_parameters(alpha, resolution_deg=0.25, psi_samples=1000)
 
 
 def transmission_filter(alpha, resolution_deg=0.25, psi_samples=1000, backend="gpu",
-                        cache=None, *, force: bool = False,
+                        cache=None, *, force: bool = False, shared: bool = True,
                         progress: Callable[[CacheEvent], None] | None = None):
     """The transmission filter of a rough interface, from the cache or baked.
 
@@ -635,6 +635,9 @@ def transmission_filter(alpha, resolution_deg=0.25, psi_samples=1000, backend="g
         Cache folder; default :func:`cache_dir`.
     force, progress
         As for :func:`cached`.
+    shared : bool
+        Return the filter this process already read from the same, unchanged file (the same
+        object, so layers share its GPU copy) instead of reading and verifying the file again.
 
     Returns
     -------
@@ -662,7 +665,7 @@ def transmission_filter(alpha, resolution_deg=0.25, psi_samples=1000, backend="g
         return {name: getattr(baked, name) for name in _FILTER_ARRAYS}
 
     path = lut_path(TRANSMISSION_FILTER, parameters, cache)
-    if not force:
+    if shared and not force:
         known = _loaded_filters.get(path)
         if known is not None and known[0] == _file_stamp(path):
             return known[1]
