@@ -208,7 +208,7 @@ def _spectral_to_rgb(weight: np.ndarray, wavelength: np.ndarray) -> np.ndarray:
     """Colour of hero-wavelength samples: sum_k w_k xyz(lambda_k) * 470 / K, in sRGB."""
     from wgbragg import colorimetry
 
-    xyz = np.einsum("...k,...kc->...c", weight, colorimetry.xyz_density(wavelength))
+    xyz = (weight[..., None, :] @ colorimetry.xyz_density(wavelength))[..., 0, :]
     return colorimetry.xyz_to_linear_srgb(xyz * (470.0 / HERO))
 
 
@@ -218,7 +218,7 @@ def _model_spectral(s, view, frames, rng, spp):
     wavelength = _hero_wavelengths(rng, (view.shape[0], spp))
     local, weight, _ = s.sample(view[:, None, None, :], rng.random((view.shape[0], spp, 1, 3)),
                                 wavelength, backend="gpu")
-    world = np.einsum("pij,psi->psj", frames, local[:, :, 0])
+    world = local[:, :, 0] @ frames
     return _spectral_to_rgb(weight, wavelength) * environment(world)
 
 
@@ -230,14 +230,14 @@ def _model_rgb(s, view, frames, rng, spp, next_event):
                "colour_method": LUT_COLOURS}
     local, weight, pdf_brdf = s.sample(view[:, None, :], rng.random((view.shape[0], spp, 3)),
                                        **options)
-    world = np.einsum("pij,psi->psj", frames, local)
+    world = local @ frames
     colour = weight * environment(world)
     if not next_event:
         return colour
     pdf_env = environment_pdf(world)
     colour = colour * (pdf_brdf**2 / np.maximum(pdf_brdf**2 + pdf_env**2, 1e-300))[..., None]
     light, pdf_light = sample_environment(rng, (view.shape[0], spp))
-    light_local = np.einsum("pij,psj->psi", frames, light)
+    light_local = light @ np.swapaxes(frames, -1, -2)
     above = light_local[..., 2] > 0.0
     light_local = np.where(above[..., None], light_local, [0.0, 0.0, 1.0])
     f = s.brdf(view[:, None, :], light_local, **options)
@@ -256,7 +256,7 @@ def _render(s, scene: Sphere, spp: int, chunk: int, estimator: str, seed: int) -
         if estimator in ("GT", "SR sim."):
             local, weights = s.simulate(view, paths=spp, mode="all" if estimator == "GT"
                                         else "single", seed=seed + start)
-            world = np.einsum("pij,psi->psj", frames, local)
+            world = local @ frames
             colour = weights * environment(world)
         elif estimator == "model":
             colour = _model_spectral(s, view, frames, rng, spp)
