@@ -9,14 +9,34 @@ is replaced atomically, so a reader or an interrupted run never sees half a docu
 
 from __future__ import annotations
 
+import datetime
+import math
 import os
 import platform
 import time
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from wgbragg._io import write_text_atomic
 
-__all__ = ["DOC_INTRO", "LoadMeter", "cpu_model", "markers", "update_document", "write_section"]
+__all__ = [
+    "DOC_INTRO",
+    "TIMES",
+    "LoadMeter",
+    "cpu_model",
+    "human_ratio",
+    "human_time",
+    "markdown_table",
+    "markers",
+    "parse_ratio",
+    "parse_time",
+    "run_facts",
+    "update_document",
+    "write_section",
+]
+
+TIMES = "\u00d7"  # an escape: ruff flags a literal multiplication sign as confusable with "x"
 
 DOC_INTRO = """# Benchmarks
 
@@ -165,3 +185,67 @@ def section_output(args, default_output):
     if args.output is not None:
         return args.output
     return None if args.quick else default_output
+
+
+def run_facts(gpu_error: str | None = None) -> dict[str, Any]:
+    """What a report states about its run: date, adapter (or why there is none), CPU, cores,
+    Python and the wgbragg and numpy versions."""
+    import numpy as np
+
+    from wgbragg import __version__, gpu
+
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    if gpu_error is None:
+        info = gpu.adapter_info()
+        adapter = f"{info['name']} [{info['backend']}]"
+    else:
+        adapter = f"none ({gpu_error})"
+    return {
+        "date": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"),
+        "adapter": adapter,
+        "cpu": cpu_model(),
+        "cores": cores,
+        "python": platform.python_version(),
+        "versions": {"wgbragg": __version__, "numpy": np.__version__},
+    }
+
+
+def markdown_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
+    """Lines of a markdown table."""
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join(["---"] * len(header)) + "|"]
+    lines += ["| " + " | ".join(row) + " |" for row in rows]
+    return lines
+
+
+def human_time(seconds: float) -> str:
+    """Duration with 3 significant digits and a unit: ``"123 ns"``, ``"4.56 µs"``, ``"1.20 ms"``."""
+    for scale, unit in ((1.0, "s"), (1e-3, "ms"), (1e-6, "µs"), (1e-9, "ns")):
+        value = float(f"{seconds / scale:.3g}")
+        # Round first so that 999.7 µs becomes "1.00 ms", not "1e+03 µs".
+        if value >= 1.0 or unit == "ns":
+            digits = max(0, 2 - math.floor(math.log10(value))) if value > 0 else 2
+            return f"{value:.{digits}f} {unit}"
+    raise AssertionError("unreachable")
+
+
+def parse_time(text: str) -> float:
+    """Inverse of :func:`human_time` (seconds)."""
+    number, unit = text.strip().split()
+    return float(number) * {"s": 1.0, "ms": 1e-3, "µs": 1e-6, "ns": 1e-9}[unit]
+
+
+def human_ratio(ratio: float) -> str:
+    """Speed-up with 3 significant digits, e.g. ``"4,310×"``, ``"12.5×"``, ``"0.0123×"``."""
+    rounded = float(f"{ratio:.3g}")
+    if rounded >= 100:
+        return f"{rounded:,.0f}{TIMES}"
+    digits = max(0, 2 - math.floor(math.log10(rounded))) if rounded > 0 else 2
+    return f"{rounded:.{digits}f}{TIMES}"
+
+
+def parse_ratio(text: str) -> float:
+    """Inverse of :func:`human_ratio`."""
+    return float(text.strip().removesuffix(TIMES).replace(",", ""))

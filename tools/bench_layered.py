@@ -52,7 +52,8 @@ if _TOOLS not in sys.path:
     sys.path.insert(0, _TOOLS)
 
 import _docs  # noqa: E402
-from bench_rgb import _environment, _table, human_ratio, human_time  # noqa: E402
+from _docs import human_ratio, human_time  # noqa: E402
+from _docs import markdown_table as _table  # noqa: E402
 
 __all__ = [
     "BEGIN_MARKER",
@@ -296,7 +297,7 @@ def _timed(call: Callable[[], np.ndarray]) -> tuple[np.ndarray, float]:
 
 def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
     meter = _docs.LoadMeter()
-    results = Results(cfg, _environment(None))
+    results = Results(cfg, _docs.run_facts())
     scene = sphere(cfg.size)
     bar = tqdm(total=len(cfg.structures) * len(ESTIMATORS), desc="layered efficiency",
                disable=not progress)

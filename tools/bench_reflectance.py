@@ -59,6 +59,9 @@ if _TOOLS not in sys.path:
     sys.path.insert(0, _TOOLS)
 
 import _docs  # noqa: E402
+# parse_ratio is re-exported: readers of the report (the tests) parse its cells with it.
+from _docs import TIMES, human_ratio, parse_ratio  # noqa: E402, F401
+from _docs import markdown_table as _table  # noqa: E402
 
 # torch's OpenMP workers spin for a while after each parallel region; on 2 shared cores that
 # spinning lands on the next cell (lavapipe's threads). Set before torch is imported.
@@ -85,7 +88,6 @@ TARGET_TMM_FAST_RATIO = 3000.0  # GPU / tmm_fast at N = 20
 
 NOT_MEASURED = "—"
 # Written as an escape: ruff flags a literal multiplication sign as confusable with "x".
-TIMES = "\u00d7"
 NOT_INSTALLED = "not installed"
 
 
@@ -643,20 +645,6 @@ def parse_rate(text: str) -> float:
     return float(number) * scale
 
 
-def human_ratio(ratio: float) -> str:
-    """Speed-up with 3 significant digits, e.g. ``"4,310×"``, ``"12.5×"``, ``"0.83×"``."""
-    rounded = float(f"{ratio:.3g}")
-    if rounded >= 100:
-        return f"{rounded:,.0f}{TIMES}"
-    digits = max(0, 2 - math.floor(math.log10(rounded))) if rounded > 0 else 2
-    return f"{rounded:.{digits}f}{TIMES}"
-
-
-def parse_ratio(text: str) -> float:
-    """Inverse of :func:`human_ratio`."""
-    return float(text.strip().removesuffix(TIMES).replace(",", ""))
-
-
 def _n_label(N: int) -> str:
     exponent = math.log10(N)
     if N >= 10_000 and exponent == int(exponent):
@@ -677,12 +665,6 @@ def _size(measurement: Measurement) -> str:
     if measurement.calls == 1:
         return f"{measurement.points:,}"
     return f"{measurement.points:,} {TIMES} {measurement.calls}"
-
-
-def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join(["---"] * len(header)) + "|"]
-    lines += ["| " + " | ".join(row) + " |" for row in rows]
-    return lines
 
 
 def _targets(results: Results) -> list[list[str]]:

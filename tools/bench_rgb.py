@@ -37,11 +37,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import datetime
 import inspect
-import math
-import os
-import platform
 import shlex
 import sys
 import time
@@ -59,6 +55,15 @@ if _TOOLS not in sys.path:
     sys.path.insert(0, _TOOLS)
 
 import _docs  # noqa: E402
+# parse_* are re-exported: readers of the report (the tests) parse its cells with them.
+from _docs import (  # noqa: E402, F401
+    TIMES,
+    human_ratio,
+    human_time,
+    parse_ratio,
+    parse_time,
+)
+from _docs import markdown_table as _table  # noqa: E402
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_OUTPUT = REPO_ROOT / "docs" / "benchmarks.md"
@@ -87,7 +92,6 @@ FINE_NODES_PER_OSCILLATION = 40
 FINE_MAX_STEP_NM = 0.1
 
 NOT_MEASURED = "—"
-TIMES = "\u00d7"  # an escape: ruff flags a literal multiplication sign as confusable with "x"
 
 # Kinds of timing, as (backend, timing) keys of Results.seconds.
 NUMPY = ("numpy", "wall")
@@ -388,7 +392,7 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
 
     if have_gpu:
         _time_gpu(cfg, grid, gpu_methods, seconds, sweep_seconds, progress)
-    environment = _environment(gpu_error)
+    environment = _docs.run_facts(gpu_error)
     environment["background_cores"] = load.background_cores()
     return Results(cfg, methods, gpu_methods, delta_e, fine_delta_e, gpu_delta_e, seconds,
                    sweep_delta_e, sweep_gpu_delta_e, sweep_seconds, environment)
@@ -433,28 +437,6 @@ def _time_gpu(cfg: Config, grid: list[Case], gpu_methods: tuple[str, ...],
         if timer is not None:
             kernel = timer(mirror, theta, cfg.kernel_repeats) / theta.size
             table[key, *GPU_KERNEL][i] = min(table[key, *GPU_KERNEL][i], kernel)
-
-
-def _environment(gpu_error: str | None) -> dict[str, Any]:
-    from wgbragg import __version__, gpu
-
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        cores = os.cpu_count() or 1
-    if gpu_error is None:
-        info = gpu.adapter_info()
-        adapter = f"{info['name']} [{info['backend']}]"
-    else:
-        adapter = f"none ({gpu_error})"
-    return {
-        "date": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"),
-        "adapter": adapter,
-        "cpu": _docs.cpu_model(),
-        "cores": cores,
-        "python": platform.python_version(),
-        "versions": {"wgbragg": __version__, "numpy": np.__version__},
-    }
 
 
 # --------------------------------------------------------------------------- statistics
@@ -517,37 +499,6 @@ def speedup(results: Results, method: str, backend: str, timing: str,
 # --------------------------------------------------------------------------- formatting
 
 
-def human_time(seconds: float) -> str:
-    """Duration with 3 significant digits and a unit: ``"123 ns"``, ``"4.56 µs"``, ``"1.20 ms"``."""
-    for scale, unit in ((1.0, "s"), (1e-3, "ms"), (1e-6, "µs"), (1e-9, "ns")):
-        value = float(f"{seconds / scale:.3g}")
-        # Round first so that 999.7 µs becomes "1.00 ms", not "1e+03 µs".
-        if value >= 1.0 or unit == "ns":
-            digits = max(0, 2 - math.floor(math.log10(value))) if value > 0 else 2
-            return f"{value:.{digits}f} {unit}"
-    raise AssertionError("unreachable")
-
-
-def parse_time(text: str) -> float:
-    """Inverse of :func:`human_time` (seconds)."""
-    number, unit = text.strip().split()
-    return float(number) * {"s": 1.0, "ms": 1e-3, "µs": 1e-6, "ns": 1e-9}[unit]
-
-
-def human_ratio(ratio: float) -> str:
-    """Speed-up with 3 significant digits, e.g. ``"4,310×"``, ``"12.5×"``, ``"0.0123×"``."""
-    rounded = float(f"{ratio:.3g}")
-    if rounded >= 100:
-        return f"{rounded:,.0f}{TIMES}"
-    digits = max(0, 2 - math.floor(math.log10(rounded))) if rounded > 0 else 2
-    return f"{rounded:.{digits}f}{TIMES}"
-
-
-def parse_ratio(text: str) -> float:
-    """Inverse of :func:`human_ratio`."""
-    return float(text.strip().removesuffix(TIMES).replace(",", ""))
-
-
 def method_label(method: str) -> str:
     """Method name with its options, e.g. ``"subdivided (s = 3)"``."""
     options = METHOD_OPTIONS.get(method, {})
@@ -556,12 +507,6 @@ def method_label(method: str) -> str:
     names = {"samples": "K"}
     inner = ", ".join(f"{names.get(k, k)} = {v}" for k, v in options.items())
     return f"{method} ({inner})"
-
-
-def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join(["---"] * len(header)) + "|"]
-    lines += ["| " + " | ".join(row) + " |" for row in rows]
-    return lines
 
 
 def _timing_rows(results: Results) -> list[tuple[str, tuple[str, str]]]:

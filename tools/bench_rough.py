@@ -59,15 +59,8 @@ if _TOOLS not in sys.path:
     sys.path.insert(0, _TOOLS)
 
 import _docs  # noqa: E402
-# Formatting shared with bench_rgb (parse_* are the inverses the tests read tables with).
-from bench_rgb import (  # noqa: E402
-    _environment,
-    _table,
-    human_ratio,
-    human_time,
-    parse_ratio,
-    parse_time,
-)
+from _docs import TIMES, human_ratio, human_time, parse_ratio, parse_time  # noqa: E402
+from _docs import markdown_table as _table  # noqa: E402
 
 __all__ = [
     "BEGIN_MARKER",
@@ -113,7 +106,6 @@ SETTLE_S = 0.1
 NOT_MEASURED = "—"
 # Escapes: ruff flags a literal Greek alpha and multiplication sign as confusable with a, x.
 ALPHA = "\u03b1"
-TIMES = "\u00d7"
 
 # Kinds of timing of a layer's table, keys of Results.samples (with the layer and grid).
 YEH_KERNEL = "yeh_kernel"
@@ -429,7 +421,7 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
             previous_on_gpu = cell.on_gpu
             for key, value in cell.measure().items():
                 samples.setdefault(key, []).append(float(value))
-    environment = _environment(None)
+    environment = _docs.run_facts()
     environment["background_cores"] = load.background_cores()
     shapes = {a: f.values.shape for a, f in filters.items() if a in cfg.alphas}
     rows = next(iter(filters.values())).theta_i.size
