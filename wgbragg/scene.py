@@ -71,6 +71,7 @@ from pathlib import Path
 from ._validation import check_count, check_index, check_thickness
 from .layered import LayeredBragg
 from .materials import BraggMirror
+from .meshes import MESH_SUFFIXES
 from .rough_layer import RoughBraggLayer
 from .transmission_filter import check_filter_alpha
 
@@ -105,8 +106,6 @@ SHAPES = ("mesh", "sphere", "plane", "teapot")
 plane (the 2 x 2 square in y = 0, normal +y) or Utah teapot (about 1 unit wide, standing on
 y = 0)."""
 
-MESH_SUFFIXES = (".obj", ".ply", ".glb", ".gltf", ".stl")
-"""Mesh file types a scene accepts (read with trimesh by the renderer)."""
 
 TEXTURE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
 """Image types of a texture map (read with Pillow by the renderer)."""
