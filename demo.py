@@ -1,18 +1,23 @@
-"""wgbragg demo: the default Bragg mirror's reflectance map, computed by the GPU kernel.
+"""wgbragg demo: a Bragg mirror's reflectance map and a jewel beetle's scatterogram, on the GPU.
 
 Run with ``make demo`` (which does all the set-up) or ``python demo.py [-o PATH]``. Writes a PNG
 of R(wavelength, angle) for BraggMirror(n1=1.0, n2=1.5, d1=125, d2=375, N=20): band gaps are
-the bright bands that move to shorter wavelengths as the angle grows. Later versions grow this
-into the interactive renderer.
+the bright bands that move to shorter wavelengths as the angle grows. Beside it
+(``*_scatterogram.png``), the reflected hemisphere of the jewel beetle's green cuticle (Table 3
+of the Bragg paper) lit from 30 degrees. Later versions grow this into the interactive renderer.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import time
+
+from pathlib import Path
 
 from wgbragg import BraggMirror, gpu
 from wgbragg.maps import reflectance_map, save_reflectance_map
+from wgbragg.scatterogram import jewel_beetle, save_scatterogram, scatterogram
 
 
 def main() -> None:
@@ -29,6 +34,16 @@ def main() -> None:
              f"in {seconds * 1e3:.0f} ms (upload, kernel, readback)")
     save_reflectance_map(result, args.output, title)
     print(args.output)
+
+    output = Path(args.output)
+    beetle = output.with_name(f"{output.stem}_scatterogram{output.suffix}")
+    start = time.perf_counter()
+    hemisphere = scatterogram(jewel_beetle("green"), math.radians(30.0), size=160,
+                              backend="gpu")
+    seconds = time.perf_counter() - start
+    save_scatterogram(hemisphere, beetle, f"jewel beetle, green area (Table 3), light at 30 deg"
+                      f"\n160 x 160 on {adapter} in {seconds:.1f} s")
+    print(beetle)
 
 
 if __name__ == "__main__":

@@ -193,7 +193,7 @@ def build_parser() -> argparse.ArgumentParser:
     scatter.add_argument("--phi-deg", type=float, default=0.0, help="azimuth of the light")
     scatter.add_argument("--size", type=int, default=256, help="image size in pixels")
     scatter.add_argument("--exposure", type=float, default=None,
-                         help="radiance scale (default: the brightest 0.5%% clip)")
+                         help="radiance scale (default: the brightest value maps to 1)")
     scatter.add_argument("--backend", choices=("gpu", "numpy"), default="numpy")
     scatter.add_argument("-o", "--output", default="out/scatterogram.png")
     scatter.set_defaults(run=_scatterogram)

@@ -129,13 +129,14 @@ def scatterogram(structure, theta_i=0.0, phi_i=0.0, size=256, method="single-ref
 
 
 def _display(result: Scatterogram, exposure: float | None) -> np.ndarray:
-    """sRGB in [0, 1]: scaled so the 99.5th percentile of the brightest channel is 1 unless an
-    exposure is given, clipped, encoded; white outside the disk."""
+    """sRGB in [0, 1]: scaled so the brightest channel of the brightest pixel is 1 unless an
+    exposure is given (a specular peak then keeps its hue instead of clipping to white),
+    clipped, encoded; white outside the disk."""
     import colour
 
     values = result.radiance[result.inside]
     if exposure is None:
-        peak = np.percentile(values.max(axis=-1), 99.5) if values.size else 0.0
+        peak = values.max() if values.size else 0.0
         exposure = 1.0 / peak if peak > 0.0 else 1.0
     image = np.ones_like(result.radiance)
     image[result.inside] = colour.cctf_encoding(np.clip(values * exposure, 0.0, 1.0))
@@ -152,8 +153,7 @@ def save_scatterogram(result: Scatterogram, path: str | os.PathLike, title: str 
     path : path-like
     title : str, optional
     exposure : float, optional
-        Radiance scale before clipping; default: the 99.5th percentile of the brightest
-        channel maps to 1.
+        Radiance scale before clipping; default: 1 / the largest channel value of the image.
     """
     import matplotlib
 
