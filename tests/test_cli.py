@@ -57,10 +57,13 @@ def test_map_writes_a_png_atomically(tmp_path, capsys):
 
 
 @pytest.mark.gpu
-def test_demo_writes_its_figure(tmp_path):
+def test_demo_writes_its_figures(tmp_path):
     target = tmp_path / "demo.png"
+    beetle = tmp_path / "demo_scatterogram.png"
     result = subprocess.run([sys.executable, str(ROOT / "demo.py"), "-o", str(target)],
                             capture_output=True, text=True, check=True)
-    assert result.stdout.strip().splitlines()[-1] == str(target)
+    assert result.stdout.strip().splitlines()[-2:] == [str(target), str(beetle)]
     pixels = np.asarray(Image.open(target).convert("RGB"), dtype=np.float64)
     assert pixels.std() > 20  # a real map, not a blank canvas
+    hemisphere = np.asarray(Image.open(beetle).convert("RGB"), dtype=np.float64)
+    assert hemisphere.std() > 20
