@@ -3,7 +3,8 @@
 ``wgbragg info`` shows the adapter and versions; ``wgbragg reflectance`` prints R for one
 mirror; ``wgbragg map`` writes a reflectance map (wavelength x angle) as a PNG; ``wgbragg bake``
 fills the LUT cache (transmission filters and colour tables, see :mod:`wgbragg.luts`);
-``wgbragg scatterogram`` renders the reflected hemisphere of a rough Bragg layer as a PNG.
+``wgbragg scatterogram`` renders the reflected hemisphere of a rough Bragg layer as a PNG;
+``wgbragg render`` path-traces a scene file or a built-in preset to a PNG.
 """
 
 from __future__ import annotations
@@ -138,6 +139,31 @@ def _scatterogram(args) -> int:
     return 0
 
 
+def _size(text: str) -> tuple[int, int]:
+    width, _, height = text.lower().partition("x")
+    try:
+        return int(width), int(height)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--size must be WIDTHxHEIGHT, got {text!r}") from None
+
+
+def _render(args) -> int:
+    from .render import Renderer, save_png
+    from .scene import load_preset, load_scene
+
+    if (args.scene_file is None) == (args.scene is None):
+        raise ValueError("give either a scene file or --scene NAME, not both or neither")
+    scene = load_preset(args.scene) if args.scene else load_scene(args.scene_file)
+    renderer = Renderer(scene, size=args.size)
+    spp = scene.settings.spp if args.spp is None else args.spp
+    start = time.perf_counter()
+    image = renderer.render(spp, progress=args.progress)
+    seconds = time.perf_counter() - start
+    save_png(image, args.output, scene.settings.exposure)
+    print(f"{args.output}: {renderer.width}x{renderer.height}, {spp} spp in {seconds:.1f} s")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="wgbragg", description=__doc__.splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
@@ -197,6 +223,17 @@ def build_parser() -> argparse.ArgumentParser:
     scatter.add_argument("--backend", choices=("gpu", "numpy"), default="numpy")
     scatter.add_argument("-o", "--output", default="out/scatterogram.png")
     scatter.set_defaults(run=_scatterogram)
+    render = commands.add_parser("render", help="path-trace a scene (RGB) to a PNG")
+    render.add_argument("scene_file", nargs="?", default=None, help="a scene TOML file")
+    render.add_argument("--scene", default=None, help="a built-in preset instead of a file")
+    render.add_argument("-o", "--output", default="out/render.png")
+    render.add_argument("--spp", type=int, default=None,
+                        help="samples per pixel (default: the scene's settings.spp)")
+    render.add_argument("--size", type=_size, default=None,
+                        help="WIDTHxHEIGHT in pixels (default: the scene's settings.size)")
+    render.add_argument("--no-progress", dest="progress", action="store_false",
+                        help="no progress bar")
+    render.set_defaults(run=_render)
     return parser
 
 
