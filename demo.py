@@ -4,7 +4,9 @@ Run with ``make demo`` (which does all the set-up) or ``python demo.py [-o PATH]
 of R(wavelength, angle) for BraggMirror(n1=1.0, n2=1.5, d1=125, d2=375, N=20): band gaps are
 the bright bands that move to shorter wavelengths as the angle grows. Beside it
 (``*_scatterogram.png``), the reflected hemisphere of the jewel beetle's green cuticle (Table 3
-of the Bragg paper) lit from 30 degrees. Later versions grow this into the interactive renderer.
+of the Bragg paper) lit from 30 degrees, and (``*_teapot.png``) the teapot preset path-traced on
+the GPU: two rough Bragg layers over a diffuse base. Later versions grow this into the
+interactive window.
 """
 
 from __future__ import annotations
@@ -17,7 +19,9 @@ from pathlib import Path
 
 from wgbragg import BraggMirror, gpu
 from wgbragg.maps import reflectance_map, save_reflectance_map
+from wgbragg.render import Renderer, save_png
 from wgbragg.scatterogram import jewel_beetle, save_scatterogram, scatterogram
+from wgbragg.scene import load_preset
 
 
 def main() -> None:
@@ -44,6 +48,13 @@ def main() -> None:
     save_scatterogram(hemisphere, beetle, f"jewel beetle, green area (Table 3), light at 30 deg"
                       f"\n160 x 160 on {adapter} in {seconds:.1f} s")
     print(beetle)
+
+    teapot = output.with_name(f"{output.stem}_teapot{output.suffix}")
+    scene = load_preset("teapot")
+    renderer = Renderer(scene, size=(256, 256))
+    image = renderer.render(64, progress=True)
+    save_png(image, teapot, scene.settings.exposure)
+    print(teapot)
 
 
 if __name__ == "__main__":

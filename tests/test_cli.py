@@ -60,9 +60,11 @@ def test_map_writes_a_png_atomically(tmp_path, capsys):
 def test_demo_writes_its_figures(tmp_path):
     target = tmp_path / "demo.png"
     beetle = tmp_path / "demo_scatterogram.png"
+    teapot = tmp_path / "demo_teapot.png"
     result = subprocess.run([sys.executable, str(ROOT / "demo.py"), "-o", str(target)],
                             capture_output=True, text=True, check=True)
-    assert result.stdout.strip().splitlines()[-2:] == [str(target), str(beetle)]
+    assert result.stdout.strip().splitlines()[-3:] == [str(target), str(beetle), str(teapot)]
+    assert np.asarray(Image.open(teapot).convert("RGB"), dtype=np.float64).std() > 5
     pixels = np.asarray(Image.open(target).convert("RGB"), dtype=np.float64)
     assert pixels.std() > 20  # a real map, not a blank canvas
     hemisphere = np.asarray(Image.open(beetle).convert("RGB"), dtype=np.float64)
