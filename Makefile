@@ -36,6 +36,7 @@ bench: setup
 	$(PY) tools/bench_rgb.py
 	$(PY) tools/bench_rough.py
 	$(PY) tools/bench_layered.py
+	$(PY) tools/bench_render.py
 
 clean:
 	rm -rf $(VENV) out build dist .pytest_cache .ruff_cache .hypothesis

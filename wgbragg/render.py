@@ -312,6 +312,12 @@ class Renderer:
         self._params = self._make_params(vertices, seed)
         self.passes = 0
 
+    @property
+    def gpu_bytes(self) -> int:
+        """GPU memory the scene holds: geometry, BVH, materials and their tables, lights and
+        the accumulation buffer, in bytes (pipelines and the uniform not counted)."""
+        return sum(array.nbytes for array in self._inputs) + self._accum.nbytes
+
     def _lights(self) -> np.ndarray:
         points = [light for light in self.scene.lights if isinstance(light, PointLight)]
         areas = [light for light in self.scene.lights if isinstance(light, AreaLight)]

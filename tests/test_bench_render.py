@@ -1,0 +1,56 @@
+"""``tools/bench_render.py`` in its quick mode: it runs every part, writes its section between its
+markers and every table holds positive numbers (no speed is asserted)."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+
+import pytest
+from conftest import load_tool
+
+pytestmark = pytest.mark.gpu
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    with load_tool("bench_render") as bench:
+        path = tmp_path_factory.mktemp("docs") / "benchmarks.md"
+        path.write_text(f"# Benchmarks\n\n{bench.BEGIN_MARKER}\nstale\n{bench.END_MARKER}\n",
+                        encoding="utf-8")
+        with contextlib.redirect_stdout(io.StringIO()):
+            assert bench.main(["--quick", "--no-progress", "--output", str(path)]) == 0
+        yield bench, path.read_text(encoding="utf-8")
+
+
+def _rows(text: str, heading: str) -> list[list[str]]:
+    lines = text[text.index(heading):].splitlines()[1:]
+    rows = []
+    for line in lines:
+        if line.startswith("|"):
+            rows.append([c.strip() for c in line.strip().strip("|").split("|")])
+        elif rows:
+            break
+    return rows[2:]
+
+
+def test_section_written_once(run):
+    bench, text = run
+    assert text.count(bench.BEGIN_MARKER) == 1 and "stale" not in text
+    assert "Quick mode" in text
+
+
+def test_every_preset_and_configuration_measured(run):
+    from wgbragg.scene import PRESETS
+
+    _, text = run
+    presets = _rows(text, "### Presets")
+    assert [row[0] for row in presets] == list(PRESETS)
+    for row in presets:
+        assert int(row[1].replace(",", "")) > 0
+        assert float(row[2].split()[0]) > 0 and float(row[3].split()[0]) > 0
+    configurations = _rows(text, "### A sphere")
+    assert len(configurations) == 3 and configurations[0][2] == "1.00"
+    targets = _rows(text, "### Targets")
+    assert len(targets) == 2 and all(row[2] in ("yes", "no") for row in targets)
+    assert "ready to render in" in text

@@ -1,0 +1,279 @@
+"""Throughput of the GPU renderer (issue 7, items 3 and 6).
+
+Measures, in one run on the same device:
+
+- **samples per second** of every built-in preset (:data:`wgbragg.scene.PRESETS`) at 512 x 512,
+  and the GPU memory each scene holds (:attr:`wgbragg.render.Renderer.gpu_bytes`);
+- **what a scene costs by what it holds**: one sphere of a near-smooth single Bragg layer
+  (alpha = 0.01, no coating, absorbing base) against one of three layers under a coating over a
+  Lambertian base: the pipelines are specialised per configuration;
+- **the interactive preview**: frames per second at 256 x 256 and 1 sample per pixel, each
+  frame read back (what a window shows), for the single-layer ``fig7`` preset (target >= 10
+  on lavapipe, 2 cores);
+- **scale**: a mesh of about 1.3 million triangles (an icosphere written to a PLY file): time
+  from the scene to a ready renderer (mesh loading, world transform, BVH build, uploads;
+  target <= 10 s for the BVH), its BVH build alone, and one 256 x 256 pass.
+
+It prints a markdown section and writes it into ``docs/benchmarks.md`` between
+``<!-- bench_render:begin -->`` and ``<!-- bench_render:end -->`` (full mode).
+
+Usage::
+
+    python tools/bench_render.py               # full run (a few minutes)
+    python tools/bench_render.py --quick       # tiny sizes (seconds), print only
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import shlex
+import sys
+import tempfile
+import time
+import warnings
+from collections.abc import Sequence
+from pathlib import Path
+
+from tqdm import tqdm
+
+_TOOLS = str(Path(__file__).resolve().parent)
+if _TOOLS not in sys.path:
+    sys.path.insert(0, _TOOLS)
+
+import _docs  # noqa: E402
+from _docs import human_time  # noqa: E402
+from _docs import markdown_table as _table  # noqa: E402
+
+__all__ = ["BEGIN_MARKER", "END_MARKER", "FULL", "QUICK", "Config", "main", "run_benchmarks"]
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_OUTPUT = REPO_ROOT / "docs" / "benchmarks.md"
+BEGIN_MARKER, END_MARKER = _docs.markers("bench_render")
+TARGET_FPS = 10.0
+TARGET_BVH_S = 10.0
+
+# Two spheres that differ only in what their material holds.
+_SPHERE_SCENE = """
+[settings]
+size = [64, 64]
+[camera]
+position = [0.0, 0.0, 4.0]
+look_at = [0.0, 0.0, 0.0]
+fov_deg = 35.0
+[environment]
+type = "sky"
+{materials}
+[[objects]]
+shape = "{shape}"
+{path}
+material = "m"
+"""
+_SMOOTH = """
+[materials.m]
+type = "layered-bragg"
+[[materials.m.layers]]
+n1 = 1.0
+n2 = 1.5
+d1_nm = 250.0
+d2_nm = 250.0
+N = 10
+alpha = 0.01
+"""
+_THREE_COATED = """
+[materials.m]
+type = "layered-bragg"
+base_albedo = 0.3
+""" + "".join(f"""
+[[materials.m.layers]]
+n1 = 1.35
+n2 = 1.6
+period_nm = {period}
+delta = 0.5
+N = 8
+alpha = {alpha}
+""" for period, alpha in ((180.0, 0.05), (220.0, 0.1), (260.0, 0.2)))
+_LAMBERTIAN = """
+[materials.m]
+type = "lambertian"
+albedo = 0.7
+"""
+
+
+@dataclasses.dataclass(frozen=True)
+class Config:
+    """Sizes of one run: preset image size and passes, preview size and frames, the mesh's
+    icosphere subdivisions (8: 1.3 M triangles) and the size of its one pass."""
+
+    name: str
+    size: int
+    passes: int
+    preview_size: int
+    preview_frames: int
+    subdivisions: int
+    mesh_size: int
+
+
+FULL = Config("full", size=512, passes=4, preview_size=256, preview_frames=30, subdivisions=8,
+              mesh_size=256)
+QUICK = Config("quick", size=24, passes=1, preview_size=16, preview_frames=2, subdivisions=3,
+               mesh_size=16)
+
+
+def _scene_file(folder: Path, name: str, materials: str, shape: str = "sphere",
+                path: str = "") -> Path:
+    file = folder / f"{name}.toml"
+    file.write_text(_SPHERE_SCENE.format(materials=materials, shape=shape, path=path),
+                    encoding="utf-8")
+    return file
+
+
+def _throughput(renderer, passes: int) -> float:
+    """Samples per second of ``passes`` passes, after one untimed pass."""
+    renderer.render(1)
+    start = time.perf_counter()
+    renderer.render(passes)
+    return renderer.width * renderer.height * passes / (time.perf_counter() - start)
+
+
+def run_benchmarks(cfg: Config, progress: bool = True) -> dict:
+    import trimesh
+
+    from wgbragg.bvh import build_bvh
+    from wgbragg.meshes import sphere_mesh
+    from wgbragg.render import Renderer
+    from wgbragg.scene import PRESETS, load_preset, load_scene
+
+    meter = _docs.LoadMeter()
+    results = {"presets": {}, "configurations": {}}
+    size = (cfg.size, cfg.size)
+    bar = tqdm(total=len(PRESETS) + 4, desc="renderer", disable=not progress)
+    with warnings.catch_warnings():
+        # Presets asking for spectral mode or maps render in RGB (README: not yet).
+        warnings.simplefilter("ignore", UserWarning)
+        for name in PRESETS:
+            renderer = Renderer(load_preset(name), size=size)
+            results["presets"][name] = (_throughput(renderer, cfg.passes), renderer.gpu_bytes,
+                                        renderer.triangles)
+            bar.update()
+        with tempfile.TemporaryDirectory() as folder:
+            folder = Path(folder)
+            for label, materials in (("one near-smooth layer, absorbing base", _SMOOTH),
+                                     ("three layers, coated, Lambertian base", _THREE_COATED),
+                                     ("Lambertian (no Bragg code)", _LAMBERTIAN)):
+                scene = load_scene(_scene_file(folder, label.split()[0], materials))
+                renderer = Renderer(scene, size=size)
+                results["configurations"][label] = _throughput(renderer, cfg.passes)
+            bar.update()
+
+            preview = Renderer(load_preset("fig7"), size=(cfg.preview_size,) * 2)
+            preview.render(1)
+            start = time.perf_counter()
+            for _ in range(cfg.preview_frames):
+                preview.render(1)  # returns the image: a readback per frame, as a window needs
+            results["fps"] = cfg.preview_frames / (time.perf_counter() - start)
+            bar.update()
+
+            mesh = sphere_mesh(cfg.subdivisions)
+            path = folder / "sphere.ply"
+            trimesh.Trimesh(mesh.vertices, mesh.faces, process=False).export(path)
+            start = time.perf_counter()
+            build_bvh(mesh.vertices, mesh.faces)
+            results["bvh_s"] = time.perf_counter() - start
+            scene = load_scene(_scene_file(folder, "mesh", _LAMBERTIAN, "mesh",
+                                           f'path = "{path.name}"'))
+            start = time.perf_counter()
+            renderer = Renderer(scene, size=(cfg.mesh_size,) * 2)
+            results["mesh_setup_s"] = time.perf_counter() - start
+            start = time.perf_counter()
+            renderer.render(1)
+            results["mesh_pass_s"] = time.perf_counter() - start
+            results["mesh"] = (renderer.triangles, renderer.gpu_bytes)
+            bar.update()
+    bar.close()
+    results["environment"] = _docs.run_facts()
+    results["environment"]["background_cores"] = meter.background_cores()
+    return results
+
+
+def _rate(samples_per_s: float) -> str:
+    return f"{samples_per_s / 1e6:.3g} M/s"
+
+
+def render_section(results: dict, cfg: Config, command: str) -> str:
+    env = results["environment"]
+    busy = env.get("background_cores")
+    lines = [
+        BEGIN_MARKER,
+        "## Renderer throughput (`tools/bench_render.py`)",
+        "",
+        "_Generated by the command below; do not edit between the markers._",
+        "",
+        f"- Command: `{command}`",
+        f"- Date: {env['date']}",
+        f"- Adapter: {env['adapter']}",
+        f"- CPU: {env['cpu']}, {env['cores']} cores available",
+        "- Other processes on the machine during the run: "
+        + ("unknown" if busy is None else f"{busy:.2f} cores busy on average (from /proc/stat)"),
+        f"- Presets at {cfg.size} x {cfg.size}, {cfg.passes} timed passes after one untimed "
+        "(pipelines compiled, tables built); RGB mode.",
+        *(["- Quick mode: tiny sizes for the tests; the numbers mean nothing."]
+          if cfg.name == "quick" else []),
+        "",
+        "### Presets",
+        "",
+    ]
+    lines += _table(["preset", "triangles", "samples/s", "GPU memory"], [
+        [name, f"{triangles:,}", _rate(rate), f"{memory / 1e6:.2f} MB"]
+        for name, (rate, memory, triangles) in results["presets"].items()])
+    lines += ["", "### A sphere, by what its material holds", ""]
+    base = results["configurations"]
+    first = next(iter(base.values()))
+    lines += _table(["material", "samples/s", "relative"], [
+        [label, _rate(rate), f"{rate / first:.2f}"] for label, rate in base.items()])
+    triangles, memory = results["mesh"]
+    lines += ["", "### Targets", ""]
+    lines += _table(["target", "measured", "met"], [
+        [f"preview >= {TARGET_FPS:g} frames/s at {cfg.preview_size} x {cfg.preview_size}, 1 spp, "
+         "single-layer material (fig7)", f"{results['fps']:.1f} frames/s",
+         "yes" if results["fps"] >= TARGET_FPS else "no"],
+        [f"BVH of a {triangles:,}-triangle mesh in <= {TARGET_BVH_S:g} s",
+         human_time(results["bvh_s"]), "yes" if results["bvh_s"] <= TARGET_BVH_S else "no"],
+    ])
+    lines += [
+        "",
+        f"The same mesh as a scene: ready to render in {human_time(results['mesh_setup_s'])} "
+        "(PLY loading with trimesh, world transform, BVH, uploads), one "
+        f"{cfg.mesh_size} x {cfg.mesh_size} pass in {human_time(results['mesh_pass_s'])}, "
+        f"{memory / 1e6:.1f} MB on the GPU.",
+        END_MARKER,
+    ]
+    return "\n".join(lines)
+
+
+def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(prog="bench_render.py",
+                                     description="Throughput of the GPU renderer.")
+    _docs.add_section_arguments(parser, DEFAULT_OUTPUT,
+                                "tiny images (seconds); writes nothing unless --output")
+    return parser.parse_args(argv)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run, print the section and write it (docs/benchmarks.md in full mode)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = parse_args(argv)
+    cfg = QUICK if args.quick else FULL
+    results = run_benchmarks(cfg, progress=not args.no_progress)
+    section = render_section(results, cfg,
+                             shlex.join(["python", "tools/bench_render.py", *argv]))
+    print(section)
+    path = _docs.section_output(args, DEFAULT_OUTPUT)
+    if path is not None:
+        _docs.write_section(path, section, BEGIN_MARKER, END_MARKER)
+        print(f"wrote {path}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
