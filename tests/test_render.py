@@ -156,3 +156,57 @@ def test_cli_renders_the_furnace_preset(device, tmp_path, capsys):
 def test_cli_refuses_a_file_and_a_preset_together(tmp_path, capsys):
     assert main(["render", str(tmp_path / "x.toml"), "--scene", "furnace"]) == 2
     assert "either a scene file or --scene" in capsys.readouterr().err
+
+
+_PADDING_SCENE = """
+[camera]
+position = [0.0, 0.0, 4.0]
+look_at = [0.0, 0.0, 0.0]
+fov_deg = 35.0
+
+[environment]
+type = "sky"
+
+[materials.a]
+type = "layered-bragg"
+[[materials.a.layers]]
+n1 = 1.0
+n2 = 1.5
+d1_nm = 250.0
+d2_nm = 250.0
+N = 10
+alpha = 0.1
+{extra}
+[[objects]]
+shape = "sphere"
+material = "a"
+"""
+
+_COATED_THREE_LAYERS = """
+[materials.unused]
+type = "layered-bragg"
+base_albedo = 0.4
+""" + "".join(f"""
+[[materials.unused.layers]]
+n1 = 1.35
+n2 = 1.6
+period_nm = {period}
+delta = 0.5
+N = 6
+alpha = 0.2
+""" for period in (180.0, 220.0, 260.0))
+
+
+def test_padding_to_a_shared_configuration_changes_nothing(device, tmp_path):
+    """One uncoated layer over an absorbing base renders the same when the scene also defines
+    a coated three-layer material over a Lambertian base: its pipeline is then specialised for
+    three coated layers and a Lambertian base, and the single layer is padded with transparent
+    layers, a coating of index 1 and a black base."""
+    images = []
+    for name, extra in (("alone", ""), ("padded", _COATED_THREE_LAYERS)):
+        path = tmp_path / f"{name}.toml"
+        path.write_text(_PADDING_SCENE.format(extra=extra), encoding="utf-8")
+        images.append(Renderer(load_scene(path), size=(16, 16), seed=3).render(8))
+    alone, padded = images
+    assert alone.max() > 0.0
+    np.testing.assert_allclose(padded, alone, rtol=1e-4, atol=1e-6)
