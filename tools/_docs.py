@@ -31,6 +31,7 @@ __all__ = [
     "markers",
     "parse_ratio",
     "parse_time",
+    "publish",
     "run_facts",
     "update_document",
     "write_section",
@@ -249,3 +250,14 @@ def human_ratio(ratio: float) -> str:
 def parse_ratio(text: str) -> float:
     """Inverse of :func:`human_ratio`."""
     return float(text.strip().removesuffix(TIMES).replace(",", ""))
+
+
+def publish(section: str, path: Path | None, begin: str, end: str) -> None:
+    """Print a benchmark's section and, when ``path`` is given (see :func:`section_output`),
+    write it there between its markers."""
+    import sys
+
+    print(section)
+    if path is not None:
+        write_section(path, section, begin, end)
+        print(f"wrote {path}", file=sys.stderr)

@@ -883,11 +883,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     results = run_benchmarks(QUICK if args.quick else FULL, progress=not args.no_progress)
     section = render_section(results, shlex.join(["python", "tools/bench_reflectance.py",
                                                   *argv]))
-    print(section)
-    path = output_path(args)
-    if path is not None:
-        _docs.write_section(path, section, BEGIN_MARKER, END_MARKER)
-        print(f"wrote {path}", file=sys.stderr)
+    _docs.publish(section, output_path(args), BEGIN_MARKER, END_MARKER)
     return 0
 
 

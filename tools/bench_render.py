@@ -267,11 +267,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     results = run_benchmarks(cfg, progress=not args.no_progress)
     section = render_section(results, cfg,
                              shlex.join(["python", "tools/bench_render.py", *argv]))
-    print(section)
-    path = _docs.section_output(args, DEFAULT_OUTPUT)
-    if path is not None:
-        _docs.write_section(path, section, BEGIN_MARKER, END_MARKER)
-        print(f"wrote {path}", file=sys.stderr)
+    _docs.publish(section, _docs.section_output(args, DEFAULT_OUTPUT), BEGIN_MARKER, END_MARKER)
     return 0
 
 

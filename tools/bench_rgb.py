@@ -918,11 +918,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         plot_tradeoff(results, plot)
     section = render_section(results, shlex.join(["python", "tools/bench_rgb.py", *argv]),
                              plot)
-    print(section)
-    path = output_path(args)
-    if path is not None:
-        _docs.write_section(path, section, BEGIN_MARKER, END_MARKER)
-        print(f"wrote {path}", file=sys.stderr)
+    _docs.publish(section, output_path(args), BEGIN_MARKER, END_MARKER)
     if plot is not None:
         print(f"wrote {plot}", file=sys.stderr)
     return 0
