@@ -114,3 +114,37 @@ def load_tool(name: str):
         yield module
     finally:
         sys.modules.pop(spec.name, None)
+
+
+def expected_direction_counts(density, cos_edges, phi_edges, n_samples, order=16):
+    """Samples a direction sampler should put in each (cos theta, phi) cell, shape
+    ``(len(cos_edges) - 1, len(phi_edges) - 1)``: ``density`` (a callable of unit directions,
+    shape (..., 3), returning 1/sr) integrated over each cell by an ``order`` x ``order``
+    Gauss-Legendre rule (Mitsuba's chi-square test)."""
+    x, w = np.polynomial.legendre.leggauss(order)
+
+    def nodes(edges):
+        half = 0.5 * np.diff(edges)[:, None]
+        return (0.5 * (edges[:-1] + edges[1:]))[:, None] + half * x, half * w
+
+    c, wc = nodes(np.asarray(cos_edges))
+    p, wp = nodes(np.asarray(phi_edges))
+    c, p = c[:, None, :, None], p[None, :, None, :]
+    sin = np.sqrt(1.0 - c * c)
+    cells = np.stack(np.broadcast_arrays(sin * np.cos(p), sin * np.sin(p), c), axis=-1)
+    return n_samples * np.einsum("ijab,ia,jb->ij", density(cells), wc, wp)
+
+
+def pooled_chi2_pvalue(observed, expected) -> float:
+    """p-value of Pearson's chi-square with the cells expecting fewer than 5 samples pooled
+    into one (so that the statistic's chi-square law holds)."""
+    from scipy.stats import chi2
+
+    observed, expected = np.ravel(observed), np.ravel(expected)
+    low = expected < 5.0
+    stat = np.sum((observed[~low] - expected[~low]) ** 2 / expected[~low])
+    cells = np.count_nonzero(~low)
+    if expected[low].sum() > 0:
+        stat += (observed[low].sum() - expected[low].sum()) ** 2 / expected[low].sum()
+        cells += 1
+    return float(chi2.sf(stat, cells - 1))

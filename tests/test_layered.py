@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 import pytest
-from scipy.stats import chi2
+from conftest import expected_direction_counts, pooled_chi2_pvalue
 
 from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer
 from wgbragg.colorimetry import xyz_to_linear_srgb, xyz_weights
@@ -300,27 +300,13 @@ def sample_chi2_pvalue(s, wi, seed, n_samples=100_000, n_cos=12, n_phi=24):
     phi_edges = np.linspace(-np.pi, np.pi, n_phi + 1)
     observed, _, _ = np.histogram2d(wo[kept, 2], np.arctan2(wo[kept, 1], wo[kept, 0]),
                                     bins=[cos_edges, phi_edges])
-    x, w = np.polynomial.legendre.leggauss(16)
-
-    def nodes(edges):
-        half = 0.5 * np.diff(edges)[:, None]
-        return (0.5 * (edges[:-1] + edges[1:]))[:, None] + half * x, half * w
-
-    c, wc = nodes(cos_edges)
-    p, wp = nodes(phi_edges)
-    c, p = c[:, None, :, None], p[None, :, None, :]
-    sin = np.sqrt(1.0 - c * c)
-    cells = np.stack(np.broadcast_arrays(sin * np.cos(p), sin * np.sin(p), c), axis=-1)
-    density = s.pdf(wi, cells.reshape(-1, 3)).reshape(cells.shape[:-1])
-    expected = n_samples * np.einsum("ijab,ia,jb->ij", density, wc, wp)
+    expected = expected_direction_counts(
+        lambda cells: s.pdf(wi, cells.reshape(-1, 3)).reshape(cells.shape[:-1]),
+        cos_edges, phi_edges, n_samples)
     observed = np.append(observed.ravel(), np.count_nonzero(~kept))
     expected = np.append(expected.ravel(), n_samples - expected.sum())
     assert expected[-1] > -1e-3 * n_samples  # the density never holds more than 1
-    low = expected < 5.0
-    stat = np.sum((observed[~low] - expected[~low]) ** 2 / expected[~low])
-    if expected[low].sum() > 0:
-        stat += (observed[low].sum() - expected[low].sum()) ** 2 / expected[low].sum()
-    return chi2.sf(stat, np.count_nonzero(~low) + (expected[low].sum() > 0) - 1)
+    return pooled_chi2_pvalue(observed, expected)
 
 
 @pytest.mark.parametrize("name,degrees", [("A-diffuse", 30.0), ("A'", 60.0),

@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 from scipy.integrate import quad
-from scipy.stats import chi2
+from conftest import expected_direction_counts, pooled_chi2_pvalue
 
 from wgbragg import gpu
 from wgbragg.microfacet import (
@@ -137,29 +137,11 @@ def chi2_pvalue(wi, alpha, seed, n_samples=200_000, n_cos=16, n_phi=32):
     phi_edges = np.linspace(-np.pi, np.pi, n_phi + 1)
     observed, _, _ = np.histogram2d(m[:, 2], np.arctan2(m[:, 1], m[:, 0]),
                                     bins=[cos_edges, phi_edges])
-    x, w = np.polynomial.legendre.leggauss(24)
-
-    def nodes(edges):
-        half = 0.5 * np.diff(edges)[:, None]
-        return (0.5 * (edges[:-1] + edges[1:]))[:, None] + half * x, half * w
-
-    c, wc = nodes(cos_edges)
-    p, wp = nodes(phi_edges)
-    c, p = c[:, None, :, None], p[None, :, None, :]
-    s = np.sqrt(1.0 - c * c)
-    cells = np.stack(np.broadcast_arrays(s * np.cos(p), s * np.sin(p), c), axis=-1)
-    density = ggx_visible_normal_pdf(wi, cells, alpha)
-    expected = n_samples * np.einsum("ijab,ia,jb->ij", density, wc, wp)
+    expected = expected_direction_counts(lambda cells: ggx_visible_normal_pdf(wi, cells, alpha),
+                                         cos_edges, phi_edges, n_samples, order=24)
     assert expected.sum() == pytest.approx(n_samples, rel=1e-4)
     assert not np.any((expected == 0) & (observed > 0))
-    low = expected < 5.0
-    stat = np.sum((observed[~low] - expected[~low]) ** 2 / expected[~low])
-    pooled_exp, pooled_obs = expected[low].sum(), observed[low].sum()
-    cells_used = np.count_nonzero(~low)
-    if pooled_exp > 0:
-        stat += (pooled_obs - pooled_exp) ** 2 / pooled_exp
-        cells_used += 1
-    return chi2.sf(stat, cells_used - 1)
+    return pooled_chi2_pvalue(observed, expected)
 
 
 @pytest.mark.parametrize(
