@@ -69,7 +69,3 @@ def test_environment_sampling_matches_its_density(bench):
     assert np.mean(1.0 / pdf) == pytest.approx(4.0 * np.pi, rel=0.02)
     np.testing.assert_allclose(pdf, bench.environment_pdf(direction), rtol=1e-12)
 
-
-def test_smape(bench):
-    assert bench.smape(np.array([1.0, 0.0]), np.array([1.0, 0.0])) == 0.0
-    assert bench.smape(np.array([1.0]), np.array([3.0])) == pytest.approx(0.5)

@@ -48,7 +48,13 @@ def test_every_preset_and_configuration_measured(run):
     assert [row[0] for row in presets] == list(PRESETS)
     for row in presets:
         assert int(row[1].replace(",", "")) > 0
-        assert float(row[2].split()[0]) > 0 and float(row[3].split()[0]) > 0
+        assert all(float(cell.split()[0]) > 0 for cell in row[2:6])
+    convergence = _rows(text, "### Time to SMAPE")
+    assert [row[0] for row in convergence] == ["rgb", "spectral"]
+    for _, seconds, spp, error in convergence:
+        assert int(spp) >= 1 and 0.0 <= float(error) <= 1.0
+        # Reached or not, the time is there.
+        assert seconds.split()[-2].replace(".", "").isdigit()
     configurations = _rows(text, "### A sphere")
     assert len(configurations) == 3 and configurations[0][2] == "1.00"
     targets = _rows(text, "### Targets")

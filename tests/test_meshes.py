@@ -32,7 +32,9 @@ def signed_volume(mesh: TriangleMesh) -> float:
 
 
 def edge_use(mesh: TriangleMesh) -> np.ndarray:
-    edges = np.sort(mesh.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    # Between positions: vertices duplicated along texture seams are one point of the surface.
+    point = np.unique(mesh.vertices, axis=0, return_inverse=True)[1].reshape(-1)
+    edges = np.sort(point[mesh.faces][:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     return np.unique(edges, axis=0, return_counts=True)[1]
 
 
@@ -61,11 +63,68 @@ def test_plane_faces_up():
     np.testing.assert_array_equal(mesh.normals, [[0, 0, 1]] * 4)
 
 
+@pytest.mark.parametrize("subdivisions", [1, 2, 4])
+def test_sphere_uv_is_equirectangular_without_seam_crossings(subdivisions):
+    mesh = sphere_mesh(subdivisions)
+    u, v = mesh.uv.T
+    x, y, z = mesh.vertices.T
+    assert u.min() >= 0.0 and u.max() < 1.5
+    np.testing.assert_allclose(v, 0.5 + np.arcsin(z) / np.pi, atol=ATOL)
+    away = np.hypot(x, y) > 1e-9
+    # Seam copies carry u + 1: the same point under the repeat of the maps.
+    azimuth = np.mod(np.arctan2(y, x) / (2 * np.pi), 1.0)
+    turns = (u - azimuth)[away]
+    np.testing.assert_allclose(turns, np.round(turns), atol=ATOL)
+    assert set(np.round(turns)) <= {0.0, 1.0}
+    corner_u = mesh.uv[mesh.faces][..., 0]
+    assert np.ptp(corner_u, axis=1).max() < 0.5
+    # Each face's u brackets the azimuth of its centroid, seam faces included.
+    centroid = mesh.vertices[mesh.faces].mean(axis=1)
+    phi = np.mod(np.arctan2(centroid[:, 1], centroid[:, 0]) / (2 * np.pi), 1.0)
+    phi = np.where(phi < corner_u.min(axis=1), phi + 1.0, phi)
+    assert np.all((corner_u.min(axis=1) <= phi) & (phi <= corner_u.max(axis=1)))
+
+
+def test_sphere_poles_take_the_mean_u_of_their_face():
+    mesh = sphere_mesh(2)
+    for k, face in enumerate(mesh.faces):
+        pole = np.hypot(*mesh.vertices[face, :2].T) == 0.0
+        if pole.any():
+            np.testing.assert_allclose(mesh.uv[face[pole], 0], mesh.uv[face[~pole], 0].mean())
+            assert mesh.uv[face[pole], 1] in (0.0, 1.0), k
+
+
+def test_plane_uv_is_the_unit_square():
+    mesh = plane_mesh(3.0)
+    np.testing.assert_array_equal(mesh.uv, mesh.vertices[:, :2] / 3.0 + 0.5)
+    np.testing.assert_array_equal(mesh.uv, [[0, 0], [1, 0], [1, 1], [0, 1]])
+
+
+@pytest.mark.parametrize("subdivisions", [2, 8])
+def test_teapot_uv_are_patch_parameters(subdivisions):
+    mesh = utah_teapot(subdivisions)
+    steps = mesh.uv * subdivisions
+    # Grid points of each patch, and no face spans more than one grid step: every face
+    # interpolates within its own patch.
+    np.testing.assert_allclose(steps, np.round(steps), atol=1e-12)
+    assert mesh.uv.min() == 0.0 and mesh.uv.max() == 1.0
+    assert np.ptp(steps[mesh.faces], axis=1).max() == pytest.approx(1.0)
+    # Seam copies share position and normal, so shading stays smooth across patches.
+    same = np.unique(mesh.vertices, axis=0, return_inverse=True)[1].reshape(-1)
+    first = np.zeros(same.max() + 1, int)
+    first[same[::-1]] = np.arange(len(same))[::-1]
+    copies = first[same] != np.arange(len(same))
+    assert copies.any()
+    mismatch = np.linalg.norm(mesh.normals - mesh.normals[first[same]], axis=1)
+    # The handle's ends touch the body at single points, deliberately not welded.
+    assert np.count_nonzero(mismatch[copies] > 1e-12) <= 2
+
+
 def test_mesh_arrays_are_read_only_and_typed():
     mesh = sphere_mesh(1)
     assert mesh.vertices.dtype == np.float64 and mesh.normals.dtype == np.float64
-    assert mesh.faces.dtype == np.int32
-    for array in (mesh.vertices, mesh.faces, mesh.normals):
+    assert mesh.faces.dtype == np.int32 and mesh.uv.dtype == np.float64
+    for array in (mesh.vertices, mesh.faces, mesh.normals, mesh.uv):
         with pytest.raises(ValueError):
             array[0] = 0
 
@@ -87,6 +146,10 @@ def test_mesh_arrays_are_read_only_and_typed():
         (lambda: TriangleMesh(np.eye(3), np.zeros((0, 3), int), np.eye(3)), "faces"),
         (lambda: TriangleMesh(np.eye(3), [[0, 1, 2]], np.zeros((3, 3))), "normals"),
         (lambda: TriangleMesh(np.eye(3) * np.nan, [[0, 1, 2]], np.eye(3)), "vertices"),
+        (lambda: TriangleMesh(np.eye(3), [[0, 1, 2]], np.eye(3), np.eye(3)), "uv"),
+        (lambda: TriangleMesh(np.eye(3), [[0, 1, 2]], np.eye(3), np.zeros((2, 2))), "uv"),
+        (lambda: TriangleMesh(np.eye(3), [[0, 1, 2]], np.eye(3), np.full((3, 2), np.inf)), "uv"),
+        (lambda: TriangleMesh(np.eye(3), [[0, 1, 2]], np.eye(3), "uv"), "uv"),
     ],
 )
 def test_bad_parameters_raise_naming_them(call, name):
@@ -187,6 +250,55 @@ def test_round_trip_through_trimesh(tmp_path, suffix):
     np.testing.assert_allclose(loaded.vertices.min(axis=0), mesh.vertices.min(axis=0), atol=1e-6)
     # On a fine sphere every vertex normal points nearly along the position.
     assert np.einsum("ij,ij->i", loaded.normals, loaded.vertices).min() > 0.98
+
+
+@pytest.mark.parametrize("suffix", [".ply", ".stl"])
+def test_files_without_texture_coordinates_give_no_uv(tmp_path, suffix):
+    mesh = sphere_mesh(1)
+    path = tmp_path / f"sphere{suffix}"
+    trimesh.Trimesh(mesh.vertices, mesh.faces, process=False).export(path)
+    assert load_mesh(path).uv is None
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".glb"])
+def test_uv_round_trip_through_trimesh(tmp_path, suffix):
+    # glTF stores v downwards: trimesh flips it both ways, and the mesh keeps OBJ's v up.
+    mesh = sphere_mesh(2)
+    visual = trimesh.visual.TextureVisuals(uv=mesh.uv)
+    path = tmp_path / f"sphere{suffix}"
+    trimesh.Trimesh(mesh.vertices, mesh.faces, visual=visual, process=False).export(path)
+    loaded = load_mesh(path)
+    np.testing.assert_allclose(loaded.uv[loaded.faces], mesh.uv[mesh.faces], atol=1e-6)
+    np.testing.assert_allclose(
+        loaded.vertices[loaded.faces], mesh.vertices[mesh.faces], atol=1e-6
+    )
+
+
+def test_obj_vt_lines_are_read_per_vertex(tmp_path):
+    path = tmp_path / "seam.obj"
+    # Vertex 1 has two texture coordinates: it is read as two vertices.
+    path.write_text(
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+        "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 0.5 0.25\n"
+        "f 1/1 2/2 3/3\nf 1/5 3/3 4/4\n"
+    )
+    loaded = load_mesh(path)
+    assert len(loaded.vertices) == 5
+    np.testing.assert_allclose(
+        loaded.uv[loaded.faces], [[[0, 0], [1, 0], [1, 1]], [[0.5, 0.25], [1, 1], [0, 1]]]
+    )
+
+
+def test_uv_is_none_when_a_part_lacks_it(tmp_path):
+    scene = trimesh.Scene()
+    plane = plane_mesh(1.0)
+    textured = trimesh.visual.TextureVisuals(uv=plane.uv)
+    scene.add_geometry(trimesh.Trimesh(plane.vertices, plane.faces, visual=textured))
+    scene.add_geometry(trimesh.creation.box())
+    path = tmp_path / "mixed.glb"
+    scene.export(path)
+    loaded = load_mesh(path)
+    assert len(loaded.faces) == 14 and loaded.uv is None
 
 
 def test_obj_normals_from_the_file_are_kept(tmp_path):

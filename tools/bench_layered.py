@@ -55,6 +55,8 @@ import _docs  # noqa: E402
 from _docs import human_ratio, human_time  # noqa: E402
 from _docs import markdown_table as _table  # noqa: E402
 
+from wgbragg.metrics import smape  # noqa: E402
+
 __all__ = [
     "BEGIN_MARKER",
     "END_MARKER",
@@ -65,7 +67,6 @@ __all__ = [
     "main",
     "render_section",
     "run_benchmarks",
-    "smape",
 ]
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
@@ -265,13 +266,6 @@ def _render(s, scene: Sphere, spp: int, chunk: int, estimator: str, seed: int) -
             colour = _model_rgb(s, view, frames, rng, spp, next_event=estimator == LUT_NEE)
         pixels[part] = np.mean(colour, axis=1)
     return pixels
-
-
-def smape(a: np.ndarray, b: np.ndarray) -> float:
-    """``mean |a - b| / (|a| + |b|)`` over the entries where either is nonzero."""
-    total = np.abs(a) + np.abs(b)
-    keep = total > 0.0
-    return float(np.mean(np.abs(a - b)[keep] / total[keep]))
 
 
 # --------------------------------------------------------------------------- the run

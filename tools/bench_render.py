@@ -2,8 +2,13 @@
 
 Measures, in one run on the same device:
 
-- **samples per second** of every built-in preset (:data:`wgbragg.scene.PRESETS`) at 512 x 512,
-  and the GPU memory each scene holds (:attr:`wgbragg.render.Renderer.gpu_bytes`);
+- **samples per second** of every built-in preset (:data:`wgbragg.scene.PRESETS`) at 512 x 512
+  in RGB and in spectral mode, and the GPU memory each scene holds
+  (:attr:`wgbragg.render.Renderer.gpu_bytes`);
+- **time to SMAPE 0.05**: for the ``teapot`` preset, wall-clock time until the running image is
+  within SMAPE 0.05 (:func:`wgbragg.metrics.smape`) of a high-spp reference of the same mode,
+  in RGB and in spectral mode (samples doubling from 1 spp; the SMAPE checks not counted), and
+  the SMAPE between the two references (the RGB model's colour error);
 - **what a scene costs by what it holds**: one sphere of a near-smooth single Bragg layer
   (alpha = 0.01, no coating, absorbing base) against one of three layers under a coating over a
   Lambertian base: the pipelines are specialised per configuration;
@@ -102,22 +107,27 @@ albedo = 0.7
 
 @dataclasses.dataclass(frozen=True)
 class Config:
-    """Sizes of one run: preset image size and passes, preview size and frames, the mesh's
-    icosphere subdivisions (8: 1.3 M triangles) and the size of its one pass."""
+    """Sizes of one run: preset image size and passes, convergence image size and reference
+    spp, preview size and frames, the mesh's icosphere subdivisions (8: 1.3 M triangles) and
+    the size of its one pass."""
 
     name: str
     size: int
     passes: int
+    convergence_size: int
+    reference_spp: int
     preview_size: int
     preview_frames: int
     subdivisions: int
     mesh_size: int
 
 
-FULL = Config("full", size=512, passes=4, preview_size=256, preview_frames=30, subdivisions=8,
-              mesh_size=256)
-QUICK = Config("quick", size=24, passes=1, preview_size=16, preview_frames=2, subdivisions=3,
-               mesh_size=16)
+FULL = Config("full", size=512, passes=4, convergence_size=96, reference_spp=2048,
+              preview_size=256, preview_frames=30, subdivisions=8, mesh_size=256)
+QUICK = Config("quick", size=24, passes=1, convergence_size=8, reference_spp=16,
+               preview_size=16, preview_frames=2, subdivisions=3, mesh_size=16)
+TARGET_SMAPE = 0.05
+MODES = ("rgb", "spectral")
 
 
 def _scene_file(folder: Path, name: str, materials: str, shape: str = "sphere",
@@ -136,26 +146,57 @@ def _throughput(renderer, passes: int) -> float:
     return renderer.width * renderer.height * passes / (time.perf_counter() - start)
 
 
+def _time_to_smape(make_renderer, reference, limit_spp: int) -> tuple[float, int, float]:
+    """Render time until ``smape(image, reference) <= TARGET_SMAPE``, the spp then, and the
+    SMAPE reached (the last one tried if ``limit_spp`` came first)."""
+    from wgbragg.metrics import smape
+
+    renderer = make_renderer(seed=12345)
+    elapsed, step = 0.0, 1
+    while True:
+        start = time.perf_counter()
+        image = renderer.render(step)
+        elapsed += time.perf_counter() - start
+        error = smape(image, reference)
+        if error <= TARGET_SMAPE or renderer.passes >= limit_spp:
+            return elapsed, renderer.passes, error
+        step = min(renderer.passes, limit_spp - renderer.passes)
+
+
 def run_benchmarks(cfg: Config, progress: bool = True) -> dict:
     import trimesh
 
     from wgbragg.bvh import build_bvh
     from wgbragg.meshes import sphere_mesh
+    from wgbragg.metrics import smape
     from wgbragg.render import Renderer
     from wgbragg.scene import PRESETS, load_preset, load_scene
 
     meter = _docs.LoadMeter()
-    results = {"presets": {}, "configurations": {}}
+    results = {"presets": {}, "configurations": {}, "convergence": {}}
     size = (cfg.size, cfg.size)
-    bar = tqdm(total=len(PRESETS) + 4, desc="renderer", disable=not progress)
+    bar = tqdm(total=len(PRESETS) + 6, desc="renderer", disable=not progress)
     with warnings.catch_warnings():
-        # Presets asking for spectral mode or maps render in RGB (README: not yet).
         warnings.simplefilter("ignore", UserWarning)
         for name in PRESETS:
-            renderer = Renderer(load_preset(name), size=size)
-            results["presets"][name] = (_throughput(renderer, cfg.passes), renderer.gpu_bytes,
-                                        renderer.triangles)
+            rates = []
+            for mode in MODES:
+                renderer = Renderer(load_preset(name), size=size, mode=mode)
+                rates.append(_throughput(renderer, cfg.passes))
+            results["presets"][name] = (*rates, renderer.gpu_bytes, renderer.triangles)
             bar.update()
+
+        teapot = load_preset("teapot")
+        references = {}
+        for mode in MODES:
+            def make_renderer(seed, mode=mode):
+                return Renderer(teapot, size=(cfg.convergence_size,) * 2, seed=seed, mode=mode)
+
+            references[mode] = make_renderer(seed=0).render(cfg.reference_spp)
+            results["convergence"][mode] = _time_to_smape(make_renderer, references[mode],
+                                                          cfg.reference_spp // 4)
+            bar.update()
+        results["references_smape"] = smape(references["rgb"], references["spectral"])
         with tempfile.TemporaryDirectory() as folder:
             folder = Path(folder)
             for label, materials in (("one near-smooth layer, absorbing base", _SMOOTH),
@@ -216,16 +257,33 @@ def render_section(results: dict, cfg: Config, command: str) -> str:
         "- Other processes on the machine during the run: "
         + ("unknown" if busy is None else f"{busy:.2f} cores busy on average (from /proc/stat)"),
         f"- Presets at {cfg.size} x {cfg.size}, {cfg.passes} timed passes after one untimed "
-        "(pipelines compiled, tables built); RGB mode.",
+        "(pipelines compiled, tables built); the other tables RGB mode.",
         *(["- Quick mode: tiny sizes for the tests; the numbers mean nothing."]
           if cfg.name == "quick" else []),
         "",
         "### Presets",
         "",
     ]
-    lines += _table(["preset", "triangles", "samples/s", "GPU memory"], [
-        [name, f"{triangles:,}", _rate(rate), f"{memory / 1e6:.2f} MB"]
-        for name, (rate, memory, triangles) in results["presets"].items()])
+    lines += _table(["preset", "triangles", "samples/s, RGB", "samples/s, spectral",
+                     "spectral / RGB", "GPU memory (spectral)"], [
+        [name, f"{triangles:,}", _rate(rgb), _rate(spectral), f"{spectral / rgb:.2f}",
+         f"{memory / 1e6:.2f} MB"]
+        for name, (rgb, spectral, memory, triangles) in results["presets"].items()])
+    c = cfg.convergence_size
+    lines += ["", f"### Time to SMAPE {TARGET_SMAPE:g} (teapot, {c} x {c})", ""]
+    lines += _table(["mode", "time", "spp", "SMAPE reached"], [
+        [mode, human_time(seconds) if error <= TARGET_SMAPE
+         else f"not reached in {human_time(seconds)}", str(spp), f"{error:.4f}"]
+        for mode, (seconds, spp, error) in results["convergence"].items()])
+    rgb_s, spectral_s = (results["convergence"][m][0] for m in MODES)
+    lines += [
+        "",
+        f"Each against a {cfg.reference_spp}-spp reference of its own mode, rendered from "
+        "another seed; spp double from 1 (at most a quarter of the reference's). Spectral "
+        f"mode takes {spectral_s / rgb_s:.2f} x the time of RGB mode. The two references "
+        f"differ by SMAPE {results['references_smape']:.4f}: RGB mode's factored colours "
+        "against the spectral integral (and the references' noise).",
+    ]
     lines += ["", "### A sphere, by what its material holds", ""]
     base = results["configurations"]
     first = next(iter(base.values()))

@@ -22,24 +22,48 @@ Public API::
     wo, weight, pdf = s.sample(wi, u)                                 # eq 35
     s.simulate(wi, wo, paths=65536, mode="all", transmission="ballistic")  # MC reference
 
+    from wgbragg import EnvironmentMap, read_exr, write_exr
+    sky = EnvironmentMap(read_exr("sky.exr"), intensity=1.0)   # equirectangular, +y up
+    sky.radiance_at(d); sky.pdf(d); d = sky.sample(u); sky.packed()   # GPU layout
+    write_exr("render.exr", image)                                   # float32, atomic
+
+    from wgbragg import Renderer, load_preset, load_scene, save_png, smape
+    r = Renderer(load_scene("scene.toml"), size=(256, 256), mode="spectral")
+    image = r.render(64)          # or r.render(seconds=10); linear sRGB, (H, W, 3)
+    save_png(image, "out.png")    # exposure, tone map, sRGB; atomic
+    smape(image, reference)       # the Bragg paper's image error
+
 Units: nm and radians (angles in the host medium).
 """
 
 from . import microfacet, optics
+from .environment_map import EnvironmentMap
+from .exr import read_exr, write_exr
 from .layered import LayeredBragg
 from .materials import BraggMirror, ThinFilm
+from .metrics import smape
+from .render import Renderer, save_png
 from .rough_layer import RoughBraggLayer
+from .scene import load_preset, load_scene
 from .transmission_filter import TransmissionFilter
 
 __version__ = "0.1.0"
 
 __all__ = [
     "BraggMirror",
+    "EnvironmentMap",
     "LayeredBragg",
+    "Renderer",
     "RoughBraggLayer",
     "ThinFilm",
     "TransmissionFilter",
     "__version__",
+    "load_preset",
+    "load_scene",
     "microfacet",
     "optics",
+    "read_exr",
+    "save_png",
+    "smape",
+    "write_exr",
 ]

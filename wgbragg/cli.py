@@ -4,7 +4,7 @@
 mirror; ``wgbragg map`` writes a reflectance map (wavelength x angle) as a PNG; ``wgbragg bake``
 fills the LUT cache (transmission filters and colour tables, see :mod:`wgbragg.luts`);
 ``wgbragg scatterogram`` renders the reflected hemisphere of a rough Bragg layer as a PNG;
-``wgbragg render`` path-traces a scene file or a built-in preset to a PNG.
+``wgbragg render`` path-traces a scene file or a built-in preset to a PNG and optionally an EXR.
 """
 
 from __future__ import annotations
@@ -148,19 +148,30 @@ def _size(text: str) -> tuple[int, int]:
 
 
 def _render(args) -> int:
+    from .exr import write_exr
     from .render import Renderer, save_png
     from .scene import load_preset, load_scene
 
     if (args.scene_file is None) == (args.scene is None):
         raise ValueError("give either a scene file or --scene NAME, not both or neither")
+    if args.spp is not None and args.seconds is not None:
+        raise ValueError("give either --spp or --seconds, not both")
     scene = load_preset(args.scene) if args.scene else load_scene(args.scene_file)
-    renderer = Renderer(scene, size=args.size)
-    spp = scene.settings.spp if args.spp is None else args.spp
+    renderer = Renderer(scene, size=args.size, mode=args.mode)
     start = time.perf_counter()
-    image = renderer.render(spp, progress=args.progress)
+    if args.seconds is not None:
+        image = renderer.render(seconds=args.seconds, progress=args.progress)
+    else:
+        spp = scene.settings.spp if args.spp is None else args.spp
+        image = renderer.render(spp, progress=args.progress)
     seconds = time.perf_counter() - start
     save_png(image, args.output, scene.settings.exposure)
-    print(f"{args.output}: {renderer.width}x{renderer.height}, {spp} spp in {seconds:.1f} s")
+    written = [str(args.output)]
+    if args.exr is not None:
+        write_exr(args.exr, image)
+        written.append(str(args.exr))
+    print(f"{', '.join(written)}: {renderer.width}x{renderer.height}, {renderer.mode}, "
+          f"{renderer.passes} spp in {seconds:.1f} s")
     return 0
 
 
@@ -223,7 +234,8 @@ def build_parser() -> argparse.ArgumentParser:
     scatter.add_argument("--backend", choices=("gpu", "numpy"), default="numpy")
     scatter.add_argument("-o", "--output", default="out/scatterogram.png")
     scatter.set_defaults(run=_scatterogram)
-    render = commands.add_parser("render", help="path-trace a scene (RGB) to a PNG")
+    render = commands.add_parser(
+        "render", help="path-trace a scene to a PNG (8-bit sRGB) and optionally an EXR (linear)")
     render.add_argument("scene_file", nargs="?", default=None, help="a scene TOML file")
     render.add_argument("--scene", default=None, help="a built-in preset instead of a file")
     render.add_argument("-o", "--output", default="out/render.png")
@@ -231,6 +243,12 @@ def build_parser() -> argparse.ArgumentParser:
                         help="samples per pixel (default: the scene's settings.spp)")
     render.add_argument("--size", type=_size, default=None,
                         help="WIDTHxHEIGHT in pixels (default: the scene's settings.size)")
+    render.add_argument("--seconds", type=float, default=None,
+                        help="render for this long instead of a number of samples")
+    render.add_argument("--mode", choices=("rgb", "spectral"), default=None,
+                        help="light transport (default: the scene's settings.mode)")
+    render.add_argument("--exr", default=None,
+                        help="also write the linear image to this OpenEXR file")
     render.add_argument("--no-progress", dest="progress", action="store_false",
                         help="no progress bar")
     render.set_defaults(run=_render)

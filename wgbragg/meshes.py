@@ -4,6 +4,12 @@ Conventions: positions in scene units, right-handed, +z up; faces wound counter-
 seen from outside, so ``(v1 - v0) x (v2 - v0)`` points out of the object; per-vertex normals
 are unit vectors. Arrays of a :class:`TriangleMesh` are read-only.
 
+Texture coordinates ``(u, v)`` follow the OBJ convention: ``v`` grows upwards, so ``v = 0`` is
+the bottom row of an image and ``v = 1`` its top row (files in glTF's v-down convention are
+flipped on reading, by trimesh). They are not restricted to [0, 1]: maps repeat with period 1
+(:mod:`wgbragg.parameter_maps`), and a vertex is duplicated wherever its faces need different
+coordinates (a seam), so that no face interpolates across a jump.
+
 References
 ----------
 .. [1] M. E. Newell, "The Utilization of Procedure Models in Digital Image Synthesis",
@@ -44,7 +50,7 @@ _WELD_TOLERANCE = 1e-9
 
 @dataclass(frozen=True, eq=False)
 class TriangleMesh:
-    """An indexed triangle mesh with per-vertex normals.
+    """An indexed triangle mesh with per-vertex normals and, optionally, texture coordinates.
 
     Parameters
     ----------
@@ -54,6 +60,9 @@ class TriangleMesh:
         Vertex indices, counter-clockwise seen from outside, F >= 1.
     normals : array_like, shape (V, 3)
         Per-vertex normals, finite and non-zero; stored normalised to unit length.
+    uv : array_like, shape (V, 2), optional
+        Per-vertex texture coordinates ``(u, v)`` (dimensionless, OBJ convention), finite;
+        None when the mesh has none.
 
     Raises
     ------
@@ -64,6 +73,7 @@ class TriangleMesh:
     vertices: np.ndarray
     faces: np.ndarray
     normals: np.ndarray
+    uv: np.ndarray | None = None
 
     def __post_init__(self):
         vertices = _finite_rows("vertices", self.vertices)
@@ -72,6 +82,14 @@ class TriangleMesh:
             raise ValueError(
                 f"normals must have the shape of vertices {vertices.shape}, got {normals.shape}"
             )
+        arrays = {}
+        if self.uv is not None:
+            uv = _finite_rows("uv", self.uv, columns=2)
+            if len(uv) != len(vertices):
+                raise ValueError(
+                    f"uv must have one row per vertex ({len(vertices)}), got {len(uv)}"
+                )
+            arrays["uv"] = uv
         length = np.linalg.norm(normals, axis=1)
         if np.any(length == 0.0):
             raise ValueError("normals must be non-zero vectors")
@@ -82,23 +100,24 @@ class TriangleMesh:
             raise ValueError(f"faces must hold integers, got dtype {faces.dtype}")
         if faces.min() < 0 or faces.max() >= len(vertices):
             raise ValueError(f"faces must index vertices 0..{len(vertices) - 1}")
-        for name, array in (
-            ("vertices", vertices),
-            ("faces", faces.astype(np.int32)),
-            ("normals", normals / length[:, None]),
-        ):
+        arrays.update(
+            vertices=vertices, faces=faces.astype(np.int32), normals=normals / length[:, None]
+        )
+        for name, array in arrays.items():
             array = np.array(array, order="C")
             array.flags.writeable = False
             object.__setattr__(self, name, array)
 
 
-def _finite_rows(name: str, value) -> np.ndarray:
+def _finite_rows(name: str, value, columns: int = 3) -> np.ndarray:
     try:
         array = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as error:
-        raise ValueError(f"{name} must be an array of real numbers, shape (V, 3)") from error
-    if array.ndim != 2 or array.shape[1] != 3 or len(array) == 0:
-        raise ValueError(f"{name} must have shape (V, 3) with V >= 1, got {array.shape}")
+        raise ValueError(
+            f"{name} must be an array of real numbers, shape (V, {columns})"
+        ) from error
+    if array.ndim != 2 or array.shape[1] != columns or len(array) == 0:
+        raise ValueError(f"{name} must have shape (V, {columns}) with V >= 1, got {array.shape}")
     if not np.isfinite(array).all():
         raise ValueError(f"{name} must be finite")
     return array
@@ -142,8 +161,11 @@ def load_mesh(path: str | os.PathLike) -> TriangleMesh:
 
     A scene is flattened: every mesh instance is moved by its node transform and all are
     concatenated. Points and lines are ignored. Normals stored in the file are kept
-    (transformed with their mesh); otherwise they are area-weighted face normals. Reading
-    only parses data: nothing in the file is executed, and no remote resource is fetched.
+    (transformed with their mesh); otherwise they are area-weighted face normals. Texture
+    coordinates are kept when every mesh of the file has one pair per vertex (trimesh
+    duplicates vertices at uv seams and turns glTF's ``v`` into OBJ's, ``v`` up); otherwise
+    ``uv`` is None. Reading only parses data: nothing in the file is executed, and no remote
+    resource is fetched.
 
     Parameters
     ----------
@@ -183,7 +205,7 @@ def load_mesh(path: str | os.PathLike) -> TriangleMesh:
     if not parts:
         raise ValueError(f"mesh file {path}: contains no triangles")
 
-    vertices, faces, normals = [], [], []
+    vertices, faces, normals, uvs = [], [], [], []
     base = 0
     for transform, part in parts:
         linear = transform[:3, :3]
@@ -204,15 +226,22 @@ def load_mesh(path: str | os.PathLike) -> TriangleMesh:
             stored = np.asarray(part.vertex_normals, dtype=np.float64) @ np.linalg.inv(linear)
             usable = np.linalg.norm(stored, axis=1) > 0.0
             part_normals[usable] = stored[usable]
+        part_uv = getattr(part.visual, "uv", None)
+        if part_uv is not None:
+            part_uv = np.asarray(part_uv, dtype=np.float64)
+            if part_uv.shape != (len(part_vertices), 2) or not np.isfinite(part_uv).all():
+                part_uv = None
         vertices.append(part_vertices)
         faces.append(part_faces + base)
         normals.append(part_normals)
+        uvs.append(part_uv)
         base += len(part_vertices)
     try:
         return TriangleMesh(
             vertices=np.concatenate(vertices),
             faces=np.concatenate(faces),
             normals=np.concatenate(normals),
+            uv=None if any(uv is None for uv in uvs) else np.concatenate(uvs),
         )
     except ValueError as error:
         raise ValueError(f"mesh file {path}: {error}") from error
@@ -229,7 +258,15 @@ def sphere_mesh(subdivisions: int = 4) -> TriangleMesh:
     Returns
     -------
     TriangleMesh
-        Vertices exactly on the unit sphere; normals equal to the positions.
+        Vertices exactly on the unit sphere; normals equal to the positions. Texture
+        coordinates are equirectangular: ``u = phi / (2 pi)`` with the azimuth ``phi`` from
+        +x towards +y, in [0, 1), and ``v = 1/2 + latitude / pi``, 0 at the -z pole and 1 at
+        the +z pole. A face that straddles the seam ``phi = 0`` has ``u`` in [1, 1.5) at its
+        corners on the ``u < 1/2`` side, which names the same points under the repeat of the
+        maps. A pole has no azimuth: each face has its own copy of a pole vertex, with the
+        mean ``u`` of the face's other two corners. Vertices are duplicated (same position
+        and normal) where their faces need different coordinates, so the mesh is closed in
+        position but not in vertex indices.
     """
     if isinstance(subdivisions, bool) or not isinstance(subdivisions, int):
         raise ValueError(f"subdivisions must be an integer from 0 to 8, got {subdivisions!r}")
@@ -238,7 +275,18 @@ def sphere_mesh(subdivisions: int = 4) -> TriangleMesh:
     sphere = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
     vertices = np.asarray(sphere.vertices, dtype=np.float64)
     vertices = vertices / np.linalg.norm(vertices, axis=1, keepdims=True)
-    return TriangleMesh(vertices=vertices, faces=sphere.faces, normals=vertices)
+    faces = np.asarray(sphere.faces, dtype=np.int64)
+    x, y, z = vertices.T
+    u = np.mod(np.arctan2(y, x) / (2.0 * np.pi), 1.0)
+    v = 0.5 + np.arctan2(z, np.hypot(x, y)) / np.pi
+    # The poles' azimuth is meaningless: they take no part in a face's span of u.
+    pole = (np.hypot(x, y) == 0.0)[faces]
+    corner_u = np.ma.masked_array(u[faces], mask=pole)
+    straddles = (corner_u.max(axis=1) - corner_u.min(axis=1)).filled(0.0) > 0.5
+    corner_u = corner_u + np.where(straddles[:, None] & (corner_u.data < 0.5), 1.0, 0.0)
+    pole_u = corner_u.mean(axis=1).filled(0.0)[:, None]
+    corner_uv = np.stack([np.where(pole, pole_u, corner_u.data), v[faces]], axis=-1)
+    return _split_by_corner(vertices, vertices, faces, corner_uv)
 
 
 def plane_mesh(size: float = 1.0) -> TriangleMesh:
@@ -252,6 +300,7 @@ def plane_mesh(size: float = 1.0) -> TriangleMesh:
     Returns
     -------
     TriangleMesh
+        With ``(u, v) = (x / size + 1/2, y / size + 1/2)``, the unit square.
     """
     if isinstance(size, bool) or not isinstance(size, (int, float, np.floating, np.integer)):
         raise ValueError(f"size must be a real number > 0, got {size!r}")
@@ -261,7 +310,8 @@ def plane_mesh(size: float = 1.0) -> TriangleMesh:
     vertices = np.array([[-h, -h, 0.0], [h, -h, 0.0], [h, h, 0.0], [-h, h, 0.0]])
     faces = np.array([[0, 1, 2], [0, 2, 3]])
     normals = np.tile([0.0, 0.0, 1.0], (4, 1))
-    return TriangleMesh(vertices=vertices, faces=faces, normals=normals)
+    uv = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    return TriangleMesh(vertices=vertices, faces=faces, normals=normals, uv=uv)
 
 
 def _bernstein(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -286,6 +336,13 @@ def utah_teapot(subdivisions: int = 8) -> TriangleMesh:
     derivatives vanish, the area-weighted face normal is used. The mesh is not closed: the
     handle and spout pierce the body, and the lid sits in the rim with a small gap.
 
+    Texture coordinates are each patch's own Bezier parameters ``(s, t)`` in [0, 1]: ``s``
+    along the first index of the patch's 4 x 4 control points, ``t`` along the second. A
+    welded vertex that its patches see at different parameters (patch borders, and the lid
+    and base poles, where a whole row of a patch meets) is duplicated, one copy per distinct
+    ``(s, t)``, all with the same position and normal; so every face interpolates within its
+    own patch, and the mesh is closed along the seams in position only.
+
     Parameters
     ----------
     subdivisions : int
@@ -302,7 +359,8 @@ def utah_teapot(subdivisions: int = 8) -> TriangleMesh:
     n = subdivisions
     control = np.asarray(TEAPOT_POINTS, dtype=np.float64)[np.asarray(TEAPOT_PATCHES)]
     control = control.reshape(-1, 4, 4, 3)
-    value, slope = _bernstein(np.linspace(0.0, 1.0, n + 1))
+    parameter = np.linspace(0.0, 1.0, n + 1)
+    value, slope = _bernstein(parameter)
     points = np.einsum("ui,pijc,vj->puvc", value, control, value).reshape(-1, 3)
     d_u = np.einsum("ui,pijc,vj->puvc", slope, control, value).reshape(-1, 3)
     d_v = np.einsum("ui,pijc,vj->puvc", value, control, slope).reshape(-1, 3)
@@ -327,7 +385,8 @@ def utah_teapot(subdivisions: int = 8) -> TriangleMesh:
     # Stepping along v then u turns counter-clockwise about d_v x d_u, the outward normal.
     quad_faces = np.concatenate([np.stack([a, d, c], 1), np.stack([a, c, b], 1)])
     patch_offset = (np.arange(len(control)) * (n + 1) ** 2)[:, None, None]
-    faces = label[(quad_faces[None] + patch_offset).reshape(-1, 3)]
+    corner_points = (quad_faces[None] + patch_offset).reshape(-1, 3)
+    faces = label[corner_points]
     corners = vertices[faces]
     area2 = np.linalg.norm(
         np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1
@@ -335,12 +394,35 @@ def utah_teapot(subdivisions: int = 8) -> TriangleMesh:
     distinct = (
         (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 2] != faces[:, 0])
     )
-    faces = faces[distinct & (area2 > 0.0)]
+    kept = distinct & (area2 > 0.0)
+    faces = faces[kept]
 
     normals = _sum_by_label(label, unit, welded)
     fallback = ~(np.linalg.norm(normals, axis=1) > 1e-6)
     normals[fallback] = area_weighted_normals(vertices, faces)[fallback]
-    return TriangleMesh(vertices=vertices, faces=faces, normals=normals)
+    # Point k of a patch sits at (s, t) = (parameter[k // (n + 1)], parameter[k % (n + 1)]).
+    local = corner_points[kept] % ((n + 1) ** 2)
+    corner_uv = np.stack([parameter[local // (n + 1)], parameter[local % (n + 1)]], axis=-1)
+    return _split_by_corner(vertices, normals, faces, corner_uv)
+
+
+def _split_by_corner(
+    vertices: np.ndarray, normals: np.ndarray, faces: np.ndarray, corner_uv: np.ndarray
+) -> TriangleMesh:
+    """The mesh with one vertex per distinct (vertex, uv) pair among the face corners.
+
+    ``corner_uv`` has shape (F, 3, 2): the texture coordinates each face wants at its
+    corners. Faces keep their order; vertices no face uses are dropped.
+    """
+    keys = np.concatenate([faces.reshape(-1, 1), corner_uv.reshape(-1, 2)], axis=1)
+    unique, inverse = np.unique(keys, axis=0, return_inverse=True)
+    source = unique[:, 0].astype(np.int64)
+    return TriangleMesh(
+        vertices=vertices[source],
+        faces=inverse.reshape(faces.shape),
+        normals=normals[source],
+        uv=unique[:, 1:],
+    )
 
 
 def _sum_by_label(label: np.ndarray, rows: np.ndarray, labels: int) -> np.ndarray:

@@ -1,67 +1,96 @@
-"""A progressive GPU path tracer of scene files, RGB mode (``wgsl/render.wgsl``).
+"""A progressive GPU path tracer of scene files, RGB or spectral (``wgsl/render.wgsl``).
 
 :class:`Renderer` turns a :class:`wgbragg.scene.Scene` into world-space triangles, builds one
 BVH over them in numpy (:func:`wgbragg.bvh.build_bvh`), uploads the geometry, materials and
-lights once, and accumulates one path per pixel per pass in a float32 buffer on the device.
-:func:`save_png` applies the display transform and writes an 8-bit sRGB PNG.
+lights once, and accumulates paths per pixel in a float32 buffer on the device.
+:func:`save_png` applies the display transform and writes an 8-bit sRGB PNG;
+:func:`wgbragg.exr.write_exr` writes the linear image.
 
 Conventions: +y up. The built-in shapes are converted from :mod:`wgbragg.meshes` (+z up) to
-the scene's: a unit sphere at the origin, the 2 x 2 plane in y = 0 facing +y, and the Utah
-teapot scaled to 1 unit wide along x, standing on y = 0 (its body's axis through the origin).
-Mesh files are used in their own axes.
+the scene's: a unit sphere at the origin (its texture coordinates' poles on the y axis), the
+2 x 2 plane in y = 0 facing +y (u along +x, v along -z), and the Utah teapot scaled to 1 unit
+wide along x, standing on y = 0 (its body's axis through the origin). Mesh files are used in
+their own axes, with their own texture coordinates (zeros when they have none).
 
-Light transport (linear sRGB): next-event estimation towards the environment, combined with
-BRDF sampling by the power heuristic; point and area lights by shadow rays only (they are not
-geometry, so a BRDF-sampled ray never finds them and needs no MIS); the coating's mirror
-reflection of a layered material is a Dirac bounce, after which the environment counts fully;
-Russian roulette from the third bounce; at most 8 bounces.
+Light transport: next-event estimation towards the environment, combined with BRDF sampling
+by the power heuristic; point and area lights by shadow rays only (they are not geometry, so
+a BRDF-sampled ray never finds them and needs no MIS); the coating's mirror reflection of a
+layered material is a Dirac bounce, after which the environment counts fully; Russian roulette
+from the third bounce; at most ``max_bounces`` bounces (8 by default).
+
+Modes: ``"rgb"`` carries linear sRGB along a path. ``"spectral"`` carries four hero
+wavelengths, stratified over the inverse CDF of the summed CIE 1931 CMFs, and turns each
+path's values into linear sRGB by the D65-weighted CMFs; every RGB quantity of the scene
+(albedos, lights, environments) becomes a spectrum through Mallett and Yuksel's sRGB basis,
+which round-trips to its RGB under D65 (a white furnace stays white).
 
 Environments (``[environment]``): ``"uniform"``, a constant radiance; ``"sky"``, intensity
 times a gradient from a white-blue horizon (0.9, 0.95, 1.0) to a blue zenith (0.25, 0.45,
 0.9) by the square root of the elevation, a dark ground (0.1) below, and a sun of angular
 radius 2.5 deg and radiance 80 at elevation 50 deg; ``"studio"``, the same model with a grey
 palette (zenith 0.6, horizon 0.35, floor 0.03) and a key light of radius 15 deg and radiance 6
-at elevation 45 deg, front left. EXR environments are refused.
+at elevation 45 deg, front left; ``"exr"``, an equirectangular image
+(:class:`wgbragg.environment_map.EnvironmentMap` states its orientation) times the intensity,
+importance-sampled by its luminance.
 
-Materials: Lambertian, and layered Bragg by the single-reflection model with its factored RGB
-LUT (``method="single-reflection-lut"``, ``colour_method="averaged"``). All layered materials of
-a scene share one pipeline specialisation: structures with fewer layers than the most are
-padded with transparent layers (transmissivity 1, reflectance 0), uncoated ones are coated
-with index 1 (no Fresnel reflection, no refraction) and absorbing bases are Lambertian with
-albedo 0, which leaves each model unchanged. A Bragg peak's factored colour may lie outside
-the sRGB gamut, so pixels of layered materials can have slightly negative channels (kept in
-the linear image, clipped by the display transform).
+Materials: Lambertian, and layered Bragg by the single-reflection model: in RGB mode with its
+factored RGB LUT (``method="single-reflection-lut"``, ``colour_method="averaged"``), in
+spectral mode with its spectral LUT (``method="single-reflection-lut"`` at the hero
+wavelengths). All layered materials of a scene share one pipeline specialisation: structures
+with fewer layers than the most are padded with transparent layers (transmissivity 1,
+reflectance 0), uncoated ones are coated with index 1 (no Fresnel reflection, no refraction)
+and absorbing bases are Lambertian with albedo 0, which leaves each model unchanged. A Bragg
+peak's factored colour may lie outside the sRGB gamut, so pixels of layered materials can have
+slightly negative channels (kept in the linear image, clipped by the display transform).
 
-Limits of this first version: RGB only (``settings.mode = "spectral"`` renders in RGB, with a
-warning); ``period_map`` and ``delta_map`` are ignored, with a warning (the layers' own period
-and delta are used); area lights are not seen directly by the camera or by mirror bounces.
+Period and delta maps (``period_map``, ``delta_map``, :mod:`wgbragg.parameter_maps`) vary a
+layer's mirror per shading point. The scene's pipeline then computes mirror reflectances in
+the kernel instead of reading LUTs: Yeh's formula at the hero wavelengths, or the "averaged"
+landmark colour in RGB mode (about four times slower than spectral mode on lavapipe). As in
+the Bragg paper (sec. 7), a mapped material must be a single layer over an absorbing base:
+nothing sees the transmission through it, whose filter would otherwise have to be integrated
+at every point.
+
+Limits: area lights are not seen directly by the camera or by mirror bounces.
 """
 
 from __future__ import annotations
 
 import math
-import warnings
+import numbers
+import time
 
 import numpy as np
 from PIL import Image
 from tqdm import tqdm
 
-from . import gpu
+from . import colorimetry, gpu
 from ._io import atomic_path
 from .bvh import build_bvh
-from .layered_gpu import LAYER_DTYPE, _variant
+from .environment_map import EnvironmentMap
+from .exr import read_exr
+from .layered import _mallett_basis
+from .layered_gpu import _VISIBLE_NODES, FACTORED_COLOUR_METHODS, LAYER_DTYPE, _variant
+from .layered_simulation import _inverse_cdf
 from .meshes import load_mesh, plane_mesh, sphere_mesh, utah_teapot
+from .parameter_maps import pack_maps
 from .scene import (
+    MODES,
     AreaLight,
     LambertianMaterial,
-    LayeredBraggMaterial,
     PointLight,
     Scene,
 )
 
-__all__ = ["PARAMS_DTYPE", "Renderer", "display_transform", "save_png"]
+__all__ = ["MAX_BOUNCES", "PARAMS_DTYPE", "PATHS_PER_DISPATCH", "Renderer",
+           "display_transform", "save_png"]
 
 WORKGROUP_SIZE = 64
+MAX_BOUNCES = 8
+"""Default :class:`Renderer` ``max_bounces``."""
+PATHS_PER_DISPATCH = 65536
+"""Paths a submission of :meth:`Renderer.render` traces at least, whatever the image size."""
+_SECONDS_BAR = "{desc}: {n:.1f}/{total:.1f} s |{bar}| {postfix}"
 _STACK_SIZE = 64  # STACK_SIZE of render_scene.wgsl
 _COLOUR_METHOD = "averaged"
 
@@ -77,8 +106,8 @@ _ENVIRONMENT_FIELDS = [
 ]
 PARAMS_DTYPE = gpu.struct_dtype([
     *_CAMERA_FIELDS, *_ENVIRONMENT_FIELDS,
-    ("pass_index", "u32"), ("count", "u32"), ("width", "u32"), ("point_lights", "u32"),
-    ("area_lights", "u32"), ("epsilon", "f32"), ("seed", "u32"), ("_p0", "u32"),
+    ("_p0", "u32"), ("count", "u32"), ("width", "u32"), ("point_lights", "u32"),
+    ("area_lights", "u32"), ("epsilon", "f32"), ("seed", "u32"), ("samples", "u32"),
 ])
 """``Params`` of render.wgsl (its nested Camera and Environment flattened: both are 16-byte
 aligned with sizes that are multiples of 16, so the offsets agree)."""
@@ -86,7 +115,8 @@ aligned with sizes that are multiples of 16, so the offsets agree)."""
 _NODE_DTYPE = gpu.struct_dtype([("lo", "vec3<f32>"), ("left_or_first", "u32"),
                                 ("hi", "vec3<f32>"), ("count", "u32")])
 _MATERIAL_DTYPE = gpu.struct_dtype([("albedo", "vec3<f32>"), ("kind", "u32"),
-                                    ("structure", "u32")])
+                                    ("structure", "u32"), ("period_map", "u32"),
+                                    ("delta_map", "u32")])
 _STRUCTURE_DTYPE = gpu.struct_dtype([
     ("base_rgb", "vec3<f32>"), ("host", "f32"), ("base_mean", "f32"), ("first_layer", "u32"),
     ("base_spectrum", "u32"), ("lut_rows", "u32"), ("lut_rows_per_radian", "f32"),
@@ -116,26 +146,31 @@ _Z_UP_TO_Y_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
 
 
 def _shape_mesh(obj):
-    """Vertices and normals in the scene's object space (+y up), and faces."""
+    """Vertices and normals in the scene's object space (+y up), faces, and texture
+    coordinates (zeros for a mesh file without them)."""
     if obj.shape == "mesh":
         mesh = load_mesh(obj.path)
-        return mesh.vertices, mesh.normals, mesh.faces
-    if obj.shape == "sphere":
-        mesh = sphere_mesh(4)
-        return mesh.vertices, mesh.normals, mesh.faces
-    if obj.shape == "plane":
-        mesh = plane_mesh(2.0)
-        return mesh.vertices @ _Z_UP_TO_Y_UP.T, mesh.normals @ _Z_UP_TO_Y_UP.T, mesh.faces
-    mesh = utah_teapot(8)
-    width = np.ptp(mesh.vertices[:, 0])
-    return (mesh.vertices @ _Z_UP_TO_Y_UP.T) / width, mesh.normals @ _Z_UP_TO_Y_UP.T, mesh.faces
+        vertices, normals = mesh.vertices, mesh.normals
+    elif obj.shape in ("sphere", "plane"):
+        mesh = sphere_mesh(4) if obj.shape == "sphere" else plane_mesh(2.0)
+        vertices, normals = mesh.vertices @ _Z_UP_TO_Y_UP.T, mesh.normals @ _Z_UP_TO_Y_UP.T
+    else:
+        mesh = utah_teapot(8)
+        width = np.ptp(mesh.vertices[:, 0])
+        vertices = (mesh.vertices @ _Z_UP_TO_Y_UP.T) / width
+        normals = mesh.normals @ _Z_UP_TO_Y_UP.T
+    uv = np.zeros((len(vertices), 2)) if mesh.uv is None else mesh.uv
+    return vertices, normals, mesh.faces, uv
 
 
 def _world_geometry(scene: Scene, material_index: dict):
-    vertices, normals, faces = [], [], []
+    """World-space vertices, unit normals and texture coordinates of all objects, and their
+    faces with material indices (F, 4)."""
+    vertices, normals, faces, uvs = [], [], [], []
     offset = 0
     for obj in scene.objects:
-        v, n, f = _shape_mesh(obj)
+        v, n, f, uv = _shape_mesh(obj)
+        uvs.append(uv)
         linear = _rotation(obj.rotate_deg) @ np.diag(obj.scale)
         # Normals transform by the inverse transpose: R S^-1 for rotation R and scale S.
         normal_map = _rotation(obj.rotate_deg) @ np.diag(1.0 / np.asarray(obj.scale))
@@ -145,7 +180,8 @@ def _world_geometry(scene: Scene, material_index: dict):
         faces.append(np.column_stack([f + offset,
                                       np.full(len(f), material_index[obj.material])]))
         offset += len(v)
-    return np.concatenate(vertices), np.concatenate(normals), np.concatenate(faces)
+    return (np.concatenate(vertices), np.concatenate(normals), np.concatenate(faces),
+            np.concatenate(uvs))
 
 
 def _vec4(array) -> np.ndarray:
@@ -158,35 +194,62 @@ def _rgb(value) -> tuple[float, float, float]:
     return (float(value),) * 3 if np.isscalar(value) else tuple(map(float, value))
 
 
-def _layered_buffers(structures: list):
+def _check_mapped(name: str, material) -> None:
+    """Maps vary the mirrors, but not the transmissivity tables baked for them: only a single
+    layer over an absorbing base, whose transmission nothing sees, is rendered exactly."""
+    if len(material.layers) != 1 or material.base_albedo is not None:
+        raise ValueError(
+            f"materials.{name}: period_map and delta_map need a single layer over an absorbing "
+            f"base (no base_albedo), got {len(material.layers)} layer(s) and base_albedo = "
+            f"{material.base_albedo!r}: the transmission through a varying layer would need "
+            "its filter integrated at every point (Bragg paper, sec. 7)")
+
+
+def _layered_buffers(structures: list, spectral: bool, lut: bool = True):
     """Concatenated ``structures``, ``layers`` and ``tables`` of layered_brdf.wgsl for all
-    structures, and the shared specialisation (see the module docstring)."""
-    variants = [_variant(s, "factored", True, _COLOUR_METHOD) for s in structures]
+    structures, and the shared specialisation (see the module docstring). Without ``lut``,
+    mirror reflectances are computed in the kernel (Yeh's formula, or the "averaged" colour)."""
+    kind = "spectral" if spectral else "factored"
+    variants = [_variant(s, kind, lut, _COLOUR_METHOD) for s in structures]
     most = max(len(s.layers) for s in structures)
     records, tables, heads = [], [], np.zeros(len(structures), _STRUCTURE_DTYPE)
     size = layer_count = 0
     for k, variant in enumerate(variants):
         table = [variant.tables]
         shifted = variant.layers.copy()
-        for name in ("transmissivity_mean", "transmissivity_rgb", "reflectance_rgb"):
+        for name in ("transmissivity", "transmissivity_mean", "transmissivity_rgb",
+                     "reflectance", "reflectance_rgb"):
             shifted[name] += size
         lut_rows = int(variant.params["lut_rows"])
         padding = np.zeros(most - len(shifted), shifted.dtype)
         if len(padding):
             # A transparent layer: transmissivity 1 on a 2-row grid, reflectance 0.
             start = size + variant.tables.size
-            table.append(np.ones(2 + 6, np.float32))
-            table.append(np.zeros(3 * lut_rows, np.float32))
+            columns = _VISIBLE_NODES if spectral else 3
+            table.append(np.ones(2 + 2 * columns, np.float32))
+            table.append(np.zeros(columns * lut_rows, np.float32))
             padding["alpha"] = 0.5
             padding["rows"] = 2
             padding["rows_per_radian"] = 2.0 / math.pi
             padding["transmissivity_mean"] = start
-            padding["transmissivity_rgb"] = start + 2
-            padding["reflectance_rgb"] = start + 8
+            padding["transmissivity" if spectral else "transmissivity_rgb"] = start + 2
+            padding["reflectance" if spectral else "reflectance_rgb"] = (
+                start + 2 + 2 * columns)
+            # Computed in the kernel (no LUT): an index-matched mirror reflects nothing.
+            host = structures[k].host_index
+            padding["n1"] = padding["n2"] = padding["host"] = host
+            padding["d1_nm"] = padding["d2_nm"] = 100.0
+            padding["periods"] = padding["bulk"] = 1
         records.append(np.concatenate([shifted, padding]))
         for name in _STRUCTURE_DTYPE.names:
             heads[k][name] = variant.params[name]
         heads[k]["first_layer"] = layer_count
+        if spectral and structures[k].absorbing_base:
+            # A black Lambertian base, for a pipeline that has Lambertian bases.
+            heads[k]["base_spectrum"] = size + sum(t.size for t in table)
+            table.append(np.zeros(_VISIBLE_NODES, np.float32))
+        elif spectral:
+            heads[k]["base_spectrum"] += size
         layer_count += most
         tables.extend(table)
         size += sum(t.size for t in table)
@@ -194,15 +257,32 @@ def _layered_buffers(structures: list):
         "LAYERS": most,
         "COATING": any(s.has_coating for s in structures),
         "BASE": int(any(not s.absorbing_base for s in structures)),
-        "LUT": True,
+        "LUT": lut,
         "INTEGRATED": False,
+        "COLOUR_METHOD": FACTORED_COLOUR_METHODS[_COLOUR_METHOD],
+        # The general Yeh path unless every mirror sits in its own n1.
+        "HOST_MATCHED": all(layer.mirror.host == layer.mirror.n1
+                            for s in structures for layer in s.layers),
     }
     return heads, np.concatenate(records), np.concatenate(tables), constants
 
 
+def _spectra() -> np.ndarray:
+    """The ``spectra`` buffer of render.wgsl's spectral mode, rows of vec4 on the 1 nm grid
+    360..830 nm: Mallett and Yuksel's basis spectra (r, g, b, 0); then the linear sRGB
+    response per nm (D65-weighted CMFs, so a spectrum of 1 is white (1, 1, 1)); then the
+    wavelengths at equal steps of the summed CMFs' cumulative, in x (hero wavelengths)."""
+    _, basis = _mallett_basis()
+    _, weights = colorimetry.xyz_weights()
+    response = colorimetry.xyz_to_linear_srgb(weights / colorimetry.WAVELENGTH_STEP_NM)
+    inverse_cdf = np.zeros((_inverse_cdf().size, 4))
+    inverse_cdf[:, 0] = _inverse_cdf()
+    return np.concatenate([_vec4(basis), _vec4(response), inverse_cdf]).astype(np.float32)
+
+
 def _environment(env, params) -> None:
     if env.type == "exr":
-        raise ValueError("EXR environments are not supported yet (environment.type = 'exr')")
+        return
     if env.type == "uniform":
         for name in ("zenith", "horizon", "ground"):
             params[name] = env.radiance
@@ -231,13 +311,21 @@ class Renderer:
     size : tuple of 2 ints, optional
         Width and height in pixels; the scene's ``settings.size`` by default.
     seed : int
-        Seed of the random numbers (0 to 2**32 - 1); passes continue its sequence.
+        Seed of the random numbers (0 to 2**32 - 1); each pixel's paths are numbered, so
+        the image after n samples does not depend on how :meth:`render` calls added them.
+    mode : {"rgb", "spectral"}, optional
+        Light transport; the scene's ``settings.mode`` by default.
+    max_bounces : int
+        Surface interactions shaded along a path, 1 to 64. Fewer make an interactive preview
+        cheaper; a convex object alone under an environment needs 1 (what it reflects can
+        only be the environment).
 
     Raises
     ------
     ValueError
-        For an EXR environment, a size out of range, or a scene whose BVH is too deep for
-        the GPU traversal stack.
+        For a size, seed or mode out of range, an unreadable EXR environment or map texture,
+        maps on a material that is not a single layer over an absorbing base, or a scene
+        whose BVH is too deep for the GPU traversal stack.
 
     Attributes
     ----------
@@ -245,38 +333,58 @@ class Renderer:
         Samples per pixel accumulated so far.
     triangles : int
         Triangles in the scene.
+    mode : str
+    environment_map : wgbragg.environment_map.EnvironmentMap or None
+        The scene's EXR environment, as sampled.
     """
 
-    def __init__(self, scene: Scene, size: tuple[int, int] | None = None, seed: int = 0):
+    def __init__(self, scene: Scene, size: tuple[int, int] | None = None, seed: int = 0,
+                 mode: str | None = None, max_bounces: int = MAX_BOUNCES):
         width, height = scene.settings.size if size is None else size
+        mode = scene.settings.mode if mode is None else mode
+        if mode not in MODES:
+            raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
         if not all(isinstance(n, int) and 1 <= n <= 16384 for n in (width, height)):
             raise ValueError(f"size must be two integers in [1, 16384], got {size!r}")
         if not isinstance(seed, int) or not 0 <= seed < 2**32:
             raise ValueError(f"seed must be an integer in [0, 2**32), got {seed!r}")
-        if scene.settings.mode != "rgb":
-            warnings.warn("settings.mode = 'spectral' is not implemented yet: rendering in RGB",
-                          UserWarning, stacklevel=2)
+        if isinstance(max_bounces, bool) or not isinstance(max_bounces, int) or not (
+                1 <= max_bounces <= 64):
+            raise ValueError(f"max_bounces must be an integer in [1, 64], got {max_bounces!r}")
         self.width, self.height = width, height
+        self.mode = mode
+        spectral = mode == "spectral"
         self.scene = scene
         names = list(scene.materials)
         material_index = {name: k for k, name in enumerate(names)}
         materials = np.zeros(len(names), _MATERIAL_DTYPE)
         structures = []
+        # Record 0: no map (period 0 tells the kernel to keep the layers' own).
+        maps, constant_values = [None], [0.0]
         for k, name in enumerate(names):
             material = scene.materials[name]
             if isinstance(material, LambertianMaterial):
                 materials[k]["albedo"] = _rgb(material.albedo)
                 continue
-            if isinstance(material, LayeredBraggMaterial) and (
-                    material.period_map is not None or material.delta_map is not None):
-                warnings.warn(f"materials.{name}: period_map and delta_map are not implemented "
-                              "yet; the layers' own period and delta are used", UserWarning,
-                              stacklevel=2)
             materials[k]["kind"] = 1
             materials[k]["structure"] = len(structures)
             structures.append(material.to_structure())
+            if material.period_map is None and material.delta_map is None:
+                continue
+            _check_mapped(name, material)
+            layer = material.layers[0]
+            for field, pmap, own in (("period_map", material.period_map, layer.period_nm),
+                                     ("delta_map", material.delta_map, layer.delta)):
+                materials[k][field] = len(maps)
+                maps.append(pmap)
+                constant_values.append(own)
+        varying = len(maps) > 1
+        map_records, map_texels = pack_maps(maps)
+        for k, (pmap, value) in enumerate(zip(maps, constant_values, strict=True)):
+            if pmap is None:
+                map_records[k]["lo"] = map_records[k]["hi"] = value
 
-        vertices, normals, faces = _world_geometry(scene, material_index)
+        vertices, normals, faces, uv = _world_geometry(scene, material_index)
         bvh = build_bvh(vertices, faces[:, :3])
         if bvh.depth + 1 > _STACK_SIZE:
             raise ValueError(f"scene: its BVH is {bvh.depth} levels deep; the GPU traversal "
@@ -286,18 +394,22 @@ class Renderer:
         nodes = np.zeros(bvh.node_total, _NODE_DTYPE)
         nodes["lo"], nodes["hi"], nodes["count"] = bvh.node_min, bvh.node_max, bvh.node_count
         nodes["left_or_first"] = np.where(bvh.node_count > 0, bvh.node_first, bvh.node_left)
-        constants = {"WORKGROUP_SIZE": WORKGROUP_SIZE, "LAYERED": bool(structures)}
+        constants = {"WORKGROUP_SIZE": WORKGROUP_SIZE, "MAX_BOUNCES": max_bounces,
+                     "LAYERED": bool(structures),
+                     "SPECTRAL": spectral, "ENVIRONMENT_MAP": scene.environment.type == "exr"}
         if structures:
-            heads, layer_records, tables, layered = _layered_buffers(structures)
+            heads, layer_records, tables, layered = _layered_buffers(structures, spectral,
+                                                                     lut=not varying)
             constants.update(layered)
+            constants["VARYING_LAYERS"] = varying
         else:
             # Bindings must exist even where no layered material reads them.
             heads = np.zeros(1, _STRUCTURE_DTYPE)
             layer_records = np.zeros(1, LAYER_DTYPE)
             tables = np.zeros(1, np.float32)
         self._inputs = [
-            gpu.DeviceArray.upload(_vec4(vertices)),
-            gpu.DeviceArray.upload(_vec4(normals)),
+            gpu.DeviceArray.upload(np.column_stack([vertices, uv[:, 0]]).astype(np.float32)),
+            gpu.DeviceArray.upload(np.column_stack([normals, uv[:, 1]]).astype(np.float32)),
             gpu.DeviceArray.upload(np.ascontiguousarray(faces[bvh.triangle_order], np.uint32)),
             gpu.DeviceArray.upload(nodes),
             gpu.DeviceArray.upload(materials),
@@ -305,18 +417,35 @@ class Renderer:
             gpu.DeviceArray.upload(layer_records),
             gpu.DeviceArray.upload(tables),
             gpu.DeviceArray.upload(self._lights()),
+            gpu.DeviceArray.upload(_spectra() if spectral else np.zeros((1, 4), np.float32)),
+            gpu.DeviceArray.upload(self._environment_texels()),
+            gpu.DeviceArray.upload(map_records),
+            gpu.DeviceArray.upload(map_texels),
         ]
         self._constants = constants
         self._kernel = gpu.compute_pipeline("render.wgsl", "render", constants)
         self._accum = gpu.DeviceArray.empty((width * height, 4), np.float32)
+        self._batch = max(1, PATHS_PER_DISPATCH // (width * height))
+        # vec3 in a storage array: 16 bytes a path.
+        self._paths = gpu.DeviceArray.empty((width * height * self._batch, 4), np.float32)
         self._params = self._make_params(vertices, seed)
         self.passes = 0
+        self._dispatches = {}
 
     @property
     def gpu_bytes(self) -> int:
         """GPU memory the scene holds: geometry, BVH, materials and their tables, lights and
-        the accumulation buffer, in bytes (pipelines and the uniform not counted)."""
-        return sum(array.nbytes for array in self._inputs) + self._accum.nbytes
+        the accumulation buffers, in bytes (pipelines and the uniform not counted)."""
+        return (sum(array.nbytes for array in self._inputs) + self._accum.nbytes
+                + self._paths.nbytes)
+
+    def _environment_texels(self) -> np.ndarray:
+        env = self.scene.environment
+        self.environment_map = None
+        if env.type != "exr":
+            return np.zeros((1, 4), np.float32)
+        self.environment_map = EnvironmentMap(read_exr(env.path), env.intensity)
+        return self.environment_map.packed()
 
     def _lights(self) -> np.ndarray:
         points = [light for light in self.scene.lights if isinstance(light, PointLight)]
@@ -349,36 +478,79 @@ class Renderer:
         params["seed"] = seed
         return params
 
-    def _dispatch(self, entry: str):
-        kernel = self._kernel if entry == "render" else gpu.compute_pipeline(
-            "render.wgsl", entry, self._constants)
-        params = self._params.copy()
-        params["pass_index"] = self.passes
-        return kernel.bind(self._inputs, [self._accum], params, count=self.width * self.height)
+    def _dispatch(self, entry: str, samples: int = 1):
+        key = (entry, samples)
+        if key not in self._dispatches:
+            kernel = self._kernel if entry == "render" else gpu.compute_pipeline(
+                "render.wgsl", entry, self._constants)
+            params = self._params.copy()
+            params["samples"] = samples
+            count = self.width * self.height * (samples if entry == "render" else 1)
+            self._dispatches[key] = kernel.bind(self._inputs, [self._accum, self._paths],
+                                                params, count=count)
+        return self._dispatches[key]
 
-    def render(self, spp: int, progress: bool = False) -> np.ndarray:
-        """Add ``spp`` passes of one path per pixel, and return the running mean.
+    def _add_samples(self, samples: int) -> None:
+        gpu.submit([self._dispatch("render", samples), self._dispatch("accumulate", samples)])
+        self.passes += samples
+        # A tiny readback waits for the submission, so that progress and timing follow the GPU.
+        gpu.get_device().queue.read_buffer(self._accum.resource, 0, 16)
+
+    def render(self, spp: int | None = None, progress: bool = False,
+               seconds: float | None = None) -> np.ndarray:
+        """Add samples per pixel, a given number or for a given time, and return the mean.
+
+        Small images add several samples per pixel per submission (about
+        ``PATHS_PER_DISPATCH`` paths in all), so that the fixed cost of a submission does not
+        dominate; an image of ``PATHS_PER_DISPATCH`` pixels or more takes one sample per pixel
+        per submission, the unit of progressive display.
 
         Parameters
         ----------
-        spp : int
-            Samples per pixel to add (>= 1), one dispatch each.
+        spp : int, optional
+            Samples per pixel to add (>= 1).
         progress : bool
             Show a tqdm progress bar.
+        seconds : float, optional
+            Instead of ``spp``: add samples until this much wall-clock time has passed
+            (> 0, finite); at least one dispatch runs.
 
         Returns
         -------
         numpy.ndarray, shape (height, width, 3), float32
-            Linear sRGB radiance, the mean over all passes so far.
+            Linear sRGB radiance, the mean over all samples so far.
+
+        Raises
+        ------
+        ValueError
+            Unless exactly one of ``spp`` and ``seconds`` is given, in range.
         """
+        if (spp is None) == (seconds is None):
+            raise ValueError("give exactly one of spp and seconds")
+        if seconds is not None:
+            if isinstance(seconds, bool) or not isinstance(seconds, numbers.Real) or not (
+                    0.0 < seconds < math.inf):
+                raise ValueError(f"seconds must be a finite number > 0, got {seconds!r}")
+            start = time.perf_counter()
+            with tqdm(total=round(float(seconds), 1), desc="render", unit="s",
+                      disable=not progress, bar_format=_SECONDS_BAR) as bar:
+                while True:
+                    self._add_samples(self._batch)
+                    elapsed = time.perf_counter() - start
+                    bar.n = round(min(elapsed, seconds), 1)
+                    bar.set_postfix(spp=self.passes, refresh=True)
+                    if elapsed >= seconds:
+                        break
+            return self.image()
         if isinstance(spp, bool) or not isinstance(spp, int) or spp < 1:
             raise ValueError(f"spp must be an integer >= 1, got {spp!r}")
-        device = gpu.get_device()
-        for _ in tqdm(range(spp), desc="render", unit="spp", disable=not progress):
-            gpu.submit([self._dispatch("render")])
-            self.passes += 1
-            # A tiny readback waits for the pass, so that the bar follows the GPU.
-            device.queue.read_buffer(self._accum.resource, 0, 16)
+        with tqdm(total=spp, desc="render", unit="spp", disable=not progress) as bar:
+            done = 0
+            while done < spp:
+                samples = min(self._batch, spp - done)
+                self._add_samples(samples)
+                done += samples
+                bar.update(samples)
         return self.image()
 
     def image(self) -> np.ndarray:
@@ -405,6 +577,7 @@ class Renderer:
         """
         (result,) = gpu.submit([self._dispatch("primary_hits")], read=[self._accum])
         self._accum = gpu.DeviceArray.empty(self._accum.shape, np.float32)
+        self._dispatches.clear()
         self.passes = 0
         face = result[:, 1].astype(np.int64)
         hit = face >= 0

@@ -239,10 +239,24 @@ class BraggLayerSpec:
 class ParameterMap:
     """A spatially varying parameter: ``lo + (hi - lo) m(u, v)`` with ``m`` in [0, 1].
 
-    ``m`` is read from a texture (its luminance, 0 to 1) or is one of the procedural maps,
-    evaluated by the renderer at an object's texture coordinates ``(u, v)``: ``"stripes"``,
-    ``0.5 + 0.5 sin(2 pi scale u)``; ``"radial"``, the distance from ``(0.5, 0.5)`` times
-    ``scale``, wrapped to [0, 1); ``"noise"``, value noise of frequency ``scale``.
+    ``m`` is evaluated at an object's texture coordinates ``(u, v)`` (OBJ convention, ``v``
+    up: :mod:`wgbragg.meshes`), wrapped first to ``u' = u - floor(u)``, ``v' = v - floor(v)``,
+    so every map repeats with period 1 in ``u`` and in ``v``. With ``s`` the ``scale``:
+
+    - ``"stripes"``: ``0.5 + 0.5 sin(2 pi s u')``, stripes along ``v``;
+    - ``"radial"``: ``s |(u', v') - (1/2, 1/2)|`` wrapped to [0, 1) (its fractional part),
+      rings about the centre of each unit tile;
+    - ``"noise"``: value noise, hashed values at the points of a lattice of spacing ``1 / s``
+      that repeats every ``max(1, round(s))`` points, blended with smoothstep weights;
+    - a texture: the luminance ``0.2126 R + 0.7152 G + 0.0722 B`` (Rec. 709 weights) of the
+      values as stored, without sRGB decoding (a map is data, not colour), divided by 255 or
+      65535 by bit depth (grey images: the grey value; float TIFFs as stored, in [0, 1];
+      alpha ignored), filtered bilinearly between texel centres with repeat addressing;
+      ``v' = 0`` is the image's bottom edge and ``v' = 1`` its top.
+
+    Stripes and noise are seamless from tile to tile when ``s`` is an integer; rings always
+    are. :func:`wgbragg.parameter_maps.map_values` is the reference (the noise's hash, the
+    texel grid); ``wgsl/parameter_map.wgsl`` its float32 twin.
 
     Parameters
     ----------

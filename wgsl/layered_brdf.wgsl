@@ -65,6 +65,14 @@ override COLOUR_METHOD: u32 = 2u;
 // mode-coordinate path of landmark_colour is compiled.
 override MATCHED_LAYERS: bool = false;
 
+// Every layer's period and d1 / period vary over the surface (the renderer's period and delta
+// maps): its caller sets varying_layer before evaluating. Mirror reflectances then come from
+// Yeh's formula or an in-kernel colour (LUT false); the transmissivity tables stay the
+// layer's own, so only the last layer over an absorbing base is exact (Bragg paper, sec. 7).
+override VARYING_LAYERS: bool = false;
+// (period nm, d1 / period) at the shading point when VARYING_LAYERS.
+var<private> varying_layer: vec2<f32>;
+
 const BASE_ABSORBING: u32 = 0u;
 const BASE_LAMBERTIAN: u32 = 1u;
 // Nodes of a wavelength axis: 360..830 nm at 1 nm (colorimetry.xyz_weights).
@@ -205,12 +213,23 @@ fn layered_pair(s: LayeredStructure, wi: vec3<f32>, wo: vec3<f32>) -> LayeredPai
     return p;
 }
 
+fn layer_mirror(layer: RoughLayer) -> BraggMirror {
+    if (!VARYING_LAYERS) {
+        return layer.mirror;
+    }
+    var m = layer.mirror;
+    m.d1_nm = varying_layer.x * varying_layer.y;
+    m.d2_nm = varying_layer.x - m.d1_nm;
+    m.bulk = u32(m.n1 == m.n2 || m.d2_nm <= 0.0);
+    return m;
+}
+
 fn layer_reflectance(s: LayeredStructure, layer: RoughLayer, theta_d: f32,
                      wavelength_nm: f32, column: Lerp) -> f32 {
     if (LUT) {
         return table_bilinear(layer.reflectance, lut_row(s, theta_d), column);
     }
-    return bragg_reflectance(layer.mirror, wavelength_nm, theta_d, 2u, HOST_MATCHED);
+    return bragg_reflectance(layer_mirror(layer), wavelength_nm, theta_d, 2u, HOST_MATCHED);
 }
 
 fn node_wavelength(j: u32) -> f32 {
@@ -228,14 +247,14 @@ fn layer_colour(s: LayeredStructure, layer: RoughLayer, theta_d: f32) -> vec3<f3
     if (COLOUR_METHOD == COLOUR_REFERENCE) {
         var xyz = vec3<f32>(0.0);
         for (var j = 0u; j < VISIBLE_NODES; j++) {
-            xyz += bragg_reflectance(layer.mirror, node_wavelength(j), theta_d, 2u, HOST_MATCHED)
+            xyz += bragg_reflectance(layer_mirror(layer), node_wavelength(j), theta_d, 2u, HOST_MATCHED)
                 * node_weights(j);
         }
         return xyz_to_linear_srgb(xyz);
     }
-    let xyz = landmark_colour(layer.mirror, theta_d, 0u, COLOUR_METHOD, SUBDIVISIONS,
+    let xyz = landmark_colour(layer_mirror(layer), theta_d, 0u, COLOUR_METHOD, SUBDIVISIONS,
                               HOST_MATCHED, MATCHED_LAYERS)
-        + landmark_colour(layer.mirror, theta_d, 1u, COLOUR_METHOD, SUBDIVISIONS, HOST_MATCHED,
+        + landmark_colour(layer_mirror(layer), theta_d, 1u, COLOUR_METHOD, SUBDIVISIONS, HOST_MATCHED,
                           MATCHED_LAYERS);
     return xyz_to_linear_srgb(0.5 * xyz);
 }

@@ -1,11 +1,15 @@
-// Entry points of the progressive RGB path tracer, run by wgbragg/render.py:
-//   render:        one path per pixel, its radiance added to accum (rgb, and 1 in w)
+// Entry points of the progressive path tracer, run by wgbragg/render.py:
+//   render:        `samples` paths per pixel, their linear sRGB radiance written to paths
+//   accumulate:    each pixel's paths added to accum (rgb, and their number in w)
 //   primary_hits:  the closest hit of each pixel-centre camera ray, accum = (t, face, 0, 0),
 //                  face -1 and t = 3.4e38 for a miss (to check the traversal against numpy)
 // Light transport: next-event estimation towards the environment (combined with BRDF
 // sampling by the power heuristic), point lights and area lights (shadow rays, which only
 // next-event estimation reaches: neither kind is part of the geometry), Russian roulette
 // after a few bounces. Materials are seen only through bsdf_eval / bsdf_pdf / bsdf_sample.
+// A path carries a vec4 "spectrum": linear sRGB in xyz (RGB mode, w unused), or its values at
+// four hero wavelengths (SPECTRAL), to which every RGB quantity of the scene (albedos,
+// lights, environment) is upsampled by Mallett and Yuksel's basis spectra.
 //! include "harness.wgsl"
 //! include "numerics.wgsl"
 //! include "complex.wgsl"
@@ -17,6 +21,8 @@
 //! include "layered.wgsl"
 //! include "layered_brdf.wgsl"
 //! include "render_scene.wgsl"
+//! include "environment_map.wgsl"
+//! include "parameter_map.wgsl"
 
 // Bounces after the camera ray; the path ends at a hit beyond them.
 override MAX_BOUNCES: u32 = 8u;
@@ -24,6 +30,10 @@ override MAX_BOUNCES: u32 = 8u;
 override ROULETTE_FROM: u32 = 3u;
 // The scene holds layered Bragg materials: otherwise their code is never reached.
 override LAYERED: bool = false;
+// Hero-wavelength transport: layered materials by their spectral model.
+override SPECTRAL: bool = false;
+// The environment is an equirectangular image (environment_texels), not procedural.
+override ENVIRONMENT_MAP: bool = false;
 
 const MATERIAL_LAMBERTIAN: u32 = 0u;
 const MATERIAL_LAYERED: u32 = 1u;
@@ -33,12 +43,14 @@ struct Material {
     albedo: vec3<f32>,    // Lambertian albedo, linear sRGB
     kind: u32,
     structure: u32,       // index in structures, layered materials
+    period_map: u32,      // index in map_records (VARYING_LAYERS): period (nm) over uv
+    delta_map: u32,       // d1 / period over uv
 }
 
 struct Params {
     camera: Camera,
     environment: Environment,
-    pass_index: u32,
+    _pad0: u32,
     count: u32,           // pixels
     width: u32,
     point_lights: u32,
@@ -46,7 +58,7 @@ struct Params {
     epsilon: f32,         // ray offset from a surface, in scene units, besides 1e-5 of
                           // the hit point's largest coordinate (its float32 rounding)
     seed: u32,
-    _pad0: u32,
+    samples: u32,         // paths per pixel in this render dispatch
 }
 
 @group(0) @binding(0) var<storage, read> vertices: array<vec4<f32>>;
@@ -59,25 +71,125 @@ struct Params {
 @group(0) @binding(7) var<storage, read> tables: array<f32>;
 // Point lights (position, intensity), then area lights (corner, edge_u, edge_v, radiance).
 @group(0) @binding(8) var<storage, read> lights: array<vec4<f32>>;
-@group(0) @binding(9) var<storage, read_write> accum: array<vec4<f32>>;
-@group(0) @binding(10) var<uniform> params: Params;
+// Spectral mode (wgbragg/render.py _spectra): 471 rows of basis spectra, 471 rows of the
+// linear sRGB response per nm (360..830 nm), then the hero wavelengths' inverse CDF in x.
+@group(0) @binding(9) var<storage, read> spectra: array<vec4<f32>>;
+// EnvironmentMap.packed() (wgsl/environment_map.wgsl) when ENVIRONMENT_MAP.
+@group(0) @binding(10) var<storage, read> environment_texels: array<vec4<f32>>;
+// pack_maps (wgbragg/parameter_maps.py) when VARYING_LAYERS: record 0 is unused.
+@group(0) @binding(11) var<storage, read> map_records: array<ParameterMapRecord>;
+@group(0) @binding(12) var<storage, read> map_texels: array<f32>;
+@group(0) @binding(13) var<storage, read_write> accum: array<vec4<f32>>;
+// The radiance of each path of a render dispatch, for accumulate.
+@group(0) @binding(14) var<storage, read_write> paths: array<vec3<f32>>;
+@group(0) @binding(15) var<uniform> params: Params;
+
+// ----------------------------------------------------------------------------- spectra
+
+const SPECTRUM_NODES: u32 = 471u;
+const INVERSE_CDF_SEGMENTS: u32 = 512u;
+
+var<private> wavelengths: vec4<f32>;
+// 1 / (4 pdf) of each hero wavelength (per nm).
+var<private> lane_scale: vec4<f32>;
+
+fn spectra_at(first_row: u32, wavelength_nm: f32) -> vec3<f32> {
+    let at = clamp(wavelength_nm - LAMBDA_LO_NM, 0.0, f32(SPECTRUM_NODES - 1u));
+    let lower = min(u32(at), SPECTRUM_NODES - 2u);
+    return mix(spectra[first_row + lower], spectra[first_row + lower + 1u],
+               at - f32(lower)).xyz;
+}
+
+fn start_wavelengths(u: f32) {
+    let segments = f32(INVERSE_CDF_SEGMENTS);
+    let first = 2u * SPECTRUM_NODES;
+    for (var k = 0u; k < 4u; k++) {
+        let s = (u + f32(k)) * 0.25 * segments;
+        let j = min(u32(s), INVERSE_CDF_SEGMENTS - 1u);
+        let lower = spectra[first + j].x;
+        let upper = spectra[first + j + 1u].x;
+        wavelengths[k] = mix(lower, upper, s - f32(j));
+        lane_scale[k] = 0.25 * segments * (upper - lower);
+    }
+}
+
+// An RGB quantity as the path carries it.
+fn upsample(rgb: vec3<f32>) -> vec4<f32> {
+    if (!SPECTRAL) {
+        return vec4<f32>(rgb, 0.0);
+    }
+    return vec4<f32>(dot(rgb, spectra_at(0u, wavelengths.x)),
+                     dot(rgb, spectra_at(0u, wavelengths.y)),
+                     dot(rgb, spectra_at(0u, wavelengths.z)),
+                     dot(rgb, spectra_at(0u, wavelengths.w)));
+}
+
+// Linear sRGB of a path's result: the hero wavelengths' estimate of the colour integral.
+fn to_rgb(value: vec4<f32>) -> vec3<f32> {
+    if (!SPECTRAL) {
+        return value.xyz;
+    }
+    let w = value * lane_scale;
+    return w.x * spectra_at(SPECTRUM_NODES, wavelengths.x)
+        + w.y * spectra_at(SPECTRUM_NODES, wavelengths.y)
+        + w.z * spectra_at(SPECTRUM_NODES, wavelengths.z)
+        + w.w * spectra_at(SPECTRUM_NODES, wavelengths.w);
+}
+
+fn lanes_max(value: vec4<f32>) -> f32 {
+    let rgb = max(max(value.x, value.y), value.z);
+    return select(rgb, max(rgb, value.w), SPECTRAL);
+}
+
+// ----------------------------------------------------------------------------- environment
+
+fn sky_radiance(e: Environment, d: vec3<f32>) -> vec3<f32> {
+    if (ENVIRONMENT_MAP) {
+        return environment_map_radiance(d);
+    }
+    return environment_radiance(e, d);
+}
+
+fn sky_pdf(e: Environment, d: vec3<f32>) -> f32 {
+    if (ENVIRONMENT_MAP) {
+        return environment_map_pdf(d);
+    }
+    return environment_pdf(e, d);
+}
+
+fn sky_sample(e: Environment, u: vec3<f32>) -> vec3<f32> {
+    if (ENVIRONMENT_MAP) {
+        return environment_map_sample(u.xy);
+    }
+    return environment_sample(e, u);
+}
 
 // ----------------------------------------------------------------------------- materials
 
 struct BsdfSample {
     wo: vec3<f32>,
-    weight: vec3<f32>,    // f cos / pdf, or the Dirac lobe's weight
+    weight: vec4<f32>,    // f cos / pdf, or the Dirac lobe's weight
     pdf: f32,             // 0 for a Dirac lobe
     dirac: bool,
 }
 
+fn layered_eval(s: LayeredStructure, p: LayeredPair) -> vec4<f32> {
+    if (!SPECTRAL) {
+        return vec4<f32>(layered_eval_rgb(s, p), 0.0);
+    }
+    return vec4<f32>(layered_eval_spectral(s, p, wavelengths.x),
+                     layered_eval_spectral(s, p, wavelengths.y),
+                     layered_eval_spectral(s, p, wavelengths.z),
+                     layered_eval_spectral(s, p, wavelengths.w));
+}
+
 // f (1/sr) for local directions, +z the shading normal.
-fn bsdf_eval(m: Material, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+fn bsdf_eval(m: Material, wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
     if (LAYERED && m.kind == MATERIAL_LAYERED) {
         let s = structures[m.structure];
-        return layered_eval_rgb(s, layered_pair(s, wi, wo));
+        return layered_eval(s, layered_pair(s, wi, wo));
     }
-    return select(vec3<f32>(0.0), m.albedo / PI, wi.z > 0.0 && wo.z > 0.0);
+    return select(vec4<f32>(0.0), upsample(m.albedo / PI), wi.z > 0.0 && wo.z > 0.0);
 }
 
 fn bsdf_pdf(m: Material, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
@@ -91,14 +203,15 @@ fn bsdf_sample(m: Material, wi: vec3<f32>, u: vec3<f32>) -> BsdfSample {
     if (LAYERED && m.kind == MATERIAL_LAYERED) {
         let s = structures[m.structure];
         let drawn = layered_sample(s, wi, u);
-        var weight = vec3<f32>(drawn.dirac);
+        // The coating's Fresnel reflectance is the same at every wavelength.
+        var weight = vec4<f32>(drawn.dirac);
         if (drawn.cos_over_pdf > 0.0) {
-            weight += layered_eval_rgb(s, layered_pair(s, wi, drawn.wo)) * drawn.cos_over_pdf;
+            weight += layered_eval(s, layered_pair(s, wi, drawn.wo)) * drawn.cos_over_pdf;
         }
         return BsdfSample(drawn.wo, weight, drawn.pdf, drawn.dirac > 0.0);
     }
     let wo = cosine_direction(u.yz);
-    return BsdfSample(wo, m.albedo, wo.z / PI, false);
+    return BsdfSample(wo, upsample(m.albedo), wo.z / PI, false);
 }
 
 // ----------------------------------------------------------------------------- transport
@@ -114,17 +227,17 @@ fn unoccluded(origin: vec3<f32>, direction: vec3<f32>, distance: f32) -> bool {
 
 // Radiance reflected at one vertex towards wi from the lights reached by shadow rays.
 fn direct_light(m: Material, frame: Frame, wi: vec3<f32>, origin: vec3<f32>,
-                geometric: vec3<f32>, state: ptr<function, u32>) -> vec3<f32> {
+                geometric: vec3<f32>, state: ptr<function, u32>) -> vec4<f32> {
     let e = params.environment;
-    var total = vec3<f32>(0.0);
-    let d = environment_sample(e, vec3<f32>(random(state), random(state), random(state)));
+    var total = vec4<f32>(0.0);
+    let d = sky_sample(e, vec3<f32>(random(state), random(state), random(state)));
     let local = to_local(frame, d);
     if (dot(d, geometric) > 0.0 && local.z > 0.0) {
         let f = bsdf_eval(m, wi, local);
-        if (any(f > vec3<f32>(0.0)) && unoccluded(origin, d, FAR)) {
-            let light_pdf = environment_pdf(e, d);
+        if (any(f > vec4<f32>(0.0)) && unoccluded(origin, d, FAR)) {
+            let light_pdf = sky_pdf(e, d);
             let weight = power_heuristic(light_pdf, bsdf_pdf(m, wi, local));
-            total += f * local.z * environment_radiance(e, d) * (weight / light_pdf);
+            total += f * local.z * upsample(sky_radiance(e, d)) * (weight / light_pdf);
         }
     }
     for (var k = 0u; k < params.point_lights; k++) {
@@ -133,7 +246,7 @@ fn direct_light(m: Material, frame: Frame, wi: vec3<f32>, origin: vec3<f32>,
         let l = to_light / distance;
         let local_l = to_local(frame, l);
         if (dot(l, geometric) > 0.0 && local_l.z > 0.0 && unoccluded(origin, l, distance)) {
-            total += bsdf_eval(m, wi, local_l) * local_l.z * lights[2u * k + 1u].xyz
+            total += bsdf_eval(m, wi, local_l) * local_l.z * upsample(lights[2u * k + 1u].xyz)
                 / (distance * distance);
         }
     }
@@ -153,20 +266,20 @@ fn direct_light(m: Material, frame: Frame, wi: vec3<f32>, origin: vec3<f32>,
         if (emitting > 0.0 && dot(l, geometric) > 0.0 && local_l.z > 0.0
             && unoccluded(origin, l, distance * (1.0 - 1e-4))) {
             // Uniform on the area (pdf 1 / A): A cos_light / distance^2, and emitting is A cos_light.
-            total += bsdf_eval(m, wi, local_l) * local_l.z * lights[base + 3u].xyz * emitting
-                / (distance * distance);
+            total += bsdf_eval(m, wi, local_l) * local_l.z * upsample(lights[base + 3u].xyz)
+                * emitting / (distance * distance);
         }
     }
     return total;
 }
 
 fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u32>)
-    -> vec3<f32> {
+    -> vec4<f32> {
     let e = params.environment;
     var origin = start;
     var d = direction;
-    var throughput = vec3<f32>(1.0);
-    var radiance = vec3<f32>(0.0);
+    var throughput = vec4<f32>(1.0);
+    var radiance = vec4<f32>(0.0);
     // The camera ray and Dirac bounces see the environment directly: no other strategy
     // could have found it.
     var specular = true;
@@ -176,9 +289,9 @@ fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u3
         if (hit.face < 0) {
             var weight = 1.0;
             if (!specular) {
-                weight = power_heuristic(last_pdf, environment_pdf(e, d));
+                weight = power_heuristic(last_pdf, sky_pdf(e, d));
             }
-            radiance += throughput * environment_radiance(e, d) * weight;
+            radiance += throughput * upsample(sky_radiance(e, d)) * weight;
             break;
         }
         if (depth == MAX_BOUNCES) {
@@ -186,6 +299,10 @@ fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u3
         }
         let surface = surface_at(origin, d, hit);
         let m = materials[surface.material];
+        if (VARYING_LAYERS && m.kind == MATERIAL_LAYERED) {
+            varying_layer = vec2<f32>(parameter_map_value(m.period_map, surface.uv),
+                                      parameter_map_value(m.delta_map, surface.uv));
+        }
         let frame = frame_about(surface.shading);
         let wi = to_local(frame, -d);
         // Interpolated normals can face away from a viewer that the face itself sees.
@@ -199,7 +316,7 @@ fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u3
 
         let drawn = bsdf_sample(m, wi, vec3<f32>(random(state), random(state), random(state)));
         d = to_world(frame, drawn.wo);
-        if (!any(drawn.weight > vec3<f32>(0.0)) || dot(d, surface.geometric) <= 0.0) {
+        if (lanes_max(drawn.weight) <= 0.0 || dot(d, surface.geometric) <= 0.0) {
             break;
         }
         throughput *= drawn.weight;
@@ -207,7 +324,7 @@ fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u3
         last_pdf = drawn.pdf;
         origin = next;
         if (depth + 1u >= ROULETTE_FROM) {
-            let survive = min(max(max(throughput.x, throughput.y), throughput.z), 0.95);
+            let survive = min(lanes_max(throughput), 0.95);
             if (random(state) >= survive) {
                 break;
             }
@@ -217,19 +334,42 @@ fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u3
     return radiance;
 }
 
+// One path per invocation: pixel index % count, the pixel's sample (its count so far in
+// accum.w) plus index / count. Looping over samples in one invocation would be cheaper, but
+// llvmpipe ends a loop after 65535 iterations counted over the whole invocation, and BVH
+// traversals add up to thousands a path.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render(@builtin(global_invocation_id) gid: vec3<u32>,
           @builtin(num_workgroups) nwg: vec3<u32>) {
     let index = global_index(gid, nwg);
+    if (index >= params.count * params.samples) {
+        return;
+    }
+    let pixel_index = index % params.count;
+    let sample = u32(accum[pixel_index].w) + index / params.count;
+    var state = pcg_hash(pixel_index ^ pcg_hash(sample ^ pcg_hash(params.seed)));
+    let pixel = vec2<f32>(f32(pixel_index % params.width) + random(&state),
+                          f32(pixel_index / params.width) + random(&state));
+    if (SPECTRAL) {
+        start_wavelengths(random(&state));
+    }
+    let c = params.camera;
+    paths[index] = to_rgb(path_radiance(c.origin, camera_direction(c, pixel), &state));
+}
+
+// Each pixel's paths of a render dispatch added to its running sum.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn accumulate(@builtin(global_invocation_id) gid: vec3<u32>,
+              @builtin(num_workgroups) nwg: vec3<u32>) {
+    let index = global_index(gid, nwg);
     if (index >= params.count) {
         return;
     }
-    var state = pcg_hash(index ^ pcg_hash(params.pass_index ^ pcg_hash(params.seed)));
-    let pixel = vec2<f32>(f32(index % params.width) + random(&state),
-                          f32(index / params.width) + random(&state));
-    let c = params.camera;
-    let radiance = path_radiance(c.origin, camera_direction(c, pixel), &state);
-    accum[index] += vec4<f32>(radiance, 1.0);
+    var total = vec3<f32>(0.0);
+    for (var k = 0u; k < params.samples; k++) {
+        total += paths[index + k * params.count];
+    }
+    accum[index] += vec4<f32>(total, f32(params.samples));
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)

@@ -154,6 +154,7 @@ struct Surface {
     geometric: vec3<f32>,   // unit face normal, on the side the ray came from
     shading: vec3<f32>,     // interpolated vertex normal, on the same side
     material: u32,
+    uv: vec2<f32>,          // interpolated texture coordinates (vertices.w, normals.w)
 }
 
 fn surface_at(origin: vec3<f32>, direction: vec3<f32>, hit: Hit) -> Surface {
@@ -170,7 +171,10 @@ fn surface_at(origin: vec3<f32>, direction: vec3<f32>, hit: Hit) -> Surface {
     if (dot(shading, geometric) < 0.0) {
         shading = -shading;
     }
-    return Surface(origin + hit.t * direction, geometric, shading, f.w);
+    let uv = w * vec2<f32>(vertices[f.x].w, normals[f.x].w)
+        + hit.u * vec2<f32>(vertices[f.y].w, normals[f.y].w)
+        + hit.v * vec2<f32>(vertices[f.z].w, normals[f.z].w);
+    return Surface(origin + hit.t * direction, geometric, shading, f.w, uv);
 }
 
 // ----------------------------------------------------------------------------- frames

@@ -1,0 +1,459 @@
+"""EnvironmentMap: the convention, the sampling density (normalised, matched by the sampler in a
+chi-square test), lookups, n-dimensional input and refusals; then the float32 WGSL twin
+(wgsl/environment_map.wgsl) against it on the GPU.
+
+GPU tolerances. The kernel sees the same float32 u and directions as numpy; it differs in its
+float32 arithmetic and CDFs, rounded by up to 2**-25 each, which moves u within its CDF step by
+up to ``CDF_ERROR``. So a sampled direction may differ from numpy's as much as numpy's moves
+when u moves by ``CDF_ERROR`` (into the neighbouring texel, at a CDF step), plus
+``DIRECTION_ATOL`` of float32 trigonometry. Densities agree to ``PDF_RTOL`` and radiance exactly
+(the texel's float32 value times the float32 intensity), except for directions within
+``EDGE_MARGIN`` texels of a texel edge, which may see the neighbour and are only checked to be
+finite.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from conftest import expected_direction_counts, pooled_chi2_pvalue
+from wgbragg import EnvironmentMap, gpu
+
+CHI2_P_MIN = 1e-3
+PDF_RTOL = 1e-4
+EDGE_MARGIN = 1e-5
+CDF_ERROR = 4 * 2.0**-24
+DIRECTION_ATOL = 1e-6
+
+
+def sky(height, width, seed, sun=1e4):
+    """Random radiance over two decades with one texel ``sun`` times brighter."""
+    rng = np.random.default_rng(seed)
+    radiance = 10.0 ** rng.uniform(-1.0, 1.0, (height, width, 3))
+    radiance[rng.integers(height), rng.integers(width)] *= sun
+    return radiance
+
+
+MAPS = {
+    "sky": lambda: EnvironmentMap(sky(8, 16, seed=1), intensity=2.5),
+    "odd": lambda: EnvironmentMap(sky(5, 7, seed=2)),
+    "one-row": lambda: EnvironmentMap(sky(1, 4, seed=3)),
+    "wide": lambda: EnvironmentMap(sky(64, 128, seed=4, sun=1e6)),
+    "black": lambda: EnvironmentMap(np.zeros((4, 8, 3))),
+    "dim-half": lambda: EnvironmentMap(np.concatenate([np.zeros((3, 6, 3)), sky(3, 6, 5)])),
+}
+
+
+@pytest.fixture(params=list(MAPS))
+def environment(request):
+    return MAPS[request.param]()
+
+
+def direction(theta, phi):
+    """The convention's direction of polar angle ``theta`` (from +y) and azimuth ``phi``."""
+    theta, phi = np.broadcast_arrays(theta, phi)
+    return np.stack(
+        [np.sin(theta) * np.sin(phi), np.cos(theta), np.sin(theta) * np.cos(phi)], axis=-1
+    )
+
+
+def texel_centres(environment):
+    h, w = environment.height, environment.width
+    theta = np.pi * (np.arange(h) + 0.5) / h
+    phi = 2.0 * np.pi * (np.arange(w) + 0.5) / w - np.pi
+    return direction(theta[:, None], phi[None, :])
+
+
+def texel_probabilities(environment):
+    """Probability of each texel: density at its centre times its solid angle."""
+    h, w = environment.height, environment.width
+    cos_edges = np.cos(np.pi * np.arange(h + 1) / h)
+    solid_angle = (2.0 * np.pi / w) * -np.diff(cos_edges)
+    return environment.pdf(texel_centres(environment)) * solid_angle[:, None]
+
+
+def random_directions(n, seed):
+    v = np.random.default_rng(seed).normal(size=(n, 3))
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+# --------------------------------------------------------------------------- convention
+
+
+def test_texel_centres_see_their_texels(environment):
+    centres = texel_centres(environment)
+    x, y = environment.direction_to_texel(centres)
+    h, w = environment.height, environment.width
+    np.testing.assert_array_equal(y, np.broadcast_to(np.arange(h)[:, None], (h, w)))
+    np.testing.assert_array_equal(x, np.broadcast_to(np.arange(w)[None, :], (h, w)))
+    np.testing.assert_array_equal(
+        environment.radiance_at(centres), environment.radiance * environment.intensity
+    )
+
+
+def test_image_centre_looks_along_plus_z_and_row_0_up():
+    radiance = np.zeros((9, 17, 3))
+    radiance[4, 8] = [100.0, 200.0, 300.0]
+    radiance[0, :] = [5.0, 0.0, 0.0]
+    environment = EnvironmentMap(radiance)
+    np.testing.assert_array_equal(environment.radiance_at([0.0, 0.0, 1.0]), radiance[4, 8])
+    np.testing.assert_array_equal(environment.radiance_at([0.0, 1.0, 0.0]), radiance[0, 0])
+    d = environment.sample(np.random.default_rng(0).random((20_000, 2)))
+    in_centre = np.all(environment.radiance_at(d) == radiance[4, 8], axis=-1)
+    in_row_0 = d[:, 1] >= math.cos(math.pi / 9)
+    assert in_centre.mean() > 0.97
+    assert in_row_0.mean() > 0.01
+    # What the luminance floor leaves for the black texels: ~1e-3 of the samples.
+    assert np.mean(~in_centre & ~in_row_0) < 3e-3
+    mean = d[in_centre].mean(axis=0)
+    np.testing.assert_allclose(mean / np.linalg.norm(mean), [0.0, 0.0, 1.0], atol=1e-2)
+
+
+def test_sun_direction_convention():
+    environment = EnvironmentMap(np.ones((18, 36, 3)))
+    azimuth, elevation = np.radians(125.0), np.radians(32.0)
+    sun = [
+        math.cos(elevation) * math.sin(azimuth),
+        math.sin(elevation),
+        math.cos(elevation) * math.cos(azimuth),
+    ]
+    x, y = environment.direction_to_texel(sun)
+    assert (int(x), int(y)) == (30, 5)  # 125 + 180 degrees of 360 by 10; 90 - 32 by 10
+
+
+def test_seam_and_poles():
+    environment = EnvironmentMap(sky(4, 8, seed=0))
+    x, y = environment.direction_to_texel(
+        [
+            [0.0, 0.0, -1.0],
+            [-0.0, 0.0, -1.0],
+            [1e-9, 0.0, -1.0],
+            [-1e-9, 0.0, -1.0],
+            [0.0, 1.0, 0.0],
+            [0.0, -1.0, 0.0],
+        ]
+    )
+    np.testing.assert_array_equal(x, [0, 0, 7, 0, 4, 4])
+    np.testing.assert_array_equal(y, [2, 2, 2, 2, 0, 3])
+
+
+# --------------------------------------------------------------------------- density
+
+
+def test_pdf_integrates_to_one(environment):
+    # Midpoint rule in (theta, phi) with sin theta: cells nest in texels, so the only error
+    # is the rule's for sin theta, ~(pi / n_theta)^2 / 24.
+    h, w = environment.height, environment.width
+    n_theta, n_phi = h * -(-512 // h), 8 * w
+    theta = np.pi * (np.arange(n_theta) + 0.5) / n_theta
+    phi = 2.0 * np.pi * (np.arange(n_phi) + 0.5) / n_phi - np.pi
+    pdf = environment.pdf(direction(theta[:, None], phi[None, :]))
+    integral = np.sum(pdf * np.sin(theta)[:, None]) * (np.pi / n_theta) * (2.0 * np.pi / n_phi)
+    assert integral == pytest.approx(1.0, rel=1e-5)
+
+
+def test_pdf_is_luminance_plus_floor(environment):
+    # pdf = (L + f) / sum((L + f) Omega), f = 1e-3 of the mean luminance (1 for a black map).
+    luminance = environment.radiance @ [0.2126, 0.7152, 0.0722]
+    cos_edges = np.cos(np.pi * np.arange(environment.height + 1) / environment.height)
+    solid_angle = (2.0 * np.pi / environment.width) * -np.diff(cos_edges)[:, None]
+    mean = np.sum(luminance * solid_angle) / (4.0 * np.pi)
+    weight = luminance + (1e-3 * mean if mean > 0.0 else 1.0)
+    np.testing.assert_allclose(
+        environment.pdf(texel_centres(environment)),
+        weight / np.sum(weight * solid_angle),
+        rtol=1e-12,
+    )
+
+
+def test_uniform_and_black_maps_are_uniform():
+    directions = random_directions(1000, seed=1)
+    for radiance in (np.full((6, 10, 3), 3.0), np.zeros((6, 10, 3))):
+        environment = EnvironmentMap(radiance)
+        np.testing.assert_allclose(environment.pdf(directions), 1.0 / (4.0 * np.pi), rtol=1e-12)
+    black = EnvironmentMap(np.zeros((6, 10, 3)), intensity=4.0)
+    d = black.sample(np.random.default_rng(2).random((1000, 2)))
+    assert np.all(np.isfinite(d))
+    np.testing.assert_array_equal(black.radiance_at(d), 0.0)
+
+
+def aligned_edges(environment, split):
+    """Cells of a (cos theta, phi) grid, each texel split into ``split`` x ``split``, uniform
+    in cos theta and phi, so that the density is constant in every cell."""
+    h, w = environment.height, environment.width
+    cos_rows = np.cos(np.pi * np.arange(h, -1, -1) / h)  # ascending
+    steps = np.arange(split) / split
+    cos_edges = np.append(cos_rows[:-1, None] + np.diff(cos_rows)[:, None] * steps, 1.0)
+    phi_edges = np.linspace(-np.pi, np.pi, split * w + 1)
+    return cos_edges, phi_edges
+
+
+def chi2_pvalue(environment, directions, split=2):
+    cos_edges, phi_edges = aligned_edges(environment, split)
+    observed, _, _ = np.histogram2d(
+        directions[:, 1],
+        np.arctan2(directions[:, 0], directions[:, 2]),
+        bins=[cos_edges, phi_edges],
+    )
+    # conftest's cells have z as the polar axis and phi from +x towards +y; ours are y and
+    # (from +z towards +x).
+    expected = expected_direction_counts(
+        lambda cells: environment.pdf(cells[..., [1, 2, 0]]),
+        cos_edges,
+        phi_edges,
+        len(directions),
+        order=2,
+    )
+    assert expected.sum() == pytest.approx(len(directions), rel=1e-6)
+    return pooled_chi2_pvalue(observed, expected)
+
+
+def test_sampler_matches_pdf_chi_square(environment):
+    u = np.random.default_rng(3).random((200_000, 2))
+    assert chi2_pvalue(environment, environment.sample(u)) > CHI2_P_MIN
+
+
+def test_samples_fall_in_texels_with_their_probabilities(environment):
+    n = 200_000
+    x, y = environment.direction_to_texel(
+        environment.sample(np.random.default_rng(4).random((n, 2)))
+    )
+    observed = np.zeros((environment.height, environment.width))
+    np.add.at(observed, (y, x), 1.0)
+    assert pooled_chi2_pvalue(observed, n * texel_probabilities(environment)) > CHI2_P_MIN
+
+
+def test_sample_edges_of_u(environment):
+    below_one = np.nextafter(1.0, 0.0)
+    u = np.array(
+        [
+            [0.0, 0.0],
+            [0.0, below_one],
+            [below_one, 0.0],
+            [below_one, below_one],
+            [1.0, 1.0],
+            [0.5, 1.0],
+            [1e-300, 1e-300],
+        ]
+    )
+    d = environment.sample(u)
+    np.testing.assert_allclose(np.linalg.norm(d, axis=-1), 1.0, atol=1e-15)
+    np.testing.assert_allclose(d[0], [0.0, 1.0, 0.0], atol=1e-15)  # the top of row 0: +y
+    assert np.all(d[2:5, 1] < -0.99)  # the last row, around -y
+    assert np.all(environment.pdf(d) > 0.0)
+
+
+# --------------------------------------------------------------------------- shapes, layout
+
+
+def test_n_dimensional_inputs():
+    environment = EnvironmentMap(sky(4, 6, seed=7))
+    u = np.random.default_rng(8).random((2, 3, 4, 2))
+    d = environment.sample(u)
+    assert d.shape == (2, 3, 4, 3)
+    assert environment.pdf(d).shape == (2, 3, 4)
+    assert environment.radiance_at(d).shape == (2, 3, 4, 3)
+    x, y = environment.direction_to_texel(d)
+    assert x.shape == y.shape == (2, 3, 4)
+    np.testing.assert_array_equal(environment.pdf(d)[1, 2], environment.pdf(d[1, 2]))
+    assert environment.sample([0.3, 0.6]).shape == (3,)
+    assert environment.pdf([0.0, 0.0, 1.0]).shape == ()
+    np.testing.assert_array_equal(environment.sample(u.reshape(-1, 2)), d.reshape(-1, 3))
+
+
+def test_packed_layout():
+    radiance = sky(3, 5, seed=9)
+    environment = EnvironmentMap(radiance, intensity=0.5)
+    packed = environment.packed()
+    assert packed.dtype == np.float32
+    assert packed.shape == (2 + 3 + 15, 4)
+    np.testing.assert_array_equal(packed[0], [5.0, 3.0, 0.5, 0.0])
+    marginal, conditional = packed[2:5, 0], packed[5:, 3].reshape(3, 5)
+    assert marginal[-1] == 1.0 and np.all(conditional[:, -1] == 1.0)
+    assert np.all(np.diff(marginal) > 0) and np.all(np.diff(conditional, axis=1) > 0)
+    np.testing.assert_array_equal(packed[5:, :3], radiance.reshape(-1, 3).astype(np.float32))
+    theta = np.pi * np.arange(4) / 3
+    np.testing.assert_allclose(packed[2:5, 1], np.sin(theta[:-1] / 2) ** 2, rtol=1e-7)
+    np.testing.assert_allclose(
+        packed[2:5, 2], (np.cos(theta[:-1]) - np.cos(theta[1:])) / 2, rtol=1e-7
+    )
+    np.testing.assert_allclose(packed[2:5, 3], np.cos(theta[1:] / 2) ** 2, rtol=1e-7, atol=1e-30)
+    probabilities = texel_probabilities(environment)
+    np.testing.assert_allclose(marginal, np.cumsum(probabilities.sum(axis=1)), rtol=1e-6)
+    luminance = radiance @ [0.2126, 0.7152, 0.0722]
+    np.testing.assert_allclose(
+        packed[1, 0] * luminance + packed[1, 1],
+        environment.pdf(texel_centres(environment)),
+        rtol=1e-6,
+    )
+
+
+def test_radiance_is_a_read_only_copy():
+    radiance = np.ones((2, 4, 3))
+    environment = EnvironmentMap(radiance)
+    radiance[:] = 5.0
+    np.testing.assert_array_equal(environment.radiance, 1.0)
+    with pytest.raises(ValueError, match="read-only"):
+        environment.radiance[0, 0, 0] = 2.0
+
+
+@pytest.mark.parametrize(
+    ("call", "match"),
+    [
+        (lambda: EnvironmentMap(np.ones((4, 8))), r"radiance must have shape \(H, W, 3\)"),
+        (lambda: EnvironmentMap(np.ones((4, 8, 4))), r"radiance must have shape \(H, W, 3\)"),
+        (lambda: EnvironmentMap(np.ones((4, 1, 3))), "radiance needs H >= 1 rows and W >= 2"),
+        (lambda: EnvironmentMap(np.ones((0, 8, 3))), "radiance needs H >= 1 rows and W >= 2"),
+        (lambda: EnvironmentMap(np.full((2, 2, 3), np.nan)), "radiance contains NaN"),
+        (lambda: EnvironmentMap(np.full((2, 2, 3), np.inf)), "radiance must be finite"),
+        (lambda: EnvironmentMap(-np.ones((2, 2, 3))), "radiance must be finite and >= 0"),
+        (lambda: EnvironmentMap(np.full((2, 2, 3), "1")), "radiance must be a real number"),
+        (lambda: EnvironmentMap(np.ones((2, 2, 3)), intensity=-1.0), "intensity must be"),
+        (lambda: EnvironmentMap(np.ones((2, 2, 3)), intensity=np.inf), "intensity must be"),
+        (lambda: EnvironmentMap(np.ones((2, 2, 3)), intensity=np.nan), "intensity is NaN"),
+        (lambda: EnvironmentMap(np.full((2, 2, 3), 1e308)), "radiance is too large"),
+        (lambda: EnvironmentMap(np.full((2, 2, 3), 1e39)).packed(), "float32 range"),
+        (
+            lambda: EnvironmentMap(np.ones((2, 2, 3))).pdf([0.0, 0.0, 2.0]),
+            "directions must be unit vectors",
+        ),
+        (
+            lambda: EnvironmentMap(np.ones((2, 2, 3))).radiance_at([0.0, 1.0]),
+            "directions must have a trailing axis of length 3",
+        ),
+        (
+            lambda: EnvironmentMap(np.ones((2, 2, 3))).direction_to_texel([np.nan, 0.0, 1.0]),
+            "directions contains NaN",
+        ),
+        (lambda: EnvironmentMap(np.ones((2, 2, 3))).sample([0.5, 1.5]), r"u must be in \[0, 1\]"),
+        (lambda: EnvironmentMap(np.ones((2, 2, 3))).sample([-0.1, 0.5]), r"u must be in \[0, 1\]"),
+        (
+            lambda: EnvironmentMap(np.ones((2, 2, 3))).sample([0.5, 0.5, 0.5]),
+            "u must have a trailing axis of length 2",
+        ),
+    ],
+)
+def test_raises(call, match):
+    with pytest.raises(ValueError, match=match):
+        call()
+
+
+# --------------------------------------------------------------------------- GPU twin
+
+
+def run_kernel(environment, u, directions):
+    """(sampled directions, their pdf, radiance at directions, pdf at directions) in float32."""
+    n = len(u)
+    pad = np.zeros((n, 1), np.float32)
+    sampled, looked_up = gpu.compute_pipeline("environment_map_eval.wgsl", "evaluate").run(
+        [environment.packed(), u, np.hstack([directions, pad])],
+        [((n, 4), np.float32), ((n, 4), np.float32)],
+    )
+    return sampled[:, :3], sampled[:, 3], looked_up[:, :3], looked_up[:, 3]
+
+
+def gpu_inputs(n, seed):
+    """float32 u and unit directions, random and at the edges: u at 0 and just under 1, the
+    poles, the seam (both signs of zero) and directions beside them."""
+    rng = np.random.default_rng(seed)
+    below_one = np.nextafter(np.float32(1.0), np.float32(0.0))
+    u = rng.random((n, 2))
+    u[:6] = [
+        [0.0, 0.0],
+        [0.0, below_one],
+        [below_one, 0.0],
+        [below_one, below_one],
+        [1.0, 1.0],
+        [0.5, 0.0],
+    ]
+    special = np.array(
+        [
+            [0.0, 1.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [0.0, 0.0, -1.0],
+            [-0.0, 0.0, -1.0],
+            [0.0, 0.0, 1.0],
+            [1.0, 0.0, 0.0],
+            [-1.0, 0.0, 0.0],
+            [1e-3, 0.0, -1.0],
+            [-1e-3, 0.0, -1.0],
+            [1e-4, 1.0, 2e-5],
+            [3e-5, -1.0, 1e-4],
+            [1e-30, 1.0, 1e-30],
+            [0.0, -1.0, -1e-30],
+        ]
+    )
+    directions = random_directions(n, seed)
+    directions[: len(special)] = special / np.linalg.norm(special, axis=-1, keepdims=True)
+    return u.astype(np.float32), directions.astype(np.float32), len(special)
+
+
+def near_edge(environment, d):
+    """Whether a direction lies within EDGE_MARGIN texels of a texel edge (the seam counted)."""
+    azimuth = (np.arctan2(d[:, 0], d[:, 2]) / (2 * np.pi) + 0.5) * environment.width
+    polar = np.arctan2(np.hypot(d[:, 0], d[:, 2]), d[:, 1]) / np.pi * environment.height
+    interior = (polar > 0.5) & (polar < environment.height - 0.5)
+    return (np.abs(azimuth - np.round(azimuth)) < EDGE_MARGIN) | (
+        interior & (np.abs(polar - np.round(polar)) < EDGE_MARGIN)
+    )
+
+
+def sample_spread(environment, u):
+    """numpy's samples, how far they move when u moves by CDF_ERROR, and whether they stay in
+    their texels meanwhile."""
+    expected = environment.sample(u)
+    x, y = environment.direction_to_texel(expected)
+    spread = np.zeros(len(u))
+    stays = np.ones(len(u), dtype=bool)
+    for step in itertools.product((-CDF_ERROR, CDF_ERROR), repeat=2):
+        moved = environment.sample(np.clip(u + step, 0.0, 1.0))
+        spread = np.maximum(spread, np.linalg.norm(moved - expected, axis=-1))
+        moved_x, moved_y = environment.direction_to_texel(moved)
+        stays &= (moved_x == x) & (moved_y == y)
+    return expected, spread, stays
+
+
+@pytest.mark.gpu
+def test_gpu_matches_numpy(environment):
+    u, directions, n_special = gpu_inputs(8192, seed=21)
+    sampled, sampled_pdf, radiance, pdf = run_kernel(environment, u, directions)
+    for value in (sampled, sampled_pdf, radiance, pdf):
+        assert np.all(np.isfinite(value))
+    np.testing.assert_allclose(np.linalg.norm(sampled, axis=-1), 1.0, atol=1e-6)
+    u64, d64 = u.astype(np.float64), directions.astype(np.float64)
+
+    # Lookups: exactly the texel, its density to float32 accuracy.
+    packed = environment.packed()
+    x, y = environment.direction_to_texel(d64)
+    texel = packed[2 + environment.height + y * environment.width + x, :3]
+    compare = ~near_edge(environment, d64)
+    compare[:n_special] = True
+    assert compare.mean() > 0.99
+    np.testing.assert_array_equal(
+        radiance[compare], texel[compare] * np.float32(environment.intensity)
+    )
+    np.testing.assert_allclose(pdf[compare], environment.pdf(d64[compare]), rtol=PDF_RTOL)
+
+    # Samples: within what the float32 CDFs allow (the neighbour's, at a step).
+    expected, spread, stays = sample_spread(environment, u64)
+    error = np.linalg.norm(sampled.astype(np.float64) - expected, axis=-1)
+    np.testing.assert_array_less(error, DIRECTION_ATOL + spread)
+    compare = stays & ~near_edge(environment, expected)
+    assert compare.mean() > 0.99
+    np.testing.assert_allclose(
+        sampled_pdf[compare], environment.pdf(expected[compare]), rtol=PDF_RTOL
+    )
+
+
+@pytest.mark.gpu
+def test_gpu_sampler_matches_pdf_chi_square():
+    environment = MAPS["sky"]()
+    u = np.random.default_rng(22).random((200_000, 2)).astype(np.float32)
+    sampled, _, _, _ = run_kernel(environment, u, np.zeros((len(u), 3), np.float32))
+    sampled = sampled.astype(np.float64)
+    sampled /= np.linalg.norm(sampled, axis=-1, keepdims=True)
+    assert chi2_pvalue(environment, sampled) > CHI2_P_MIN
