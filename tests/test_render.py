@@ -423,3 +423,29 @@ def test_one_bounce_is_exact_for_a_convex_object(device):
 def test_max_bounces_range(value):
     with pytest.raises(ValueError, match="max_bounces"):
         Renderer(load_preset("furnace"), size=(4, 4), max_bounces=value)
+
+
+def test_update_renders_as_a_new_renderer_would(device, tmp_path):
+    import dataclasses
+
+    scene = load_preset("fig7")
+    renderer = Renderer(scene, size=(12, 12), seed=4)
+    renderer.render(4)
+    bvh = renderer.bvh
+    name = next(iter(scene.materials))
+    layer = scene.materials[name].layers[0]
+    edited_layer = dataclasses.replace(layer, d1_nm=0.5 * layer.d1_nm, alpha=0.2)
+    edited = dataclasses.replace(
+        scene,
+        materials={**scene.materials,
+                   name: dataclasses.replace(scene.materials[name], layers=(edited_layer,))},
+        camera=dataclasses.replace(scene.camera, fov_deg=scene.camera.fov_deg + 5.0))
+    renderer.update(edited, mode="spectral")
+    assert renderer.passes == 0 and renderer.bvh is bvh and renderer.mode == "spectral"
+    np.testing.assert_array_equal(renderer.image(), 0.0)
+    fresh = Renderer(edited, size=(12, 12), seed=4, mode="spectral").render(4)
+    np.testing.assert_allclose(renderer.render(4), fresh, rtol=1e-6, atol=1e-7)
+    # A bad edit is refused and leaves the renderer as it was.
+    with pytest.raises(ValueError, match="mode"):
+        renderer.update(edited, mode="infrared")
+    assert renderer.mode == "spectral" and renderer.passes == 4

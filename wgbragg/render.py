@@ -301,6 +301,21 @@ def _environment(env, params) -> None:
                                 math.cos(el) * math.cos(az))
 
 
+def _light_counts(scene: Scene) -> tuple[int, int]:
+    return (sum(isinstance(light, PointLight) for light in scene.lights),
+            sum(isinstance(light, AreaLight) for light in scene.lights))
+
+
+def _lights(scene: Scene) -> np.ndarray:
+    """The ``lights`` buffer: point lights (position, intensity), then area lights (corner,
+    edge_u, edge_v, radiance)."""
+    points = [light for light in scene.lights if isinstance(light, PointLight)]
+    areas = [light for light in scene.lights if isinstance(light, AreaLight)]
+    rows = [row for p in points for row in (p.position, p.intensity)]
+    rows += [row for a in areas for row in (a.corner, a.edge_u, a.edge_v, a.radiance)]
+    return _vec4(np.asarray(rows or [(0.0, 0.0, 0.0)], np.float64).reshape(-1, 3))
+
+
 class Renderer:
     """A scene uploaded to the device, ready to render progressively.
 
@@ -352,11 +367,83 @@ class Renderer:
                 1 <= max_bounces <= 64):
             raise ValueError(f"max_bounces must be an integer in [1, 64], got {max_bounces!r}")
         self.width, self.height = width, height
-        self.mode = mode
+        self._seed = seed
+        self._max_bounces = max_bounces
+        self._accum = gpu.DeviceArray.empty((width * height, 4), np.float32)
+        self._batch = max(1, PATHS_PER_DISPATCH // (width * height))
+        # vec3 in a storage array: 16 bytes a path.
+        self._paths = gpu.DeviceArray.empty((width * height * self._batch, 4), np.float32)
+        self._geometry_of = None
+        self.update(scene, mode)
+
+    def update(self, scene: Scene, mode: str | None = None) -> None:
+        """Show another version of the scene, and restart the accumulation.
+
+        What an interactive editor needs: materials, lights, environment, camera and mode
+        change at the cost of their own uploads (and a pipeline specialisation, cached per
+        configuration); the geometry and its BVH are rebuilt only when the objects or the
+        material names changed.
+
+        Parameters
+        ----------
+        scene : wgbragg.scene.Scene
+        mode : {"rgb", "spectral"}, optional
+            The scene's ``settings.mode`` by default.
+
+        Raises
+        ------
+        ValueError
+            As the constructor; the renderer is then left as it was.
+        """
+        mode = scene.settings.mode if mode is None else mode
+        if mode not in MODES:
+            raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+        geometry_key = (scene.objects, tuple(scene.materials))
+        shading = self._shading(scene, mode)
+        if geometry_key != self._geometry_of:
+            geometry = self._geometry(scene)
+            self._geometry_of = geometry_key
+            self._geometry_inputs, self._extent = geometry
+        inputs, constants, environment_map = shading
+        self.scene, self.mode, self.environment_map = scene, mode, environment_map
+        self._inputs = [*self._geometry_inputs[:4], *inputs]
+        self._constants = constants
+        self._kernel = gpu.compute_pipeline("render.wgsl", "render", constants)
+        self._params = self._make_params()
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the samples accumulated so far."""
+        gpu.get_device().queue.write_buffer(self._accum.resource, 0,
+                                            np.zeros(self._accum.shape, np.float32))
+        self._dispatches = {}
+        self.passes = 0
+
+    def _geometry(self, scene: Scene):
+        """Vertex, normal, face and BVH node buffers, and the scene's extent."""
+        material_index = {name: k for k, name in enumerate(scene.materials)}
+        vertices, normals, faces, uv = _world_geometry(scene, material_index)
+        bvh = build_bvh(vertices, faces[:, :3])
+        if bvh.depth + 1 > _STACK_SIZE:
+            raise ValueError(f"scene: its BVH is {bvh.depth} levels deep; the GPU traversal "
+                             f"handles at most {_STACK_SIZE - 1}")
+        self.bvh = bvh
+        self.triangles = len(faces)
+        nodes = np.zeros(bvh.node_total, _NODE_DTYPE)
+        nodes["lo"], nodes["hi"], nodes["count"] = bvh.node_min, bvh.node_max, bvh.node_count
+        nodes["left_or_first"] = np.where(bvh.node_count > 0, bvh.node_first, bvh.node_left)
+        inputs = [
+            gpu.DeviceArray.upload(np.column_stack([vertices, uv[:, 0]]).astype(np.float32)),
+            gpu.DeviceArray.upload(np.column_stack([normals, uv[:, 1]]).astype(np.float32)),
+            gpu.DeviceArray.upload(np.ascontiguousarray(faces[bvh.triangle_order], np.uint32)),
+            gpu.DeviceArray.upload(nodes),
+        ]
+        return inputs, float(np.ptp(vertices, axis=0).max())
+
+    def _shading(self, scene: Scene, mode: str):
+        """Buffers after the geometry's, the pipeline's constants, and the EXR environment."""
         spectral = mode == "spectral"
-        self.scene = scene
         names = list(scene.materials)
-        material_index = {name: k for k, name in enumerate(names)}
         materials = np.zeros(len(names), _MATERIAL_DTYPE)
         structures = []
         # Record 0: no map (period 0 tells the kernel to keep the layers' own).
@@ -384,19 +471,15 @@ class Renderer:
             if pmap is None:
                 map_records[k]["lo"] = map_records[k]["hi"] = value
 
-        vertices, normals, faces, uv = _world_geometry(scene, material_index)
-        bvh = build_bvh(vertices, faces[:, :3])
-        if bvh.depth + 1 > _STACK_SIZE:
-            raise ValueError(f"scene: its BVH is {bvh.depth} levels deep; the GPU traversal "
-                             f"handles at most {_STACK_SIZE - 1}")
-        self.bvh = bvh
-        self.triangles = len(faces)
-        nodes = np.zeros(bvh.node_total, _NODE_DTYPE)
-        nodes["lo"], nodes["hi"], nodes["count"] = bvh.node_min, bvh.node_max, bvh.node_count
-        nodes["left_or_first"] = np.where(bvh.node_count > 0, bvh.node_first, bvh.node_left)
-        constants = {"WORKGROUP_SIZE": WORKGROUP_SIZE, "MAX_BOUNCES": max_bounces,
-                     "LAYERED": bool(structures),
-                     "SPECTRAL": spectral, "ENVIRONMENT_MAP": scene.environment.type == "exr"}
+        environment_map = None
+        environment_texels = np.zeros((1, 4), np.float32)
+        if scene.environment.type == "exr":
+            environment_map = EnvironmentMap(read_exr(scene.environment.path),
+                                             scene.environment.intensity)
+            environment_texels = environment_map.packed()
+        constants = {"WORKGROUP_SIZE": WORKGROUP_SIZE, "MAX_BOUNCES": self._max_bounces,
+                     "LAYERED": bool(structures), "SPECTRAL": spectral,
+                     "ENVIRONMENT_MAP": environment_map is not None}
         if structures:
             heads, layer_records, tables, layered = _layered_buffers(structures, spectral,
                                                                      lut=not varying)
@@ -407,30 +490,18 @@ class Renderer:
             heads = np.zeros(1, _STRUCTURE_DTYPE)
             layer_records = np.zeros(1, LAYER_DTYPE)
             tables = np.zeros(1, np.float32)
-        self._inputs = [
-            gpu.DeviceArray.upload(np.column_stack([vertices, uv[:, 0]]).astype(np.float32)),
-            gpu.DeviceArray.upload(np.column_stack([normals, uv[:, 1]]).astype(np.float32)),
-            gpu.DeviceArray.upload(np.ascontiguousarray(faces[bvh.triangle_order], np.uint32)),
-            gpu.DeviceArray.upload(nodes),
+        inputs = [
             gpu.DeviceArray.upload(materials),
             gpu.DeviceArray.upload(heads),
             gpu.DeviceArray.upload(layer_records),
             gpu.DeviceArray.upload(tables),
-            gpu.DeviceArray.upload(self._lights()),
+            gpu.DeviceArray.upload(_lights(scene)),
             gpu.DeviceArray.upload(_spectra() if spectral else np.zeros((1, 4), np.float32)),
-            gpu.DeviceArray.upload(self._environment_texels()),
+            gpu.DeviceArray.upload(environment_texels),
             gpu.DeviceArray.upload(map_records),
             gpu.DeviceArray.upload(map_texels),
         ]
-        self._constants = constants
-        self._kernel = gpu.compute_pipeline("render.wgsl", "render", constants)
-        self._accum = gpu.DeviceArray.empty((width * height, 4), np.float32)
-        self._batch = max(1, PATHS_PER_DISPATCH // (width * height))
-        # vec3 in a storage array: 16 bytes a path.
-        self._paths = gpu.DeviceArray.empty((width * height * self._batch, 4), np.float32)
-        self._params = self._make_params(vertices, seed)
-        self.passes = 0
-        self._dispatches = {}
+        return inputs, constants, environment_map
 
     @property
     def gpu_bytes(self) -> int:
@@ -439,23 +510,7 @@ class Renderer:
         return (sum(array.nbytes for array in self._inputs) + self._accum.nbytes
                 + self._paths.nbytes)
 
-    def _environment_texels(self) -> np.ndarray:
-        env = self.scene.environment
-        self.environment_map = None
-        if env.type != "exr":
-            return np.zeros((1, 4), np.float32)
-        self.environment_map = EnvironmentMap(read_exr(env.path), env.intensity)
-        return self.environment_map.packed()
-
-    def _lights(self) -> np.ndarray:
-        points = [light for light in self.scene.lights if isinstance(light, PointLight)]
-        areas = [light for light in self.scene.lights if isinstance(light, AreaLight)]
-        self._counts = (len(points), len(areas))
-        rows = [row for p in points for row in (p.position, p.intensity)]
-        rows += [row for a in areas for row in (a.corner, a.edge_u, a.edge_v, a.radiance)]
-        return _vec4(np.asarray(rows or [(0.0, 0.0, 0.0)], np.float64).reshape(-1, 3))
-
-    def _make_params(self, vertices: np.ndarray, seed: int) -> np.ndarray:
+    def _make_params(self) -> np.ndarray:
         cam = self.scene.camera
         origin = np.asarray(cam.position, np.float64)
         forward = np.asarray(cam.look_at, np.float64) - origin
@@ -472,10 +527,10 @@ class Renderer:
         _environment(self.scene.environment, params)
         params["count"] = self.width * self.height
         params["width"] = self.width
-        params["point_lights"], params["area_lights"] = self._counts
+        params["point_lights"], params["area_lights"] = _light_counts(self.scene)
         # The shader adds 1e-5 of the hit point's largest coordinate (its float32 rounding).
-        params["epsilon"] = 1e-5 * float(np.ptp(vertices, axis=0).max())
-        params["seed"] = seed
+        params["epsilon"] = 1e-5 * self._extent
+        params["seed"] = self._seed
         return params
 
     def _dispatch(self, entry: str, samples: int = 1):
@@ -576,9 +631,7 @@ class Renderer:
             Index into ``bvh.faces`` of the face hit; -1 for a miss.
         """
         (result,) = gpu.submit([self._dispatch("primary_hits")], read=[self._accum])
-        self._accum = gpu.DeviceArray.empty(self._accum.shape, np.float32)
-        self._dispatches.clear()
-        self.passes = 0
+        self.reset()
         face = result[:, 1].astype(np.int64)
         hit = face >= 0
         # The GPU's faces are in BVH order; report the scene's face numbers.
