@@ -449,3 +449,16 @@ def test_update_renders_as_a_new_renderer_would(device, tmp_path):
     with pytest.raises(ValueError, match="mode"):
         renderer.update(edited, mode="infrared")
     assert renderer.mode == "spectral" and renderer.passes == 4
+
+
+def test_colour_method_selects_the_layer_colours(device):
+    scene = load_preset("fig7")
+    images = {method: Renderer(scene, size=(8, 8), seed=1, mode="rgb",
+                               colour_method=method).render(8)
+              for method in ("averaged", "reference", "approx")}
+    # "averaged" is close to "reference"; "approx" is the paper's cruder model.
+    close = np.abs(images["averaged"] - images["reference"]).max()
+    far = np.abs(images["approx"] - images["reference"]).max()
+    assert close < far and far > 0.0
+    with pytest.raises(ValueError, match="colour_method"):
+        Renderer(scene, size=(4, 4), colour_method="fourier")

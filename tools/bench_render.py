@@ -207,7 +207,7 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> dict:
                 results["configurations"][label] = _throughput(renderer, cfg.passes)
             bar.update()
 
-            preview = Renderer(load_preset("fig7"), size=(cfg.preview_size,) * 2)
+            preview = Renderer(load_preset("fig7"), size=(cfg.preview_size,) * 2, mode="rgb")
             preview.render(1)
             start = time.perf_counter()
             for _ in range(cfg.preview_frames):
@@ -293,7 +293,7 @@ def render_section(results: dict, cfg: Config, command: str) -> str:
     lines += ["", "### Targets", ""]
     lines += _table(["target", "measured", "met"], [
         [f"preview >= {TARGET_FPS:g} frames/s at {cfg.preview_size} x {cfg.preview_size}, 1 spp, "
-         "single-layer material (fig7)", f"{results['fps']:.1f} frames/s",
+         "single-layer material (fig7, RGB mode)", f"{results['fps']:.1f} frames/s",
          "yes" if results["fps"] >= TARGET_FPS else "no"],
         [f"BVH of a {triangles:,}-triangle mesh in <= {TARGET_BVH_S:g} s",
          human_time(results["bvh_s"]), "yes" if results["bvh_s"] <= TARGET_BVH_S else "no"],

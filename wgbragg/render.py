@@ -69,6 +69,7 @@ from ._io import atomic_path
 from .bvh import build_bvh
 from .environment_map import EnvironmentMap
 from .exr import read_exr
+from .colour_methods import COLOUR_METHODS
 from .layered import _mallett_basis
 from .layered_gpu import _VISIBLE_NODES, FACTORED_COLOUR_METHODS, LAYER_DTYPE, _variant
 from .layered_simulation import _inverse_cdf
@@ -92,7 +93,6 @@ PATHS_PER_DISPATCH = 65536
 """Paths a submission of :meth:`Renderer.render` traces at least, whatever the image size."""
 _SECONDS_BAR = "{desc}: {n:.1f}/{total:.1f} s |{bar}| {postfix}"
 _STACK_SIZE = 64  # STACK_SIZE of render_scene.wgsl
-_COLOUR_METHOD = "averaged"
 
 _CAMERA_FIELDS = [
     ("origin", "vec3<f32>"), ("width_f", "f32"), ("forward", "vec3<f32>"), ("height_f", "f32"),
@@ -205,12 +205,12 @@ def _check_mapped(name: str, material) -> None:
             "its filter integrated at every point (Bragg paper, sec. 7)")
 
 
-def _layered_buffers(structures: list, spectral: bool, lut: bool = True):
+def _layered_buffers(structures: list, spectral: bool, colour_method: str, lut: bool = True):
     """Concatenated ``structures``, ``layers`` and ``tables`` of layered_brdf.wgsl for all
     structures, and the shared specialisation (see the module docstring). Without ``lut``,
     mirror reflectances are computed in the kernel (Yeh's formula, or the "averaged" colour)."""
     kind = "spectral" if spectral else "factored"
-    variants = [_variant(s, kind, lut, _COLOUR_METHOD) for s in structures]
+    variants = [_variant(s, kind, lut, colour_method) for s in structures]
     most = max(len(s.layers) for s in structures)
     records, tables, heads = [], [], np.zeros(len(structures), _STRUCTURE_DTYPE)
     size = layer_count = 0
@@ -259,7 +259,7 @@ def _layered_buffers(structures: list, spectral: bool, lut: bool = True):
         "BASE": int(any(not s.absorbing_base for s in structures)),
         "LUT": lut,
         "INTEGRATED": False,
-        "COLOUR_METHOD": FACTORED_COLOUR_METHODS[_COLOUR_METHOD],
+        "COLOUR_METHOD": FACTORED_COLOUR_METHODS.get(colour_method, 0),
         # The general Yeh path unless every mirror sits in its own n1.
         "HOST_MATCHED": all(layer.mirror.host == layer.mirror.n1
                             for s in structures for layer in s.layers),
@@ -330,6 +330,11 @@ class Renderer:
         the image after n samples does not depend on how :meth:`render` calls added them.
     mode : {"rgb", "spectral"}, optional
         Light transport; the scene's ``settings.mode`` by default.
+    colour_method : str
+        RGB mode: how a layer's reflectance colour is tabulated over theta_d, one of
+        :data:`wgbragg.colour_methods.COLOUR_METHODS` ("reference", "spectral", "approx",
+        "subdivided", "averaged"); with period/delta maps (no table) one of "reference",
+        "approx", "subdivided", "averaged", computed per shading point.
     max_bounces : int
         Surface interactions shaded along a path, 1 to 64. Fewer make an interactive preview
         cheaper; a convex object alone under an environment needs 1 (what it reflects can
@@ -354,7 +359,8 @@ class Renderer:
     """
 
     def __init__(self, scene: Scene, size: tuple[int, int] | None = None, seed: int = 0,
-                 mode: str | None = None, max_bounces: int = MAX_BOUNCES):
+                 mode: str | None = None, max_bounces: int = MAX_BOUNCES,
+                 colour_method: str = "averaged"):
         width, height = scene.settings.size if size is None else size
         mode = scene.settings.mode if mode is None else mode
         if mode not in MODES:
@@ -374,9 +380,11 @@ class Renderer:
         # vec3 in a storage array: 16 bytes a path.
         self._paths = gpu.DeviceArray.empty((width * height * self._batch, 4), np.float32)
         self._geometry_of = None
-        self.update(scene, mode)
+        self.colour_method = colour_method
+        self.update(scene, mode, colour_method)
 
-    def update(self, scene: Scene, mode: str | None = None) -> None:
+    def update(self, scene: Scene, mode: str | None = None,
+               colour_method: str | None = None) -> None:
         """Show another version of the scene, and restart the accumulation.
 
         What an interactive editor needs: materials, lights, environment, camera and mode
@@ -389,6 +397,8 @@ class Renderer:
         scene : wgbragg.scene.Scene
         mode : {"rgb", "spectral"}, optional
             The scene's ``settings.mode`` by default.
+        colour_method : str, optional
+            As the constructor's; by default the current one.
 
         Raises
         ------
@@ -398,14 +408,19 @@ class Renderer:
         mode = scene.settings.mode if mode is None else mode
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+        colour_method = self.colour_method if colour_method is None else colour_method
+        if colour_method not in COLOUR_METHODS:
+            raise ValueError(f"colour_method must be one of {tuple(COLOUR_METHODS)}, got "
+                             f"{colour_method!r}")
         geometry_key = (scene.objects, tuple(scene.materials))
-        shading = self._shading(scene, mode)
+        shading = self._shading(scene, mode, colour_method)
         if geometry_key != self._geometry_of:
             geometry = self._geometry(scene)
             self._geometry_of = geometry_key
             self._geometry_inputs, self._extent = geometry
         inputs, constants, environment_map = shading
         self.scene, self.mode, self.environment_map = scene, mode, environment_map
+        self.colour_method = colour_method
         self._inputs = [*self._geometry_inputs[:4], *inputs]
         self._constants = constants
         self._kernel = gpu.compute_pipeline("render.wgsl", "render", constants)
@@ -440,7 +455,7 @@ class Renderer:
         ]
         return inputs, float(np.ptp(vertices, axis=0).max())
 
-    def _shading(self, scene: Scene, mode: str):
+    def _shading(self, scene: Scene, mode: str, colour_method: str):
         """Buffers after the geometry's, the pipeline's constants, and the EXR environment."""
         spectral = mode == "spectral"
         names = list(scene.materials)
@@ -481,8 +496,13 @@ class Renderer:
                      "LAYERED": bool(structures), "SPECTRAL": spectral,
                      "ENVIRONMENT_MAP": environment_map is not None}
         if structures:
-            heads, layer_records, tables, layered = _layered_buffers(structures, spectral,
-                                                                     lut=not varying)
+            if varying and not spectral and colour_method not in FACTORED_COLOUR_METHODS:
+                raise ValueError(
+                    f"colour_method {colour_method!r} cannot be computed per shading point "
+                    f"(period/delta maps): use one of {tuple(FACTORED_COLOUR_METHODS)}, or "
+                    "mode='spectral'")
+            heads, layer_records, tables, layered = _layered_buffers(
+                structures, spectral, colour_method, lut=not varying)
             constants.update(layered)
             constants["VARYING_LAYERS"] = varying
         else:
