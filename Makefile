@@ -4,12 +4,16 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: setup vulkan test demo lint bench clean
+.PHONY: setup vulkan xvfb test demo lint bench clean
 
 setup: vulkan $(STAMP)
 
 vulkan:
 	@bash tools/ensure_vulkan.sh
+
+# The demo window's tests open a real glfw window on a virtual X server.
+xvfb:
+	@WGBRAGG_NEED_XVFB=1 bash tools/ensure_vulkan.sh
 
 # Reinstalled only when the package metadata changes; the install is editable, so source and
 # shader edits need no reinstall.
@@ -19,11 +23,13 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install -q -e '.[test]'
 	touch $(STAMP)
 
-test: setup
+test: setup xvfb
 	$(PY) -m pytest -q
 
+# The window where there is a display; otherwise the same window rendered offscreen as a PNG.
 demo: setup
-	$(PY) demo.py
+	@if [ -n "$$DISPLAY$$WAYLAND_DISPLAY" ]; then $(PY) demo.py; \
+	else $(PY) demo.py --offscreen --spp 64 -o out/demo.png; fi
 
 lint: setup
 	$(VENV)/bin/ruff check wgbragg tests tools demo.py
@@ -34,6 +40,7 @@ bench: setup
 	$(PY) -m pip install -q -e '.[test,bench]' || echo "wgbragg: tmm_fast not installed, continuing"
 	$(PY) tools/bench_reflectance.py
 	$(PY) tools/bench_rgb.py
+	$(PY) tools/bench_film.py
 	$(PY) tools/bench_rough.py
 	$(PY) tools/bench_layered.py
 	$(PY) tools/bench_render.py

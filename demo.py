@@ -1,61 +1,89 @@
-"""wgbragg demo: a Bragg mirror's reflectance map and a jewel beetle's scatterogram, on the GPU.
+"""wgbragg demo: edit a teapot's Bragg layers live while it is path-traced on the GPU.
 
-Run with ``make demo`` (which does all the set-up) or ``python demo.py [-o PATH]``. Writes a PNG
-of R(wavelength, angle) for BraggMirror(n1=1.0, n2=1.5, d1=125, d2=375, N=20): band gaps are
-the bright bands that move to shorter wavelengths as the angle grows. Beside it
-(``*_scatterogram.png``), the reflected hemisphere of the jewel beetle's green cuticle (Table 3
-of the Bragg paper) lit from 30 degrees, and (``*_teapot.png``) the teapot preset path-traced on
-the GPU: two rough Bragg layers over a diffuse base. Later versions grow this into the
-interactive window.
+Run with ``make demo`` (which does all the set-up) or ``python demo.py``: a window shows the
+teapot preset (two rough Bragg layers over a dark diffuse base, under a sky) rendered
+progressively, and a side panel with sliders for each layer (Lambda, delta = d1 / Lambda, N,
+n2, alpha), the structure (layer count, n1, the base's albedo rho_d), the colour method, RGB or
+spectral transport and the environment; the selected layer's reflectance at normal incidence
+with its landmarks and its colour against the angle; and the interactive budgets as measured.
+Drag the picture to orbit, scroll to zoom; every edit restarts the accumulation.
+
+``python demo.py --offscreen --spp 64 -o demo.png`` renders the same window without a display
+and prints the image's path (also what happens when no display is found).
 """
 
 from __future__ import annotations
 
 import argparse
-import math
+import os
+import sys
 import time
 
-from pathlib import Path
+from PIL import Image
 
-from wgbragg import BraggMirror, gpu
-from wgbragg.maps import reflectance_map, save_reflectance_map
-from wgbragg.render import Renderer, save_png
-from wgbragg.scatterogram import jewel_beetle, save_scatterogram, scatterogram
-from wgbragg.scene import load_preset
+from wgbragg._io import atomic_path
+from wgbragg.scene import MODES, PRESETS, load_preset, load_scene
+from wgbragg.viewer import Viewer
 
 
-def main() -> None:
+def _size(text: str) -> tuple[int, int]:
+    width, _, height = text.lower().partition("x")
+    try:
+        return int(width), int(height)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--size must be WIDTHxHEIGHT, got {text!r}") from None
+
+
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("-o", "--output", default="out/demo.png")
-    args = parser.parse_args()
-    mirror = BraggMirror(n1=1.0, n2=1.5, d1=125.0, d2=375.0, N=20)
-    mirror.reflectance(550.0, 0.0, backend="gpu")  # device and pipeline creation, not timed
+    parser.add_argument("--offscreen", action="store_true",
+                        help="render the window without a display and write it as a PNG")
+    parser.add_argument("--spp", type=int, default=64,
+                        help="offscreen: samples per pixel (default 64)")
+    parser.add_argument("-o", "--output", default="out/demo.png",
+                        help="offscreen: the PNG to write (default out/demo.png)")
+    parser.add_argument("--size", type=_size, default=(256, 256),
+                        help="WIDTHxHEIGHT of the render in pixels (default 256x256)")
+    parser.add_argument("--scene", default="teapot",
+                        help=f"a preset ({', '.join(PRESETS)}) or a scene file with a "
+                             "layered-bragg material (default teapot)")
+    parser.add_argument("--mode", choices=MODES, default=None,
+                        help="light transport (default: the scene's)")
+    args = parser.parse_args(argv)
+    offscreen = args.offscreen
+    if not offscreen and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        print("demo.py: no display (DISPLAY, WAYLAND_DISPLAY): rendering offscreen",
+              file=sys.stderr)
+        offscreen = True
+    try:
+        if args.spp < 1:
+            raise ValueError(f"--spp must be >= 1, got {args.spp}")
+        scene = load_preset(args.scene) if args.scene in PRESETS else load_scene(args.scene)
+        viewer = Viewer(scene, size=args.size, mode=args.mode)
+    except (ValueError, OSError) as error:
+        parser.error(str(error))
+    # Imported here: the window needs imgui and rendercanvas, the checks above do not.
+    from wgbragg.viewer_window import ViewerWindow
+
+    window = ViewerWindow(viewer, offscreen=offscreen)
+    if not offscreen:
+        window.run()
+        return 0
     start = time.perf_counter()
-    result = reflectance_map(mirror, backend="gpu")
+    if args.spp > 2:
+        viewer.refine(args.spp - 2)
+    if args.spp > 1:
+        window.draw()  # Dear ImGui places some widgets (the layer tabs) from its second frame
+    frame = window.capture()  # each frame adds a sample
     seconds = time.perf_counter() - start
-    adapter = gpu.adapter_info()["name"]
-    title = (f"{mirror!r}, unpolarized\n{result.values.size:,} evaluations on {adapter} "
-             f"in {seconds * 1e3:.0f} ms (upload, kernel, readback)")
-    save_reflectance_map(result, args.output, title)
+    window.close()
+    with atomic_path(args.output) as temporary:
+        Image.fromarray(frame, "RGB").save(temporary, format="PNG")
+    width, height = viewer.size
+    print(f"demo.py: {width}x{height}, {viewer.passes} spp in {seconds:.1f} s", file=sys.stderr)
     print(args.output)
-
-    output = Path(args.output)
-    beetle = output.with_name(f"{output.stem}_scatterogram{output.suffix}")
-    start = time.perf_counter()
-    hemisphere = scatterogram(jewel_beetle("green"), math.radians(30.0), size=160,
-                              backend="gpu")
-    seconds = time.perf_counter() - start
-    save_scatterogram(hemisphere, beetle, f"jewel beetle, green area (Table 3), light at 30 deg"
-                      f"\n160 x 160 on {adapter} in {seconds:.1f} s")
-    print(beetle)
-
-    teapot = output.with_name(f"{output.stem}_teapot{output.suffix}")
-    scene = load_preset("teapot")
-    renderer = Renderer(scene, size=(256, 256))
-    image = renderer.render(64, progress=True)
-    save_png(image, teapot, scene.settings.exposure)
-    print(teapot)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

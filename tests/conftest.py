@@ -23,6 +23,12 @@ Seeding
 -------
 ``np.random.seed(0)`` runs before every test, so tests using the legacy global
 generator are reproducible one by one and in any order.
+
+Screenshots
+-----------
+``pytest --regenerate-screenshots`` rewrites the reference images in
+``tests/screenshots/`` (the demo window's, ``test_viewer.py``) instead of comparing
+frames with them.
 """
 
 from __future__ import annotations
@@ -61,6 +67,12 @@ def gpu_problem() -> tuple[str, str] | None:
     if GPU_INFO is None:
         return "skip", f"{NO_ADAPTER} ({GPU_ERROR})"
     return None
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption("--regenerate-screenshots", action="store_true",
+                     help="rewrite the reference images of tests/screenshots/ from this run "
+                          "instead of comparing with them")
 
 
 def pytest_configure(config: pytest.Config) -> None:

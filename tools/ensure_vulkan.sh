@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Installs Mesa's lavapipe (software Vulkan) when no Vulkan driver is present, and xvfb when a
-# window test needs a display. Idempotent: does nothing on a machine that already has both.
+# Installs Mesa's lavapipe (software Vulkan) when no Vulkan driver is present, and, with
+# WGBRAGG_NEED_XVFB=1, Xvfb and the X client libraries glfw loads when Xvfb is missing (the demo
+# window's tests). Idempotent: does nothing on a machine that already has them.
 set -euo pipefail
 
 want_xvfb=${WGBRAGG_NEED_XVFB:-0}
@@ -12,10 +13,17 @@ for dir in "${icd_dirs[@]}"; do
 done
 [ -n "${VK_DRIVER_FILES:-}${VK_ICD_FILENAMES:-}" ] && have_icd=1
 [ "$have_icd" = 1 ] || packages+=(mesa-vulkan-drivers)
-if [ "$want_xvfb" = 1 ] && ! command -v Xvfb >/dev/null; then packages+=(xvfb); fi
+if [ "$want_xvfb" = 1 ]; then
+    command -v Xvfb >/dev/null || packages+=(xvfb)
+    # glfw loads these with dlopen, so nothing else would pull them in.
+    for pair in libx11-6:libX11.so.6 libx11-xcb1:libX11-xcb.so.1 libxrandr2:libXrandr.so.2 \
+                libxinerama1:libXinerama.so.1 libxcursor1:libXcursor.so.1 libxi6:libXi.so.6; do
+        ldconfig -p | grep -q "${pair#*:}" || packages+=("${pair%%:*}")
+    done
+fi
 [ ${#packages[@]} -eq 0 ] && exit 0
 
-echo "wgbragg: installing ${packages[*]} (no Vulkan driver or display found)" >&2
+echo "wgbragg: installing ${packages[*]} (no Vulkan driver, or no Xvfb)" >&2
 sudo=""
 [ "$(id -u)" = 0 ] || sudo="sudo"
 export DEBIAN_FRONTEND=noninteractive

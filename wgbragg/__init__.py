@@ -6,6 +6,7 @@ Public API::
     BraggMirror(n1, n2, d1, d2, N, host=None).reflectance(wavelength_nm, theta,
                                                           polarization, backend)
     ThinFilm(n_film, d, n_base, k_base, host).reflectance(...)
+    ThinFilm(n_film, d, base="Au").rgb(theta, method="fourier-table", order=3)
     wgbragg.optics.transfer_matrix_reflectance(indices, thicknesses_nm, wavelength_nm, theta,
                                                polarization)
     wgbragg.gpu   # device, shader loading, cached pipelines, kernel runner

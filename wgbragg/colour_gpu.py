@@ -4,7 +4,8 @@
 One invocation per angle loops over the quadrature nodes it is given (wavelengths and their
 XYZ weights, uploaded as storage buffers) and accumulates ``R * weight`` in a plain
 float32 sum, ``R`` unpolarized. Pipelines are specialised like :mod:`wgbragg.kernels`: the
-Bragg kernel compiles Appendix D out when the host equals ``n1``.
+Bragg kernel compiles Appendix D out when the host equals ``n1``, the film kernel reads a
+dispersive base's index per node (``DISPERSIVE``).
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ def _kernel_and_params(material) -> tuple[gpu.Kernel, np.ndarray]:
         params = np.zeros((), kernels.THIN_FILM_DTYPE)
         params["host"], params["n_film"], params["d_nm"] = f.host, f.n_film, f.d
         params["n_base"], params["k_base"] = f.n_base, f.k_base
-        constants = {"WORKGROUP_SIZE": WORKGROUP_SIZE}
+        constants = {"WORKGROUP_SIZE": WORKGROUP_SIZE, "DISPERSIVE": f.dispersive}
         return gpu.compute_pipeline("colour_reference_film.wgsl", constants=constants), params
     raise ValueError(
         "material must be a BraggMirror or ThinFilm for backend='gpu', "
@@ -44,13 +45,19 @@ def _kernel_and_params(material) -> tuple[gpu.Kernel, np.ndarray]:
     )
 
 
-def _buffers(theta, wavelength_nm, weights) -> tuple[list[np.ndarray], list, tuple[int, ...]]:
+def _bound(material, theta, wavelength_nm, weights):
+    """(kernel, inputs in binding order, outputs, params, theta's shape)."""
+    kernel, params = _kernel_and_params(material)
     wavelength = np.ascontiguousarray(wavelength_nm, np.float32).ravel()
     weight = np.zeros((wavelength.size, 4), np.float32)
     weight[:, :3] = weights
+    # A film's kernel also binds the base index at the float32 nodes it sees.
+    base = [] if isinstance(material, BraggMirror) else [kernels.base_index_buffer(
+        material.base_index(wavelength.astype(np.float64)) if material.dispersive else None)]
     angle = np.asarray(theta)
     flat = np.ascontiguousarray(angle, np.float32).ravel()
-    return [wavelength, weight, flat], [((flat.size, 4), np.float32)], angle.shape
+    inputs = [wavelength, weight, *base, flat]
+    return kernel, inputs, [((flat.size, 4), np.float32)], params, angle.shape
 
 
 def integrate_xyz(material, theta, wavelength_nm, weights) -> np.ndarray:
@@ -76,14 +83,12 @@ def integrate_xyz(material, theta, wavelength_nm, weights) -> np.ndarray:
     ValueError
         If ``material`` is neither a BraggMirror nor a ThinFilm.
     """
-    kernel, params = _kernel_and_params(material)
-    inputs, outputs, shape = _buffers(theta, wavelength_nm, weights)
+    kernel, inputs, outputs, params, shape = _bound(material, theta, wavelength_nm, weights)
     (out,) = kernel.run(inputs, outputs, params)
     return out[:, :3].astype(np.float64).reshape((*shape, 3))
 
 
 def benchmark_xyz(material, theta, wavelength_nm, weights, repeats: int = 10) -> float:
     """Median GPU seconds of one :func:`integrate_xyz` dispatch (buffers uploaded once)."""
-    kernel, params = _kernel_and_params(material)
-    inputs, outputs, _ = _buffers(theta, wavelength_nm, weights)
+    kernel, inputs, outputs, params, _ = _bound(material, theta, wavelength_nm, weights)
     return kernel.benchmark(inputs, outputs, params, repeats=repeats)

@@ -1,4 +1,5 @@
-"""Colour of a Bragg mirror from its spectral landmarks, numpy reference.
+"""Colour methods: of a Bragg mirror from its spectral landmarks (numpy reference), and the
+registry of the thin-film methods (:mod:`wgbragg.thin_film_colour`).
 
 - ``"approx"`` and ``"subdivided"``: the piecewise-constant spectra of Fourneau, Pacanowski &
   Barla 2024 (sec. 3.2.2, App. B), integrated with cumulative CMF tables (eq 15).
@@ -21,6 +22,7 @@ import numpy as np
 from . import colorimetry
 from .landmarks import VISIBLE_OMEGA, find_landmarks
 from .optics.yeh import cell_coefficients, yeh_reflectance
+from .thin_film_colour import DEFAULT_ORDER, FOURIER_METHODS, fourier_xyz
 
 __all__ = [
     "AVERAGING_MIN_PERIODS",
@@ -269,5 +271,24 @@ COLOUR_METHODS = {
 }
 """Colour methods of :meth:`BraggMirror.xyz`, by name (``method=``)."""
 
-THIN_FILM_COLOUR_METHODS = ("reference", "spectral")
+
+def _fourier(name):
+    def method(film, theta, backend, order=DEFAULT_ORDER, thickness_std_nm=0.0):
+        if backend == "gpu":
+            # float32 WGSL twin (wgsl/thin_film_colour.wgsl), same options and errors.
+            from . import thin_film_colour_gpu
+
+            return thin_film_colour_gpu.fourier_xyz(film, theta, name, order, thickness_std_nm)
+        return fourier_xyz(film, theta, name, order, thickness_std_nm)
+
+    return method
+
+
+THIN_FILM_COLOUR_METHODS = {
+    "reference": _reference,
+    "spectral": _spectral,
+    **{name: _fourier(name) for name in FOURIER_METHODS},
+}
+"""Colour methods of :meth:`ThinFilm.xyz`, by name (``method=``); all have a GPU kernel."""
+
 GPU_COLOUR_METHODS = ("reference", "spectral", "approx", "subdivided", "averaged")

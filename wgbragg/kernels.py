@@ -16,6 +16,7 @@ __all__ = [
     "BRAGG_MIRROR_DTYPE",
     "THIN_FILM_DTYPE",
     "WORKGROUP_SIZE",
+    "base_index_buffer",
     "benchmark_bragg",
     "bragg_reflectance",
     "thin_film_reflectance",
@@ -43,10 +44,22 @@ def _buffers(wavelength_nm, theta):
     return inputs, [(wavelength.size, np.float32)], wavelength.shape
 
 
-def _evaluate(shader, constants, params, wavelength_nm, theta):
+def _evaluate(shader, constants, params, wavelength_nm, theta, extra_inputs=()):
     inputs, outputs, shape = _buffers(wavelength_nm, theta)
-    (out,) = gpu.compute_pipeline(shader, constants=constants).run(inputs, outputs, params)
+    kernel = gpu.compute_pipeline(shader, constants=constants)
+    (out,) = kernel.run([*inputs, *extra_inputs], outputs, params)
     return out.reshape(shape).astype(np.float64)
+
+
+def base_index_buffer(base_index, shape=None) -> np.ndarray:
+    """float32 ``(n, k)`` pairs of a dispersive base for the thin-film kernels, broadcast to
+    ``shape`` when given; one dummy pair for a constant base (``base_index=None``)."""
+    if base_index is None:
+        return np.zeros((1, 2), np.float32)
+    index = np.asarray(base_index, np.complex128)
+    if shape is not None:
+        index = np.broadcast_to(index, shape)
+    return np.ascontiguousarray(np.stack([index.real, index.imag], -1), np.float32).reshape(-1, 2)
 
 
 def bragg_params(n1, n2, d1_nm, d2_nm, N, host) -> np.ndarray:
@@ -83,10 +96,17 @@ def benchmark_bragg(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization,
 
 
 def thin_film_reflectance(host, n_film, d_nm, n_base, k_base, wavelength_nm, theta,
-                          polarization):
-    """float32 GPU reflectance of a thin film; arguments as the :class:`ThinFilm` fields."""
+                          polarization, base_index=None):
+    """float32 GPU reflectance of a thin film; arguments as the :class:`ThinFilm` fields.
+
+    ``base_index``: the complex index of a dispersive base at ``wavelength_nm`` (same shape),
+    replacing ``n_base`` and ``k_base``; None for a constant base.
+    """
     params = np.zeros((), THIN_FILM_DTYPE)
     params["host"], params["n_film"], params["d_nm"] = host, n_film, d_nm
     params["n_base"], params["k_base"] = n_base, k_base
-    constants = {"POLARIZATION": _POLARIZATION_CODE[polarization], "WORKGROUP_SIZE": WORKGROUP_SIZE}
-    return _evaluate("thin_film_reflectance.wgsl", constants, params, wavelength_nm, theta)
+    constants = {"POLARIZATION": _POLARIZATION_CODE[polarization], "WORKGROUP_SIZE": WORKGROUP_SIZE,
+                 "DISPERSIVE": base_index is not None}
+    shape = np.broadcast_shapes(np.shape(wavelength_nm), np.shape(theta))
+    base = base_index_buffer(base_index, None if base_index is None else shape)
+    return _evaluate("thin_film_reflectance.wgsl", constants, params, wavelength_nm, theta, [base])

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import optics
+from .metals import METALS, SpectralIndex, metal
 from ._validation import (
     check_angle,
     check_backend,
@@ -28,13 +29,11 @@ __all__ = ["BraggMirror", "ThinFilm"]
 
 
 def _colour_xyz(material, theta, method, backend, methods, options):
-    from . import colour_methods
-
     check_backend(backend)
     if method not in methods:
         raise ValueError(f"method must be one of {tuple(methods)}, got {method!r}")
     angle = check_angle(theta)
-    return colour_methods.COLOUR_METHODS[method](material, angle, backend, **options)
+    return methods[method](material, angle, backend, **options)
 
 
 def _linear_srgb(xyz):
@@ -202,15 +201,26 @@ class ThinFilm:
     d : float
         Film thickness in nm (>= 0).
     n_base, k_base : float
-        Real part (> 0) and extinction coefficient (>= 0) of the base: a dielectric when
-        ``k_base = 0``, a conductor otherwise.
+        Real part (> 0) and extinction coefficient (>= 0) of a base of constant index: a
+        dielectric when ``k_base = 0``, a conductor otherwise.
     host : float
         Real index of the incident medium (> 0).
+    base : str or SpectralIndex, optional
+        A dispersive base instead of ``n_base, k_base`` (leave those at their defaults): the
+        name of a bundled metal (``"Ag"``, ``"Al"``, ``"Au"``, ``"Cu"``, see
+        :mod:`wgbragg.metals`) or any :class:`~wgbragg.metals.SpectralIndex`. Wavelengths must
+        then lie in its tabulated range (every bundled metal covers 360-830 nm).
 
     References
     ----------
     Belcour & Barla, "A Practical Extension to Microfacet Theory for the Modeling of Varying
     Iridescence", ACM TOG 36(4), 2017, eq. 3.
+
+    Examples
+    --------
+    >>> film = ThinFilm(n_film=1.45, d=250.0, base="Cu")   # an oxide-like film over copper
+    >>> film.dispersive, complex(film.base_index(600.0)).real > 0.0
+    (True, True)
     """
 
     n_film: float
@@ -218,6 +228,7 @@ class ThinFilm:
     n_base: float = 1.0
     k_base: float = 0.0
     host: float = 1.0
+    base: str | SpectralIndex | None = None
 
     def __post_init__(self):
         set_field = object.__setattr__
@@ -226,6 +237,32 @@ class ThinFilm:
         set_field(self, "n_base", check_index("n_base", self.n_base))
         set_field(self, "k_base", check_extinction("k_base", self.k_base))
         set_field(self, "host", check_index("host", self.host))
+        if self.base is not None:
+            if isinstance(self.base, str):
+                set_field(self, "base", metal(self.base))
+            elif not isinstance(self.base, SpectralIndex):
+                raise ValueError(
+                    f"base must be one of {tuple(METALS)} or a SpectralIndex, got {self.base!r}")
+            if (self.n_base, self.k_base) != (1.0, 0.0):
+                raise ValueError("base replaces n_base and k_base: leave those at 1.0 and 0.0")
+
+    @property
+    def dispersive(self) -> bool:
+        """True for a tabulated (wavelength-dependent) base."""
+        return self.base is not None
+
+    def base_index(self, wavelength_nm) -> np.ndarray:
+        """Complex base index ``n + i k`` at ``wavelength_nm`` (nm), shaped like it.
+
+        Raises
+        ------
+        ValueError
+            For a wavelength outside a dispersive base's tabulated range.
+        """
+        if self.base is not None:
+            return self.base(wavelength_nm)
+        shape = np.shape(wavelength_nm)
+        return np.full(shape, complex(self.n_base, self.k_base))
 
     def reflectance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy"):
         """Specular reflectance in [0, 1]; arguments as :meth:`BraggMirror.reflectance`."""
@@ -233,21 +270,44 @@ class ThinFilm:
         if backend == "gpu":
             from . import kernels
 
+            base = None if self.base is None else self.base_index(wavelength)
             return kernels.thin_film_reflectance(
                 self.host, self.n_film, self.d, self.n_base, self.k_base, wavelength, angle,
-                polarization,
+                polarization, base,
             )
         return optics.thin_film_reflectance(
-            self.host, self.n_film, self.d, complex(self.n_base, self.k_base), wavelength, angle,
+            self.host, self.n_film, self.d, self.base_index(wavelength), wavelength, angle,
             polarization,
         )
 
     def xyz(self, theta, method="reference", backend="numpy", **options):
-        """CIE XYZ under D65; ``method`` "reference" or "spectral", as :meth:`BraggMirror.xyz`."""
+        """CIE 1931 XYZ under D65 (perfect reflector ``Y = 1``), both polarisations averaged.
+
+        Parameters
+        ----------
+        theta : array_like
+            Angles of incidence in the host, radians in ``[0, pi/2]``, any shape.
+        method : {"reference", "spectral", "fourier-table", "fourier-gaussian"}
+            ``"reference"`` and ``"spectral"`` as :meth:`BraggMirror.xyz`. The Fourier methods
+            (Belcour & Barla 2017, :mod:`wgbragg.thin_film_colour`) integrate the Airy series
+            analytically: ``"fourier-table"`` with the tabulated transform of the D65-weighted
+            CIE 1931 functions, ``"fourier-gaussian"`` with the paper's Gaussian fits,
+            adapted from illuminant E to D65 (Bradford).
+        backend : {"numpy", "gpu"}
+        **options
+            ``samples``, ``seed`` (spectral); ``order`` (truncation order M in ``[0, 16]``,
+            default 3) and ``thickness_std_nm`` (Gaussian thickness prefiltering, nm, default
+            0) for the Fourier methods.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape ``theta.shape + (3,)``.
+        """
         from .colour_methods import THIN_FILM_COLOUR_METHODS
 
         return _colour_xyz(self, theta, method, backend, THIN_FILM_COLOUR_METHODS, options)
 
     def rgb(self, theta, method="reference", backend="numpy", **options):
-        """Linear sRGB (D65) of :meth:`xyz`."""
+        """Linear sRGB (D65) of :meth:`xyz`; a perfect reflector is ~(1, 1, 1)."""
         return _linear_srgb(self.xyz(theta, method, backend, **options))

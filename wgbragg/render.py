@@ -351,6 +351,11 @@ class Renderer:
     ----------
     passes : int
         Samples per pixel accumulated so far.
+    table_seconds : float
+        Wall-clock time the last :meth:`update` (or the constructor) spent building the layered
+        materials' tables (transmissivity tables, reflectance LUTs, and the filter of a
+        roughness not loaded before). Materials left unchanged keep their tables, so an
+        update that edits only the camera, lights or environment takes almost none.
     triangles : int
         Triangles in the scene.
     mode : str
@@ -380,6 +385,9 @@ class Renderer:
         # vec3 in a storage array: 16 bytes a path.
         self._paths = gpu.DeviceArray.empty((width * height * self._batch, 4), np.float32)
         self._geometry_of = None
+        # id -> (material, its LayeredBragg): a material left unchanged by update() keeps its
+        # structure, and with it the tables cached there, so only edited materials re-bake.
+        self._structures = {}
         self.colour_method = colour_method
         self.update(scene, mode, colour_method)
 
@@ -418,7 +426,7 @@ class Renderer:
             geometry = self._geometry(scene)
             self._geometry_of = geometry_key
             self._geometry_inputs, self._extent = geometry
-        inputs, constants, environment_map = shading
+        inputs, constants, environment_map, self._structures, self.table_seconds = shading
         self.scene, self.mode, self.environment_map = scene, mode, environment_map
         self.colour_method = colour_method
         self._inputs = [*self._geometry_inputs[:4], *inputs]
@@ -456,11 +464,12 @@ class Renderer:
         return inputs, float(np.ptp(vertices, axis=0).max())
 
     def _shading(self, scene: Scene, mode: str, colour_method: str):
-        """Buffers after the geometry's, the pipeline's constants, and the EXR environment."""
+        """Buffers after the geometry's, the pipeline's constants, the EXR environment, the
+        layered materials' structures by id, and the time their tables took."""
         spectral = mode == "spectral"
         names = list(scene.materials)
         materials = np.zeros(len(names), _MATERIAL_DTYPE)
-        structures = []
+        structures, kept = [], {}
         # Record 0: no map (period 0 tells the kernel to keep the layers' own).
         maps, constant_values = [None], [0.0]
         for k, name in enumerate(names):
@@ -470,7 +479,10 @@ class Renderer:
                 continue
             materials[k]["kind"] = 1
             materials[k]["structure"] = len(structures)
-            structures.append(material.to_structure())
+            known = self._structures.get(id(material))
+            structure = known[1] if known and known[0] is material else material.to_structure()
+            kept[id(material)] = (material, structure)
+            structures.append(structure)
             if material.period_map is None and material.delta_map is None:
                 continue
             _check_mapped(name, material)
@@ -501,8 +513,10 @@ class Renderer:
                     f"colour_method {colour_method!r} cannot be computed per shading point "
                     f"(period/delta maps): use one of {tuple(FACTORED_COLOUR_METHODS)}, or "
                     "mode='spectral'")
+            start = time.perf_counter()
             heads, layer_records, tables, layered = _layered_buffers(
                 structures, spectral, colour_method, lut=not varying)
+            table_seconds = time.perf_counter() - start
             constants.update(layered)
             constants["VARYING_LAYERS"] = varying
         else:
@@ -510,6 +524,7 @@ class Renderer:
             heads = np.zeros(1, _STRUCTURE_DTYPE)
             layer_records = np.zeros(1, LAYER_DTYPE)
             tables = np.zeros(1, np.float32)
+            table_seconds = 0.0
         inputs = [
             gpu.DeviceArray.upload(materials),
             gpu.DeviceArray.upload(heads),
@@ -521,7 +536,7 @@ class Renderer:
             gpu.DeviceArray.upload(map_records),
             gpu.DeviceArray.upload(map_texels),
         ]
-        return inputs, constants, environment_map
+        return inputs, constants, environment_map, kept, table_seconds
 
     @property
     def gpu_bytes(self) -> int:

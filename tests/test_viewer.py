@@ -1,0 +1,351 @@
+"""The demo: the viewer's edits, frames and budgets (``wgbragg.viewer``), its window in a real
+glfw window under Xvfb (``wgbragg.viewer_window``) compared with reference screenshots, and
+``demo.py``'s headless mode.
+
+Reference screenshots are ``tests/screenshots/*.png``; ``pytest --regenerate-screenshots``
+rewrites them. A mismatch writes the frame and its difference under pytest's tmp folder and
+names them in the failure.
+"""
+
+from __future__ import annotations
+
+import gc
+import os
+import re
+import select
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from conftest import EXPECT_LAVAPIPE
+from wgbragg.scene import LayeredBraggMaterial
+from wgbragg.viewer import Viewer
+
+pytestmark = pytest.mark.gpu
+
+ROOT = Path(__file__).resolve().parents[1]
+SCREENSHOTS = Path(__file__).parent / "screenshots"
+SIZE = (128, 128)
+# Mean |difference| per channel, in 8-bit levels, between a frame and its reference: the
+# render is seeded (the same paths on every run), so this only absorbs another CPU's rounding
+# in lavapipe (a path that turns elsewhere moves one pixel, not the mean) and font rasterisation.
+SCREENSHOT_TOLERANCE = 2.0
+
+
+def saturation(pixels: np.ndarray) -> np.ndarray:
+    """HSV saturation of 8-bit RGB pixels, shape pixels.shape[:-1]."""
+    rgb = pixels.astype(np.float64)
+    high, low = rgb.max(axis=-1), rgb.min(axis=-1)
+    return np.where(high > 0, (high - low) / np.maximum(high, 1e-9), 0.0)
+
+
+def differs(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.abs(a.astype(np.float64) - b.astype(np.float64)).mean())
+
+
+# ---------------------------------------------------------------------------------- the model
+
+
+@pytest.fixture
+def viewer():
+    return Viewer("teapot", size=(64, 64), preview_scale=2)
+
+
+@pytest.mark.parametrize(("call", "message"), [
+    (lambda v: v.set_layer(2, N=3), "index must be an integer in [0, 2)"),
+    (lambda v: v.set_layer(0, N=0), "N must be an integer"),
+    (lambda v: v.set_layer(0, alpha=2.0), "alpha must be in [0.01, 1]"),
+    (lambda v: v.set_layer(0, delta=1.5), "delta must be a real number in [0, 1]"),
+    (lambda v: v.set_layer(0, period_nm=0.0), "period_nm must be > 0"),
+    (lambda v: v.set_layer(0, n2=float("nan")), "n2 is NaN"),
+    (lambda v: v.set_layer(0, n1=1.3), "n1 belongs to all layers"),
+    (lambda v: v.edit(n1=0.9), "n1 must be >= 1"),
+    (lambda v: v.edit(layers=5), "layers must be an integer in [1, 4]"),
+    (lambda v: v.edit(base_albedo=(0.2, 2.0, 0.1)), "base_albedo must be a real number"),
+    (lambda v: v.edit(mode="hyperspectral"), "mode must be one of"),
+    (lambda v: v.edit(colour_method="guess"), "colour_method must be one of"),
+    (lambda v: v.edit(environment="exr"), "environment must be one of"),
+    (lambda v: v.edit(pitch_deg=95.0), "pitch_deg must be a real number in [-89, 89]"),
+    (lambda v: v.edit(distance=0.0), "distance must be a finite real number > 0"),
+    (lambda v: v.edit(yaw_deg=float("inf")), "yaw_deg must be a finite real number"),
+    (lambda v: v.edit(exposure=float("nan")), "exposure must be a finite real number"),
+    (lambda v: v.edit(zoom=2.0), "unknown edit(s) ['zoom']"),
+    (lambda v: v.zoom(0.0), "factor must be a finite real number > 0"),
+    (lambda v: v.colour_strip(0, samples=1), "samples must be >= 2"),
+])
+def test_bad_edits_name_the_parameter_and_change_nothing(viewer, call, message):
+    viewer.frame()
+    scene, passes = viewer.scene, viewer.passes
+    with pytest.raises(ValueError, match=re.escape(message)):
+        call(viewer)
+    assert viewer.scene is scene and viewer.passes == passes
+
+
+def test_viewer_refuses_bad_construction():
+    with pytest.raises(ValueError, match="size must be two integers"):
+        Viewer("teapot", size=(0, 64))
+    with pytest.raises(ValueError, match="no layered-bragg material"):
+        Viewer("furnace")
+    with pytest.raises(ValueError, match="material must be one of"):
+        Viewer("teapot", material="floor")
+
+
+def test_edits_restart_the_accumulation_and_measure_their_budgets(viewer, monkeypatch,
+                                                                  tmp_path):
+    viewer.frame()
+    viewer.frame()
+    assert viewer.passes == 2 and viewer.budgets.fps > 0
+    viewer.set_layer(0, period_nm=250.0, delta=0.4, N=12, n2=1.6)
+    assert viewer.passes == 0
+    spec = viewer.layers[0]
+    assert spec.period_nm == pytest.approx(250.0) and spec.delta == pytest.approx(0.4)
+    assert (spec.N, spec.n2) == (12, 1.6)
+    budgets = viewer.budgets
+    assert 0 < budgets.table_ms <= budgets.update_ms
+    # A roughness this process never used, in an empty cache: its filter is baked.
+    monkeypatch.setenv("WGBRAGG_CACHE", str(tmp_path))
+    viewer.set_layer(1, alpha=0.2)
+    assert (budgets.filter_source, budgets.filter_alpha) == ("baked", 0.2)
+    assert budgets.filter_s > 0
+    viewer.set_layer(0, alpha=0.2)
+    assert budgets.filter_source == "in memory"
+    viewer.edit(n1=1.2, base_albedo=0.3, layers=3, environment="studio",
+                colour_method="reference")
+    assert [s.n1 for s in viewer.layers] == [1.2] * 3
+    assert viewer.layers[2] == viewer.layers[1]  # a new layer copies the lowest
+    assert viewer.material.base_albedo == 0.3
+    assert viewer.scene.environment.type == "studio" and viewer.colour_method == "reference"
+    viewer.frame()
+    viewer.edit(exposure=1.0)  # display only: the samples stay
+    assert viewer.passes == 1 and viewer.exposure == 1.0
+
+
+def test_camera_edits_keep_the_material_tables(viewer, monkeypatch):
+    yaw = viewer.yaw_deg
+    built = []
+    to_structure = LayeredBraggMaterial.to_structure
+    monkeypatch.setattr(LayeredBraggMaterial, "to_structure",
+                        lambda self, *a, **k: built.append(self) or to_structure(self, *a, **k))
+    viewer.orbit(25.0, -10.0)
+    viewer.zoom(0.8)
+    viewer.edit(environment="uniform")
+    assert built == []
+    assert viewer.yaw_deg == pytest.approx(yaw + 25.0)
+    viewer.set_layer(1, N=4)
+    assert len(built) == 1
+
+
+def test_preview_frames_render_smaller_and_keep_the_full_accumulation(viewer):
+    full = viewer.frame()
+    viewer.interacting = True
+    preview = viewer.frame()
+    assert preview.shape == full.shape
+    blocks = preview.reshape(32, 2, 32, 2, 3)
+    assert (blocks == blocks[:, :1, :, :1]).all()  # each pixel of the preview shown 2 x 2
+    assert viewer.budgets.preview_scale == 2 and viewer.budgets.preview_fps > 0
+    viewer.set_layer(0, N=5)  # updates the preview now, the full image when it is shown
+    assert viewer.passes == 0
+    viewer.frame()
+    viewer.interacting = False
+    viewer.frame()
+    assert viewer.passes == 1  # the full image restarted for the edit made meanwhile
+    viewer.frame()
+    assert viewer.passes == 2
+
+
+def test_side_panel_data(viewer):
+    wavelength, reflectance = viewer.spectrum(0)
+    assert wavelength.shape == reflectance.shape == (471,)
+    assert wavelength[0] == 360.0 and wavelength[-1] == 830.0
+    assert 0.0 <= reflectance.min() and reflectance.max() <= 1.0
+    # N = 8, n = 1 / 1.5: the first-order gap at normal incidence is nearly total.
+    assert reflectance.max() > 0.9
+    marks = viewer.landmarks(0)
+    assert len(marks.kind) > 0 and set(marks.kind) <= {"mode", "airy", "edge", "zero"}
+    assert ((360.0 <= marks.wavelength_nm) & (marks.wavelength_nm <= 830.0)).all()
+    theta, colours = viewer.colour_strip(0)
+    assert theta[0] == 0.0 and theta[-1] == 90.0
+    assert colours.shape == (46, 3) and colours.dtype == np.uint8
+    assert saturation(colours).max() > 0.5
+    viewer.edit(colour_method="approx")
+    assert not np.array_equal(viewer.colour_strip(0)[1], colours)
+
+
+# --------------------------------------------------------------------------------- the window
+
+
+@pytest.fixture(scope="module")
+def display(tmp_path_factory):
+    """A private Xvfb server, DISPLAY pointing at it for the module's tests."""
+    xvfb = shutil.which("Xvfb")
+    if xvfb is None:
+        reason = "no Xvfb: apt-get install xvfb (make test installs it)"
+        if EXPECT_LAVAPIPE:
+            pytest.fail(f"WGBRAGG_EXPECT_LAVAPIPE=1 but {reason}")
+        pytest.skip(reason)
+    read, write = os.pipe()
+    # -displayfd: Xvfb picks a free display number and writes it here once it accepts clients.
+    server = subprocess.Popen([xvfb, "-displayfd", str(write), "-screen", "0", "1280x1024x24",
+                               "-nolisten", "tcp"], pass_fds=(write,),
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    os.close(write)
+    written = b""
+    try:
+        # Up to its newline: a reader that left early would make Xvfb's last write fail,
+        # which is fatal to it.
+        while not written.endswith(b"\n") and select.select([read], [], [], 30.0)[0]:
+            chunk = os.read(read, 32)
+            if not chunk:
+                break
+            written += chunk
+    finally:
+        os.close(read)
+    number = written.decode().strip()
+    if not written.endswith(b"\n") or server.poll() is not None:
+        server.kill()
+        pytest.fail(f"Xvfb did not start within 30 s (it wrote {written!r})")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("DISPLAY", f":{number}")
+        patch.delenv("WAYLAND_DISPLAY", raising=False)
+        patch.setenv("XDG_RUNTIME_DIR", str(tmp_path_factory.mktemp("xdg")))
+        try:
+            yield f":{number}"
+        finally:
+            import glfw
+
+            # Windows and their surfaces go before glfw, and glfw before its X server.
+            gc.collect()
+            glfw.terminate()
+            glfw._rc_alive = False  # rendercanvas's flag: glfw must be initialised again
+            server.terminate()
+            server.wait(10)
+
+
+@pytest.fixture
+def window(display):
+    from wgbragg.viewer_window import ViewerWindow
+
+    shown = ViewerWindow(Viewer("teapot", size=SIZE, preview_scale=2), size=(1040, 760))
+    yield shown
+    shown.close()
+
+
+def panel_region(window, frame: np.ndarray) -> np.ndarray:
+    """The spectrum plot down to the colour strip, the panel's drawing (no live numbers)."""
+    x0, y0 = (round(v) for v in window.plot_rect[:2])
+    x1, y1 = (round(v) for v in window.strip_rect[2:])
+    return frame[y0:y1, x0:x1]
+
+
+def test_window_shows_the_render_and_the_panel(window):
+    frames = [window.capture() for _ in range(4)]
+    frame = frames[-1]
+    assert frame.shape == (760, 1040, 3)
+    picture = window.picture(frame)
+    assert picture.shape == (*SIZE[::-1], 3)
+    # The picture is the viewer's frame, byte for byte (sRGB texture to sRGB target at 5:1).
+    assert np.abs(picture.astype(int) - window.viewer.last_frame).max() <= 1
+    assert picture.std() > 10, "blank picture"
+    assert (saturation(picture) > 0.5).mean() > 0.01, "no saturated hues in the render"
+    x0, y0, x1, y1 = (round(v) for v in window.strip_rect)
+    strip = frame[y0 + 2:y1 - 2, x0 + 2:x1 - 2]
+    assert (saturation(strip) > 0.5).mean() > 0.2, "no saturated hues in the colour strip"
+    assert panel_region(window, frame).std() > 20
+    assert differs(frames[0], frames[-1]) > 0  # progressive: the picture refines
+
+
+def test_frames_change_after_edits(window):
+    viewer = window.viewer
+    previous = window.capture()
+    edits = [
+        lambda: viewer.set_layer(0, period_nm=260.0),
+        lambda: viewer.set_layer(0, delta=0.3),
+        lambda: viewer.set_layer(1, N=4),
+        lambda: viewer.set_layer(1, n2=1.9),
+        lambda: viewer.set_layer(0, alpha=0.3),
+        lambda: viewer.edit(n1=1.3),
+        lambda: viewer.edit(layers=1),
+        lambda: viewer.edit(base_albedo=(0.6, 0.2, 0.1)),
+        lambda: viewer.edit(environment="studio"),
+        lambda: viewer.edit(colour_method="reference"),
+        lambda: viewer.orbit(40.0, 10.0),
+        lambda: viewer.zoom(0.7),
+        lambda: viewer.edit(mode="spectral"),
+    ]
+    for edit in edits:
+        edit()
+        assert viewer.passes == 0  # every edit restarts
+        frame = window.capture()
+        assert viewer.passes == 1
+        assert differs(window.picture(frame), window.picture(previous)) > 0
+        assert window.picture(frame).std() > 5, "blank picture"
+        previous = frame
+
+
+def test_dragging_the_picture_orbits_with_a_preview(window):
+    window.draw()  # lays the picture out
+    x, y, width, height = window.image_rect
+    yaw = window.viewer.yaw_deg
+    window.on_pointer({"event_type": "pointer_down", "x": x + width / 2, "y": y + height / 2,
+                       "button": 1})
+    window.on_pointer({"event_type": "pointer_move", "x": x + width / 2 + 50,
+                       "y": y + height / 2})
+    frame = window.capture()
+    assert window.viewer.yaw_deg == pytest.approx(yaw - 20.0)
+    assert window.viewer.budgets.preview_scale == 2
+    blocks = window.picture(frame).reshape(64, 2, 64, 2, 3)
+    assert (blocks == blocks[:, :1, :, :1]).all()
+    window.on_pointer({"event_type": "pointer_up", "x": x, "y": y, "button": 1})
+    window.on_wheel({"event_type": "wheel", "dx": 0.0, "dy": 400.0})
+    assert window.viewer.distance == pytest.approx(2.0 * np.hypot(2.0, 0.6))
+
+
+def test_screenshots_match_the_references(window, request, tmp_path):
+    for _ in range(3):
+        window.draw()
+    frame = window.capture()  # 4 spp
+    regenerate = request.config.getoption("--regenerate-screenshots")
+    problems = []
+    for name, image in (("viewer_picture", window.picture(frame)),
+                        ("viewer_panel", panel_region(window, frame))):
+        reference = SCREENSHOTS / f"{name}.png"
+        if regenerate:
+            SCREENSHOTS.mkdir(exist_ok=True)
+            Image.fromarray(image).save(reference)
+            continue
+        if not reference.is_file():
+            problems.append(f"{name}: no reference {reference}")
+            continue
+        expected = np.asarray(Image.open(reference).convert("RGB"))
+        if expected.shape != image.shape:
+            problems.append(f"{name}: shape {image.shape}, reference {expected.shape}")
+            continue
+        error = np.abs(image.astype(np.float64) - expected).mean(axis=(0, 1))
+        if error.max() > SCREENSHOT_TOLERANCE:
+            Image.fromarray(image).save(tmp_path / f"{name}.png")
+            diff = np.abs(image.astype(np.int16) - expected).astype(np.uint8)
+            Image.fromarray(diff).save(tmp_path / f"{name}_diff.png")
+            problems.append(f"{name}: mean |difference| per channel {np.round(error, 2)} > "
+                            f"{SCREENSHOT_TOLERANCE} (frame and diff in {tmp_path})")
+    assert not problems, "; ".join(problems) + " (pytest --regenerate-screenshots rewrites them)"
+
+
+# ---------------------------------------------------------------------------- headless demo
+
+
+def test_demo_renders_offscreen_without_a_display(tmp_path):
+    target = tmp_path / "demo.png"
+    environment = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    result = subprocess.run([sys.executable, str(ROOT / "demo.py"), "--offscreen", "--spp", "2",
+                             "--size", "32x32", "-o", str(target)], env=environment,
+                            capture_output=True, text=True, check=True)
+    assert result.stdout.strip().splitlines()[-1] == str(target)
+    assert "32x32, 2 spp" in result.stderr
+    pixels = np.asarray(Image.open(target).convert("RGB"))
+    assert pixels.shape == (760, 1040, 3) and pixels.std() > 20
+    assert [p.name for p in tmp_path.iterdir()] == ["demo.png"]  # no temporary file left

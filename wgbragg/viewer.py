@@ -1,0 +1,655 @@
+"""The interactive demo's model: a progressive render whose Bragg materials are edited live.
+
+A :class:`Viewer` holds a scene (by default the teapot preset), one of its layered Bragg
+materials being edited, the camera orbit and the display settings, and renders the scene
+progressively with :class:`wgbragg.render.Renderer`: :meth:`Viewer.frame` adds one sample per
+pixel and returns the image to show, and every edit restarts the accumulation. It has no window
+of its own: :mod:`wgbragg.viewer_window` draws it with its controls (``demo.py``), and tests and
+scripts drive it directly::
+
+    viewer = Viewer("teapot", size=(256, 256))
+    viewer.set_layer(0, period_nm=200.0, alpha=0.1)
+    viewer.edit(mode="spectral", environment="studio", yaw_deg=40.0)
+    pixels = viewer.frame()              # (256, 256, 3) uint8 sRGB
+    viewer.budgets.table_ms              # the tables re-baked by the last Bragg edit
+
+Interactive budgets (the Bragg paper's figures; :data:`TABLE_BUDGET_MS`,
+:data:`FILTER_BUDGET_S`, :data:`PREVIEW_BUDGET_FPS`) are measured with ``time.perf_counter``
+on every edit and frame and kept in :attr:`Viewer.budgets`.
+
+Progressive refinement. While :attr:`Viewer.interacting` is set (a drag in the window, a slider
+held), frames come from a second renderer at ``1 / preview_scale`` of the resolution, shown
+with each pixel repeated, so that the preview keeps :data:`PREVIEW_BUDGET_FPS` where one full
+frame is slower (software Vulkan); released, the full-resolution renderer takes over and
+accumulates. An edit updates the renderer in use at once and the other one when it is next
+shown.
+
+The side panel's data are here too: the selected layer's reflectance at normal incidence
+(:meth:`Viewer.spectrum`), its landmarks (:meth:`Viewer.landmarks`) and its colour from 0 to
+90 degrees by the current colour method (:meth:`Viewer.colour_strip`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+import numbers
+import time
+import types
+
+import numpy as np
+
+from . import luts
+from ._validation import check_count, check_index, check_thickness
+from .colorimetry import xyz_weights
+from .colour_methods import COLOUR_METHODS
+from .materials import BraggMirror
+from .render import Renderer, display_transform
+from .scene import (
+    ENVIRONMENT_TYPES,
+    MAX_IMAGE_SIDE,
+    MODES,
+    BraggLayerSpec,
+    Environment,
+    LayeredBraggMaterial,
+    Scene,
+    load_preset,
+)
+from .transmission_filter import check_filter_alpha
+
+__all__ = [
+    "FILTER_BUDGET_S",
+    "LAYER_FIELDS",
+    "MAX_LAYERS",
+    "PREVIEW_BUDGET_FPS",
+    "PREVIEW_SCALES",
+    "TABLE_BUDGET_MS",
+    "Budgets",
+    "Viewer",
+]
+
+TABLE_BUDGET_MS = 40.0
+"""Tables of an edited Bragg layer re-baked within this many milliseconds."""
+FILTER_BUDGET_S = 0.6
+"""The transmission filter of a new roughness ready within this many seconds."""
+PREVIEW_BUDGET_FPS = 10.0
+"""Preview frames per second while interacting."""
+PREVIEW_SCALES = (1, 2, 4, 8)
+"""Resolution divisors the automatic preview chooses from."""
+MAX_LAYERS = 4
+"""Most Bragg layers the viewer stacks."""
+LAYER_FIELDS = ("period_nm", "delta", "N", "n2", "alpha")
+"""What :meth:`Viewer.set_layer` edits (``n1`` is the whole structure's: :meth:`Viewer.edit`)."""
+
+# Share of a preview frame's time left to the window's own drawing when choosing the scale.
+_PREVIEW_HEADROOM = 0.75
+# Weight of the newest frame in the running frame-time averages.
+_SMOOTHING = 0.2
+_PITCH_LIMIT_DEG = 89.0
+
+
+@dataclasses.dataclass
+class Budgets:
+    """What edits and frames cost, wall clock (``time.perf_counter``); None until measured.
+
+    Attributes
+    ----------
+    table_ms : float or None
+        Tables of the edited material (transmissivity tables and reflectance LUTs) re-baked by
+        the last update that followed a material edit: :attr:`Renderer.table_seconds`.
+    update_ms : float or None
+        That whole :meth:`Renderer.update` (tables, uploads, pipeline, restart).
+    filter_s : float or None
+        The transmission filter of the last roughness edit, from the LUT cache or baked.
+    filter_source : str or None
+        How it came: ``"baked"``, ``"loaded"`` (a valid cache file), ``"re-baked"`` (an
+        invalid one) or ``"in memory"`` (already read by this process).
+    filter_alpha : float or None
+        Its roughness.
+    fps : float or None
+        Full-resolution frames per second (render, readback, display transform), a running
+        average.
+    preview_fps : float or None
+        The same for preview frames.
+    preview_scale : int or None
+        Resolution divisor of the last preview frame.
+    """
+
+    table_ms: float | None = None
+    update_ms: float | None = None
+    filter_s: float | None = None
+    filter_source: str | None = None
+    filter_alpha: float | None = None
+    fps: float | None = None
+    preview_fps: float | None = None
+    preview_scale: int | None = None
+
+
+@dataclasses.dataclass
+class _Slot:
+    """A renderer and the scene version it shows."""
+
+    renderer: Renderer
+    version: int
+    material_version: int
+
+
+def _real(name: str, value, low: float, high: float) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not (
+            low <= value <= high):
+        raise ValueError(f"{name} must be a real number in [{low:g}, {high:g}], got {value!r}")
+    return float(value)
+
+
+def _finite(name: str, value, positive: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(
+            value) or (positive and value <= 0):
+        raise ValueError(f"{name} must be a finite real number{' > 0' if positive else ''}, "
+                         f"got {value!r}")
+    return float(value)
+
+
+def _choice(name: str, value, choices) -> str:
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {tuple(choices)}, got {value!r}")
+    return value
+
+
+def _albedo(value) -> float | tuple[float, float, float] | None:
+    if value is None:
+        return None
+    if isinstance(value, numbers.Real) and not isinstance(value, bool):
+        return _real("base_albedo", value, 0.0, 1.0)
+    try:
+        channels = tuple(value)
+    except TypeError:
+        channels = ()
+    if len(channels) != 3:
+        raise ValueError(f"base_albedo must be None, a number or 3 numbers in [0, 1], got "
+                         f"{value!r}")
+    return tuple(_real("base_albedo", c, 0.0, 1.0) for c in channels)
+
+
+def _srgb_bytes(linear: np.ndarray) -> np.ndarray:
+    """Linear sRGB, clipped to [0, 1], as 8-bit sRGB (no tone map: a reflectance colour)."""
+    c = np.clip(linear, 0.0, 1.0)
+    encoded = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1.0 / 2.4) - 0.055)
+    return np.round(encoded * 255.0).astype(np.uint8)
+
+
+def _mirror(spec: BraggLayerSpec) -> BraggMirror:
+    return BraggMirror(spec.n1, spec.n2, spec.d1_nm, spec.d2_nm, spec.N, host=spec.host)
+
+
+@functools.lru_cache(maxsize=32)
+def _spectrum(spec: BraggLayerSpec) -> np.ndarray:
+    wavelength = xyz_weights()[0]
+    values = _mirror(spec).reflectance(wavelength, 0.0, "unpolarized", backend="numpy")
+    values.setflags(write=False)
+    return values
+
+
+@functools.lru_cache(maxsize=32)
+def _landmarks(spec: BraggLayerSpec):
+    # At normal incidence s and p coincide.
+    return _mirror(spec).landmarks(0.0, "s")
+
+
+@functools.lru_cache(maxsize=32)
+def _strip(spec: BraggLayerSpec, method: str, samples: int) -> np.ndarray:
+    theta = np.radians(np.linspace(0.0, 90.0, samples))
+    colours = _srgb_bytes(_mirror(spec).rgb(theta, method=method, backend="gpu"))
+    colours.setflags(write=False)
+    return colours
+
+
+class Viewer:
+    """A scene rendered progressively while its Bragg material is edited.
+
+    Parameters
+    ----------
+    scene : wgbragg.scene.Scene or str
+        A scene, or the name of a preset (:data:`wgbragg.scene.PRESETS`).
+    size : tuple of 2 ints
+        Width and height of the image in pixels.
+    material : str, optional
+        The layered Bragg material to edit; the scene's first by default.
+    mode : {"rgb", "spectral"}, optional
+        The scene's ``settings.mode`` by default.
+    colour_method : str
+        RGB mode's layer colours, and the colour strip's: one of
+        :data:`wgbragg.colour_methods.COLOUR_METHODS`.
+    seed : int
+        Renderer seed: the same edits and frames give the same images.
+    max_bounces : int
+        As for :class:`wgbragg.render.Renderer`.
+    preview_scale : int, optional
+        Resolution divisor of preview frames (>= 1); by default the smallest of
+        :data:`PREVIEW_SCALES` whose frames, at the measured cost per pixel, fit
+        :data:`PREVIEW_BUDGET_FPS` with some headroom.
+    environment_path : path-like, optional
+        An equirectangular EXR that ``edit(environment="exr")`` uses; by default the
+        scene's own, if it has one.
+
+    Raises
+    ------
+    ValueError
+        For a parameter out of range, or a scene without a layered Bragg material.
+
+    Attributes
+    ----------
+    scene : wgbragg.scene.Scene
+        As last edited.
+    size : tuple of 2 ints
+    material_name : str
+    mode, colour_method : str
+    yaw_deg, pitch_deg, distance : float
+        The camera about its target (see :meth:`edit`), from the scene's camera at first.
+    exposure : float
+        EV stops applied by the display transform (not a render parameter).
+    budgets : Budgets
+    last_frame : numpy.ndarray or None
+        The last image returned by :meth:`frame` or :meth:`refine`.
+    """
+
+    def __init__(self, scene: Scene | str = "teapot", size: tuple[int, int] = (256, 256),
+                 material: str | None = None, mode: str | None = None,
+                 colour_method: str = "averaged", seed: int = 0, max_bounces: int = 8,
+                 preview_scale: int | None = None, environment_path=None):
+        if isinstance(scene, str):
+            scene = load_preset(scene)
+        if not isinstance(scene, Scene):
+            raise ValueError(f"scene must be a Scene or a preset name, got {scene!r}")
+        layered = [name for name, m in scene.materials.items()
+                   if isinstance(m, LayeredBraggMaterial)]
+        if material is None and not layered:
+            raise ValueError("scene has no layered-bragg material to edit")
+        self.material_name = _choice("material", layered[0] if material is None else material,
+                                     layered)
+        if preview_scale is not None:
+            check_count("preview_scale", preview_scale)
+        if not (isinstance(size, tuple | list) and len(size) == 2 and all(
+                isinstance(n, int) and not isinstance(n, bool) and 1 <= n <= MAX_IMAGE_SIDE
+                for n in size)):
+            raise ValueError(f"size must be two integers in [1, {MAX_IMAGE_SIDE}], got "
+                             f"{size!r}")
+        self.size = tuple(size)
+        self.mode = _choice("mode", scene.settings.mode if mode is None else mode, MODES)
+        self.colour_method = _choice("colour_method", colour_method, COLOUR_METHODS)
+        self.exposure = scene.settings.exposure
+        self._interacting = False
+        self._interaction_scale = 1
+        self.budgets = Budgets()
+        self.last_frame: np.ndarray | None = None
+        self.scene = scene
+        if environment_path is None and scene.environment.type == "exr":
+            environment_path = scene.environment.path
+        self._environment_path = environment_path
+        self._seed, self._max_bounces = seed, max_bounces
+        self._preview_scale = preview_scale
+        self._pixel_seconds: float | None = None
+        # Running mean frame time of preview (True) and full-resolution (False) frames.
+        self._frame_seconds: dict[bool, float] = {}
+        self._version = self._material_version = 0
+        self._slots: dict[int, _Slot] = {}
+        camera = scene.camera
+        offset = np.subtract(camera.position, camera.look_at)
+        self.distance = float(np.linalg.norm(offset))
+        self.yaw_deg = math.degrees(math.atan2(offset[0], offset[2]))
+        self.pitch_deg = math.degrees(math.asin(offset[1] / self.distance))
+        self._slot(1)  # the full-resolution renderer, validating size, seed and max_bounces
+
+    # ------------------------------------------------------------------ state
+
+    @property
+    def material(self) -> LayeredBraggMaterial:
+        """The edited material."""
+        return self.scene.materials[self.material_name]
+
+    @property
+    def layers(self) -> tuple[BraggLayerSpec, ...]:
+        """Its layers, from the top down."""
+        return self.material.layers
+
+    @property
+    def passes(self) -> int:
+        """Samples per pixel behind :attr:`last_frame`."""
+        return self._last_slot.renderer.passes
+
+    @property
+    def interacting(self) -> bool:
+        """Whether the user is dragging or holding a control: frames are then previews.
+
+        The preview's resolution is chosen when this becomes True and kept until it is
+        False again, so that one interaction stays on one preview renderer.
+        """
+        return self._interacting
+
+    @interacting.setter
+    def interacting(self, value: bool) -> None:
+        if value and not self._interacting:
+            self._interaction_scale = self.preview_scale()
+        self._interacting = bool(value)
+
+    @property
+    def environments(self) -> tuple[str, ...]:
+        """The environments :meth:`edit` accepts (``"exr"`` only with ``environment_path``)."""
+        return tuple(e for e in ENVIRONMENT_TYPES
+                     if e != "exr" or self._environment_path is not None)
+
+    # ------------------------------------------------------------------ edits
+
+    def set_layer(self, index: int, **fields) -> None:
+        """Edit Bragg layer ``index`` (0 is the top) and restart the accumulation.
+
+        Parameters
+        ----------
+        index : int
+            In ``[0, len(layers))``.
+        **fields
+            Any of :data:`LAYER_FIELDS`: ``period_nm`` (Lambda = d1 + d2, nm, > 0), ``delta``
+            (d1 / Lambda, in [0, 1]), ``N`` (cells, >= 1), ``n2`` (> 0), ``alpha`` (GGX
+            roughness in [0.01, 1]).
+
+        Raises
+        ------
+        ValueError
+            Naming the index or field out of range; the viewer is then left as it was.
+        """
+        layers = self.layers
+        if isinstance(index, bool) or not isinstance(index, int) or not (
+                0 <= index < len(layers)):
+            raise ValueError(f"index must be an integer in [0, {len(layers)}), got {index!r}")
+        unknown = set(fields) - set(LAYER_FIELDS)
+        if unknown:
+            extra = " (n1 belongs to all layers: use edit(n1=...))" if "n1" in unknown else ""
+            raise ValueError(f"unknown layer field(s) {sorted(unknown)}: accepted are "
+                             f"{LAYER_FIELDS}{extra}")
+        spec = layers[index]
+        changes = {}
+        if "period_nm" in fields or "delta" in fields:
+            period = spec.period_nm
+            if "period_nm" in fields:
+                period = check_thickness("period_nm", fields["period_nm"])
+                if period <= 0.0:
+                    raise ValueError(f"period_nm must be > 0, got {period}")
+            delta = _real("delta", fields.get("delta", spec.delta), 0.0, 1.0)
+            changes.update(d1_nm=delta * period, d2_nm=period - delta * period)
+        if "N" in fields:
+            changes["N"] = check_count("N", fields["N"])
+        if "n2" in fields:
+            changes["n2"] = check_index("n2", fields["n2"])
+        if "alpha" in fields:
+            changes["alpha"] = check_filter_alpha(fields["alpha"])
+        edited = dataclasses.replace(spec, **changes)
+        try:
+            _mirror(edited)
+        except ValueError as error:
+            raise ValueError(f"layer {index}: {error}") from None
+        if edited.alpha != spec.alpha:
+            self._load_filter(edited.alpha)
+        material = dataclasses.replace(self.material,
+                                       layers=(*layers[:index], edited, *layers[index + 1:]))
+        self._apply(self._with_material(self.scene, material), self.mode, self.colour_method,
+                    {})
+
+    def edit(self, **changes) -> None:
+        """Change the structure, the rendering or the camera; restart the accumulation.
+
+        Parameters
+        ----------
+        n1 : float
+            Index of every layer's ``n1``, the host around the layers (>= 1; above 1 a smooth
+            coating covers them).
+        base_albedo : None, float or 3 floats
+            rho_d, the Lambertian base's albedo in [0, 1] (linear sRGB); None: absorbing.
+        layers : int
+            Number of Bragg layers, 1 to :data:`MAX_LAYERS`: new ones copy the lowest, the
+            lowest go first.
+        mode : {"rgb", "spectral"}
+        colour_method : str
+            One of :data:`wgbragg.colour_methods.COLOUR_METHODS`.
+        environment : str
+            One of :attr:`environments`.
+        yaw_deg, pitch_deg : float
+            The camera's direction from its target: azimuth about +y, elevation in
+            [-89, 89] degrees.
+        distance : float
+            The camera's distance from its target (> 0).
+        exposure : float
+            EV stops of the display (finite); the only edit that keeps the samples.
+
+        Raises
+        ------
+        ValueError
+            Naming the parameter out of range (or unknown); nothing is changed then.
+        """
+        accepted = ("n1", "base_albedo", "layers", "mode", "colour_method", "environment",
+                    "yaw_deg", "pitch_deg", "distance", "exposure")
+        unknown = set(changes) - set(accepted)
+        if unknown:
+            raise ValueError(f"unknown edit(s) {sorted(unknown)}: accepted are {accepted}")
+        material = {}
+        if "n1" in changes:
+            n1 = check_index("n1", changes["n1"])
+            if n1 < 1.0:
+                raise ValueError(f"n1 must be >= 1 (the structure lies under air), got {n1}")
+            material["layers"] = tuple(dataclasses.replace(s, n1=n1) for s in self.layers)
+        if "base_albedo" in changes:
+            material["base_albedo"] = _albedo(changes["base_albedo"])
+        if "layers" in changes:
+            count = changes["layers"]
+            if isinstance(count, bool) or not isinstance(count, int) or not (
+                    1 <= count <= MAX_LAYERS):
+                raise ValueError(f"layers must be an integer in [1, {MAX_LAYERS}], got "
+                                 f"{count!r}")
+            current = material.get("layers", self.layers)
+            material["layers"] = (current + (current[-1],) * count)[:count]
+        mode = _choice("mode", changes.get("mode", self.mode), MODES)
+        colour_method = _choice("colour_method", changes.get("colour_method",
+                                                             self.colour_method),
+                                COLOUR_METHODS)
+        scene = self.scene
+        if "environment" in changes:
+            kind = _choice("environment", changes["environment"], self.environments)
+            scene = dataclasses.replace(scene, environment=self._environment(kind))
+        camera = {name: changes.get(name, getattr(self, name))
+                  for name in ("yaw_deg", "pitch_deg", "distance")}
+        camera["yaw_deg"] = _finite("yaw_deg", camera["yaw_deg"])
+        camera["pitch_deg"] = _real("pitch_deg", camera["pitch_deg"], -_PITCH_LIMIT_DEG,
+                                    _PITCH_LIMIT_DEG)
+        camera["distance"] = _finite("distance", camera["distance"], positive=True)
+        exposure = _finite("exposure", changes.get("exposure", self.exposure))
+        if any(name in changes for name in camera):
+            scene = dataclasses.replace(scene, camera=self._camera(**camera))
+        if material:
+            scene = self._with_material(scene, dataclasses.replace(self.material, **material))
+        if set(changes) != {"exposure"}:
+            self._apply(scene, mode, colour_method, camera)
+        self.exposure = exposure
+
+    def orbit(self, d_yaw_deg: float, d_pitch_deg: float) -> None:
+        """Turn the camera about its target (a mouse drag); the pitch stops at +-89 degrees."""
+        pitch = min(max(self.pitch_deg + d_pitch_deg, -_PITCH_LIMIT_DEG), _PITCH_LIMIT_DEG)
+        self.edit(yaw_deg=self.yaw_deg + d_yaw_deg, pitch_deg=pitch)
+
+    def zoom(self, factor: float) -> None:
+        """Multiply the camera's distance from its target by ``factor`` (> 0)."""
+        self.edit(distance=self.distance * _finite("factor", factor, positive=True))
+
+    # ------------------------------------------------------------------ frames
+
+    def frame(self) -> np.ndarray:
+        """Add one sample per pixel to the image shown (a preview while :attr:`interacting`).
+
+        Returns
+        -------
+        numpy.ndarray, shape (height, width, 3), uint8
+            sRGB after the display transform; a preview has its pixels repeated to the full
+            size.
+        """
+        scale = self._scale_now()
+        slot = self._slot(scale)
+        start = time.perf_counter()
+        image = slot.renderer.render(1)
+        pixels = self._show(slot, image, scale)
+        seconds = time.perf_counter() - start
+        self._measure(self._interacting, scale, seconds, image.shape[0] * image.shape[1])
+        return pixels
+
+    def refine(self, spp: int) -> np.ndarray:
+        """Add ``spp`` samples per pixel at full resolution at once (no preview).
+
+        Returns
+        -------
+        numpy.ndarray, shape (height, width, 3), uint8
+            As :meth:`frame`.
+        """
+        slot = self._slot(1)
+        return self._show(slot, slot.renderer.render(check_count("spp", spp)), 1)
+
+    def preview_scale(self) -> int:
+        """Resolution divisor of preview frames: the given one, or the automatic choice."""
+        if self._preview_scale is not None:
+            return self._preview_scale
+        if self._pixel_seconds is None:
+            return 2
+        budget = _PREVIEW_HEADROOM / PREVIEW_BUDGET_FPS
+        width, height = self.size
+        for scale in PREVIEW_SCALES:
+            if self._pixel_seconds * -(-width // scale) * -(-height // scale) <= budget:
+                return scale
+        return PREVIEW_SCALES[-1]
+
+    # ------------------------------------------------------------------ side panel
+
+    def spectrum(self, index: int) -> tuple[np.ndarray, np.ndarray]:
+        """Layer ``index``'s mirror at normal incidence: wavelengths (360..830 nm, 1 nm) and
+        unpolarized reflectance (float64 reference)."""
+        return xyz_weights()[0], _spectrum(self._layer(index))
+
+    def landmarks(self, index: int):
+        """Layer ``index``'s landmarks at normal incidence
+        (:class:`wgbragg.landmarks.Landmarks`)."""
+        return _landmarks(self._layer(index))
+
+    def colour_strip(self, index: int, samples: int = 46) -> tuple[np.ndarray, np.ndarray]:
+        """Layer ``index``'s mirror colour against the angle in ``n1``, by the current colour
+        method.
+
+        Returns
+        -------
+        theta_deg : numpy.ndarray, shape (samples,)
+            0 to 90 degrees.
+        colours : numpy.ndarray, shape (samples, 3), uint8
+            The reflectance colours as sRGB bytes (clipped, not tone mapped).
+        """
+        samples = check_count("samples", samples)
+        if samples < 2:
+            raise ValueError(f"samples must be >= 2, got {samples}")
+        return (np.linspace(0.0, 90.0, samples),
+                _strip(self._layer(index), self.colour_method, samples))
+
+    # ------------------------------------------------------------------ internals
+
+    def _layer(self, index: int) -> BraggLayerSpec:
+        if isinstance(index, bool) or not isinstance(index, int) or not (
+                0 <= index < len(self.layers)):
+            raise ValueError(f"index must be an integer in [0, {len(self.layers)}), got "
+                             f"{index!r}")
+        return self.layers[index]
+
+    def _environment(self, kind: str) -> Environment:
+        current = self.scene.environment
+        if kind == "uniform":
+            return Environment("uniform")
+        return Environment(kind, intensity=current.intensity if current.type != "uniform"
+                           else 1.0, path=self._environment_path if kind == "exr" else None)
+
+    def _camera(self, yaw_deg: float, pitch_deg: float, distance: float):
+        yaw, pitch = math.radians(yaw_deg), math.radians(pitch_deg)
+        offset = distance * np.array([math.cos(pitch) * math.sin(yaw), math.sin(pitch),
+                                      math.cos(pitch) * math.cos(yaw)])
+        camera = self.scene.camera
+        position = tuple(float(x) for x in np.add(camera.look_at, offset))
+        return dataclasses.replace(camera, position=position)
+
+    def _with_material(self, scene: Scene, material: LayeredBraggMaterial) -> Scene:
+        materials = {**scene.materials, self.material_name: material}
+        return dataclasses.replace(scene, materials=types.MappingProxyType(materials))
+
+    def _load_filter(self, alpha: float) -> None:
+        """Time the roughness's filter, which the renderer's update then finds in memory."""
+        events = []
+        start = time.perf_counter()
+        luts.transmission_filter(alpha, progress=events.append)
+        budgets = self.budgets
+        budgets.filter_s = time.perf_counter() - start
+        budgets.filter_source = events[-1].action if events else "in memory"
+        budgets.filter_alpha = alpha
+
+    def _apply(self, scene: Scene, mode: str, colour_method: str, camera: dict) -> None:
+        """Make ``scene`` current and update the renderer in use now; on a ValueError from
+        the renderer, restore the previous state."""
+        saved = (self.scene, self.mode, self.colour_method, self._version,
+                 self._material_version)
+        material_changed = scene.materials[self.material_name] != self.material
+        self.scene, self.mode, self.colour_method = scene, mode, colour_method
+        self._version += 1
+        self._material_version += material_changed
+        try:
+            self._slot(self._scale_now())
+        except ValueError:
+            (self.scene, self.mode, self.colour_method, self._version,
+             self._material_version) = saved
+            raise
+        for name, value in camera.items():
+            setattr(self, name, value)
+
+    def _scale_now(self) -> int:
+        return self._interaction_scale if self._interacting else 1
+
+    def _slot(self, scale: int) -> _Slot:
+        """The renderer of resolution divisor ``scale``, created or updated to the current
+        scene."""
+        slot = self._slots.get(scale)
+        if slot is None:
+            width, height = self.size
+            renderer = Renderer(self.scene, size=(-(-width // scale), -(-height // scale)),
+                                seed=self._seed, mode=self.mode, max_bounces=self._max_bounces,
+                                colour_method=self.colour_method)
+            slot = self._slots[scale] = _Slot(renderer, self._version, self._material_version)
+        elif slot.version != self._version:
+            start = time.perf_counter()
+            slot.renderer.update(self.scene, self.mode, self.colour_method)
+            seconds = time.perf_counter() - start
+            if slot.material_version != self._material_version:
+                self.budgets.update_ms = 1e3 * seconds
+                self.budgets.table_ms = 1e3 * slot.renderer.table_seconds
+            slot.version, slot.material_version = self._version, self._material_version
+        self._last_slot = slot
+        return slot
+
+    def _show(self, slot: _Slot, image: np.ndarray, scale: int) -> np.ndarray:
+        pixels = display_transform(image, self.exposure)
+        if scale > 1:
+            width, height = self.size
+            pixels = np.repeat(np.repeat(pixels, scale, axis=0), scale, axis=1)[:height, :width]
+        self._last_slot = slot
+        self.last_frame = pixels
+        return pixels
+
+    def _measure(self, preview: bool, scale: int, seconds: float, pixels: int) -> None:
+        previous = self._frame_seconds.get(preview)
+        average = seconds if previous is None else (
+            (1.0 - _SMOOTHING) * previous + _SMOOTHING * seconds)
+        self._frame_seconds[preview] = average
+        per_pixel = seconds / pixels
+        self._pixel_seconds = per_pixel if self._pixel_seconds is None else (
+            (1.0 - _SMOOTHING) * self._pixel_seconds + _SMOOTHING * per_pixel)
+        if preview:
+            self.budgets.preview_fps = 1.0 / average
+            self.budgets.preview_scale = scale
+        else:
+            self.budgets.fps = 1.0 / average
