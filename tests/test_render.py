@@ -462,3 +462,22 @@ def test_colour_method_selects_the_layer_colours(device):
     assert close < far and far > 0.0
     with pytest.raises(ValueError, match="colour_method"):
         Renderer(scene, size=(4, 4), colour_method="fourier")
+
+
+def test_interior_nodes_carry_the_axis_that_orders_their_children():
+    from wgbragg.bvh import build_bvh
+    from wgbragg.meshes import sphere_mesh
+
+    mesh = sphere_mesh(2)
+    bvh = build_bvh(mesh.vertices, mesh.faces)
+    counts = render_module._node_counts(bvh)
+    interior = bvh.node_count == 0
+    np.testing.assert_array_equal(counts[~interior], bvh.node_count[~interior])
+    assert np.all(counts[interior] & render_module._INTERIOR)
+    left = bvh.node_left[interior]
+    centre = bvh.node_min + bvh.node_max
+    delta = centre[left + 1] - centre[left]
+    axis = (counts[interior] >> 1) & 3
+    np.testing.assert_array_equal(axis, np.argmax(np.abs(delta), axis=1))
+    np.testing.assert_array_equal(counts[interior] & 1,
+                                  delta[np.arange(len(delta)), axis] < 0.0)

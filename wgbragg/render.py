@@ -93,6 +93,7 @@ PATHS_PER_DISPATCH = 65536
 """Paths a submission of :meth:`Renderer.render` traces at least, whatever the image size."""
 _SECONDS_BAR = "{desc}: {n:.1f}/{total:.1f} s |{bar}| {postfix}"
 _STACK_SIZE = 64  # STACK_SIZE of render_scene.wgsl
+_INTERIOR = 0x40000000  # INTERIOR of render_scene.wgsl
 
 _CAMERA_FIELDS = [
     ("origin", "vec3<f32>"), ("width_f", "f32"), ("forward", "vec3<f32>"), ("height_f", "f32"),
@@ -301,6 +302,19 @@ def _environment(env, params) -> None:
                                 math.cos(el) * math.cos(az))
 
 
+def _node_counts(bvh) -> np.ndarray:
+    """``BvhNode.count`` of render_scene.wgsl: a leaf's face count, or for an interior node
+    INTERIOR with the axis and side that order its children for a ray."""
+    interior = bvh.node_count == 0
+    left = np.where(interior, bvh.node_left, 0)
+    centre = bvh.node_min + bvh.node_max
+    delta = centre[np.minimum(left + 1, len(centre) - 1)] - centre[left]
+    axis = np.argmax(np.abs(delta), axis=1)
+    negative = delta[np.arange(len(delta)), axis] < 0.0
+    code = _INTERIOR | (axis.astype(np.uint32) << 1) | negative.astype(np.uint32)
+    return np.where(interior, code, bvh.node_count).astype(np.uint32)
+
+
 def _light_counts(scene: Scene) -> tuple[int, int]:
     return (sum(isinstance(light, PointLight) for light in scene.lights),
             sum(isinstance(light, AreaLight) for light in scene.lights))
@@ -453,7 +467,8 @@ class Renderer:
         self.bvh = bvh
         self.triangles = len(faces)
         nodes = np.zeros(bvh.node_total, _NODE_DTYPE)
-        nodes["lo"], nodes["hi"], nodes["count"] = bvh.node_min, bvh.node_max, bvh.node_count
+        nodes["lo"], nodes["hi"] = bvh.node_min, bvh.node_max
+        nodes["count"] = _node_counts(bvh)
         nodes["left_or_first"] = np.where(bvh.node_count > 0, bvh.node_first, bvh.node_left)
         inputs = [
             gpu.DeviceArray.upload(np.column_stack([vertices, uv[:, 0]]).astype(np.float32)),

@@ -13,6 +13,11 @@
 // Traversal stack slots: bvh.BVH.depth + 1 slots suffice; render.py refuses deeper trees.
 const STACK_SIZE: u32 = 64u;
 // A leaf stores its first face where an inner node stores its left child.
+// BvhNode.count of an interior node: this bit, the axis along which its right child's centre
+// lies farthest from its left child's (bits 1-2), and whether the right child lies on the
+// negative side (bit 0). A leaf's count is its number of faces.
+const INTERIOR: u32 = 0x40000000u;
+
 struct BvhNode {
     lo: vec3<f32>,
     left_or_first: u32,
@@ -124,7 +129,7 @@ fn trace(origin: vec3<f32>, direction: vec3<f32>, t_max: f32, any_hit: bool) -> 
         if (span.x > span.y || span.y < 0.0 || span.x >= best.t) {
             continue;
         }
-        if (node.count > 0u) {
+        if (node.count < INTERIOR) {
             for (var k = 0u; k < node.count; k++) {
                 let face = node.left_or_first + k;
                 let h = triangle_hit(origin, direction, face);
@@ -138,10 +143,10 @@ fn trace(origin: vec3<f32>, direction: vec3<f32>, t_max: f32, any_hit: bool) -> 
             continue;
         }
         let left = node.left_or_first;
-        let a = nodes[left];
-        let b = nodes[left + 1u];
-        // The nearer child is popped first, so that its hits prune the other.
-        let right_first = dot(direction, (b.lo + b.hi) - (a.lo + a.hi)) < 0.0;
+        // The nearer child is popped first, so that its hits prune the other: the right one
+        // when the ray runs against the axis along which the children's centres part most.
+        let axis = (node.count >> 1u) & 3u;
+        let right_first = (direction[axis] < 0.0) != ((node.count & 1u) == 1u);
         stack[top] = select(left, left + 1u, !right_first);
         stack[top + 1u] = select(left + 1u, left, !right_first);
         top += 2u;
