@@ -92,7 +92,7 @@ MAX_BOUNCES = 8
 PATHS_PER_DISPATCH = 65536
 """Paths a submission of :meth:`Renderer.render` traces at least, whatever the image size."""
 _SECONDS_BAR = "{desc}: {n:.1f}/{total:.1f} s |{bar}| {postfix}"
-_STACK_SIZE = 64  # STACK_SIZE of render_scene.wgsl
+_STACK_SIZE = 32  # STACK_SIZE of render_scene.wgsl
 _INTERIOR = 0x40000000  # INTERIOR of render_scene.wgsl
 
 _CAMERA_FIELDS = [
