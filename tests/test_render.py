@@ -481,3 +481,15 @@ def test_interior_nodes_carry_the_axis_that_orders_their_children():
     np.testing.assert_array_equal(axis, np.argmax(np.abs(delta), axis=1))
     np.testing.assert_array_equal(counts[interior] & 1,
                                   delta[np.arange(len(delta)), axis] < 0.0)
+
+
+@pytest.mark.parametrize("name", ["fig7", "furnace"])
+def test_a_convex_object_alone_needs_no_secondary_rays(device, monkeypatch, name):
+    # The specialisation skips shadow and bounce traces that could only miss: same image.
+    scene = load_preset(name)
+    assert render_module._convex_alone(scene)
+    fast = Renderer(scene, size=(12, 12), seed=6).render(16)
+    monkeypatch.setattr(render_module, "_convex_alone", lambda scene: False)
+    traced = Renderer(scene, size=(12, 12), seed=6).render(16)
+    np.testing.assert_allclose(fast, traced, rtol=1e-6, atol=1e-7)
+    assert not render_module._convex_alone(load_preset("teapot"))

@@ -315,6 +315,12 @@ def _node_counts(bvh) -> np.ndarray:
     return np.where(interior, code, bvh.node_count).astype(np.uint32)
 
 
+def _convex_alone(scene: Scene) -> bool:
+    """Whether the scene is a single convex object (a built-in sphere or plane, under any
+    scale and rotation, which keep it convex): paths then need no shadow or bounce rays."""
+    return len(scene.objects) == 1 and scene.objects[0].shape in ("sphere", "plane")
+
+
 def _light_counts(scene: Scene) -> tuple[int, int]:
     return (sum(isinstance(light, PointLight) for light in scene.lights),
             sum(isinstance(light, AreaLight) for light in scene.lights))
@@ -444,6 +450,7 @@ class Renderer:
         self.scene, self.mode, self.environment_map = scene, mode, environment_map
         self.colour_method = colour_method
         self._inputs = [*self._geometry_inputs[:4], *inputs]
+        constants["CONVEX_ALONE"] = _convex_alone(scene)
         self._constants = constants
         self._kernel = gpu.compute_pipeline("render.wgsl", "render", constants)
         self._params = self._make_params()

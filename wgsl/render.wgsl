@@ -32,6 +32,9 @@ override ROULETTE_FROM: u32 = 3u;
 override LAYERED: bool = false;
 // Hero-wavelength transport: layered materials by their spectral model.
 override SPECTRAL: bool = false;
+// The scene is one convex object: a ray leaving its surface (above the face it leaves) meets
+// nothing but the environment, so only camera rays are traced.
+override CONVEX_ALONE: bool = false;
 // The environment is an equirectangular image (environment_texels), not procedural.
 override ENVIRONMENT_MAP: bool = false;
 
@@ -222,6 +225,10 @@ fn power_heuristic(a: f32, b: f32) -> f32 {
 }
 
 fn unoccluded(origin: vec3<f32>, direction: vec3<f32>, distance: f32) -> bool {
+    // Rays leave surfaces only above their face: a convex object cannot stand in the way.
+    if (CONVEX_ALONE) {
+        return true;
+    }
     return trace(origin, direction, distance, true).face < 0;
 }
 
@@ -285,7 +292,10 @@ fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u3
     var specular = true;
     var last_pdf = 0.0;
     for (var depth = 0u; depth <= MAX_BOUNCES; depth++) {
-        let hit = trace(origin, d, FAR, false);
+        var hit = Hit(FAR, -1, 0.0, 0.0);
+        if (!CONVEX_ALONE || depth == 0u) {
+            hit = trace(origin, d, FAR, false);
+        }
         if (hit.face < 0) {
             var weight = 1.0;
             if (!specular) {
