@@ -8,8 +8,8 @@ An environment is light arriving from infinitely far away, a function of the uni
 - ``"sky"`` and ``"studio"``: for ``d_y >= 0`` a gradient from the horizon colour to the
   zenith colour by ``sqrt(d_y)``, the ground colour below, and a disc source (the sun, the
   studio's key light) whose radiance is added within its angular radius; every radiance is
-  the palette's times ``intensity``. The palettes are :mod:`wgbragg.render`'s ``_PALETTES``,
-  read here so that the twin cannot drift from what the renderer uploads.
+  the palette's times ``intensity`` (:data:`PALETTES`). The renderer uploads these very
+  parameters (:meth:`ProceduralEnvironment.from_scene`), so the twin cannot drift from it.
 
 Radiance is in the scene's relative units per linear sRGB channel (a uniform environment of
 radiance 1 around a white Lambertian object makes it appear with radiance 1); angles are in
@@ -24,10 +24,16 @@ import math
 
 import numpy as np
 
-from .render import _PALETTES
 from .scene import Environment
 
-__all__ = ["PROCEDURAL_TYPES", "ProceduralEnvironment", "environment_radiance"]
+__all__ = ["PALETTES", "PROCEDURAL_TYPES", "ProceduralEnvironment", "environment_radiance"]
+
+PALETTES = {
+    "sky": ((0.25, 0.45, 0.9), (0.9, 0.95, 1.0), (0.1, 0.1, 0.1), 80.0, 2.5, 50.0, 30.0),
+    "studio": ((0.6, 0.6, 0.6), (0.35, 0.35, 0.35), (0.03, 0.03, 0.03), 6.0, 15.0, 45.0, -45.0),
+}
+"""Per type: zenith, horizon and ground colours, disc radiance, disc radius (deg), disc
+elevation (deg) and azimuth (deg, from +z towards +x)."""
 
 PROCEDURAL_TYPES = ("uniform", "sky", "studio")
 """``Environment.type`` values this module evaluates."""
@@ -61,7 +67,7 @@ class ProceduralEnvironment:
 
     @classmethod
     def from_scene(cls, environment: Environment) -> ProceduralEnvironment:
-        """The parameters of a scene's procedural environment, as ``render._environment``.
+        """The parameters of a scene's procedural environment, as the renderer uploads them.
 
         Parameters
         ----------
@@ -89,7 +95,7 @@ class ProceduralEnvironment:
             radiance = np.asarray(environment.radiance, np.float64)
             return cls(radiance, radiance, radiance, zeros, 1.0, zeros)
         zenith, horizon, ground, disc, radius_deg, elevation_deg, azimuth_deg = (
-            _PALETTES[environment.type])
+            PALETTES[environment.type])
         scale = float(environment.intensity)
         elevation, azimuth = math.radians(elevation_deg), math.radians(azimuth_deg)
         # Azimuth from +z towards +x, elevation from the horizon towards +y.

@@ -75,6 +75,7 @@ from .layered_gpu import _VISIBLE_NODES, FACTORED_COLOUR_METHODS, LAYER_DTYPE, _
 from .layered_simulation import _inverse_cdf
 from .meshes import load_mesh, plane_mesh, sphere_mesh, utah_teapot
 from .parameter_maps import pack_maps
+from .procedural_environment import ProceduralEnvironment
 from .scene import (
     MODES,
     AreaLight,
@@ -123,11 +124,6 @@ _STRUCTURE_DTYPE = gpu.struct_dtype([
     ("base_spectrum", "u32"), ("lut_rows", "u32"), ("lut_rows_per_radian", "f32"),
 ])
 
-# (zenith, horizon, ground, disc radiance, disc radius deg, disc elevation deg, azimuth deg)
-_PALETTES = {
-    "sky": ((0.25, 0.45, 0.9), (0.9, 0.95, 1.0), (0.1, 0.1, 0.1), 80.0, 2.5, 50.0, 30.0),
-    "studio": ((0.6, 0.6, 0.6), (0.35, 0.35, 0.35), (0.03, 0.03, 0.03), 6.0, 15.0, 45.0, -45.0),
-}
 # Share of environment samples aimed at the disc when there is one.
 _DISC_PROBABILITY = 0.5
 
@@ -282,24 +278,13 @@ def _spectra() -> np.ndarray:
 
 
 def _environment(env, params) -> None:
+    """Fill the uniform's Environment from the float64 twin's parameters."""
     if env.type == "exr":
         return
-    if env.type == "uniform":
-        for name in ("zenith", "horizon", "ground"):
-            params[name] = env.radiance
-        params["disc_cos"] = 1.0
-        return
-    zenith, horizon, ground, disc, radius, elevation, azimuth = _PALETTES[env.type]
-    scale = env.intensity
-    params["zenith"] = np.multiply(zenith, scale)
-    params["horizon"] = np.multiply(horizon, scale)
-    params["ground"] = np.multiply(ground, scale)
-    params["disc_radiance"] = (disc * scale,) * 3
-    params["disc_cos"] = math.cos(math.radians(radius))
-    params["disc_probability"] = _DISC_PROBABILITY
-    el, az = math.radians(elevation), math.radians(azimuth)
-    params["disc_direction"] = (math.cos(el) * math.sin(az), math.sin(el),
-                                math.cos(el) * math.cos(az))
+    twin = ProceduralEnvironment.from_scene(env)
+    for name in ("zenith", "horizon", "ground", "disc_radiance", "disc_direction", "disc_cos"):
+        params[name] = getattr(twin, name)
+    params["disc_probability"] = _DISC_PROBABILITY if twin.has_disc else 0.0
 
 
 def _node_counts(bvh) -> np.ndarray:
