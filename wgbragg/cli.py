@@ -157,7 +157,7 @@ def _render(args) -> int:
     if args.spp is not None and args.seconds is not None:
         raise ValueError("give either --spp or --seconds, not both")
     scene = load_preset(args.scene) if args.scene else load_scene(args.scene_file)
-    renderer = Renderer(scene, size=args.size, mode=args.mode)
+    renderer = Renderer(scene, size=args.size, mode=args.mode, ibl=args.ibl)
     start = time.perf_counter()
     if args.seconds is not None:
         image = renderer.render(seconds=args.seconds, progress=args.progress)
@@ -171,7 +171,7 @@ def _render(args) -> int:
         write_exr(args.exr, image)
         written.append(str(args.exr))
     print(f"{', '.join(written)}: {renderer.width}x{renderer.height}, {renderer.mode}, "
-          f"{renderer.passes} spp in {seconds:.1f} s")
+          f"ibl {renderer.ibl}, {renderer.passes} spp in {seconds:.1f} s")
     return 0
 
 
@@ -247,6 +247,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="render for this long instead of a number of samples")
     render.add_argument("--mode", choices=("rgb", "spectral"), default=None,
                         help="light transport (default: the scene's settings.mode)")
+    render.add_argument("--ibl", choices=("monte-carlo", "split-sum", "kneiphof"), default=None,
+                        help="environment lighting: paths, or a filtered image-based lighting "
+                             "mode (default: the scene's settings.ibl)")
     render.add_argument("--exr", default=None,
                         help="also write the linear image to this OpenEXR file")
     render.add_argument("--no-progress", dest="progress", action="store_false",

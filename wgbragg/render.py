@@ -43,6 +43,24 @@ and absorbing bases are Lambertian with albedo 0, which leaves each model unchan
 peak's factored colour may lie outside the sRGB gamut, so pixels of layered materials can have
 slightly negative channels (kept in the linear image, clipped by the display transform).
 
+Thin films (``type = "thin-film"``): GGX microfacets each coated by a film over a dielectric or
+metal base (Belcour & Barla 2017, :class:`wgbragg.rough_thin_film.RoughThinFilm`), the
+microfacet's reflectance being the film's Fourier-series colour (``"fourier-table"``, order 3,
+:mod:`wgbragg.thin_film_colour`) in RGB mode and its Airy reflectance at the hero wavelengths in
+spectral mode; a ``thickness_map`` varies the thickness over the surface.
+
+Image-based lighting (``ibl=``, ``settings.ibl``): ``"monte-carlo"`` is the path tracer above,
+the reference. ``"split-sum"`` and ``"kneiphof"`` shade each camera hit once, RGB mode only,
+from an environment prefiltered per roughness (:mod:`wgbragg.environment_prefilter`) times
+the microfacet albedo ``E(cos_v)`` times a reflectance term (:mod:`wgbragg.ibl`): the
+reflectance at the ideal reflection direction (Belcour & Barla's real-time approach), or
+Kneiphof et al.'s (2019) filtered reflectance, from the prefiltered mean and covariance of the
+light directions; for a Bragg layer our analogue, the colour averaged over the spread of
+microfacet incidence angles. These modes trace no shadow or bounce rays (as real-time IBL
+does), take thin films, single Bragg layers over an absorbing base in air, and Lambertian
+materials (lit by the cosine-prefiltered environment); point and area lights still add their
+direct light.
+
 Period and delta maps (``period_map``, ``delta_map``, :mod:`wgbragg.parameter_maps`) vary a
 layer's mirror per shading point. The scene's pipeline then computes mirror reflectances in
 the kernel instead of reading LUTs: Yeh's formula at the hero wavelengths, or the "averaged"
@@ -77,11 +95,28 @@ from .meshes import load_mesh, plane_mesh, sphere_mesh, utah_teapot
 from .parameter_maps import pack_maps
 from .procedural_environment import ProceduralEnvironment
 from .scene import (
+    IBL_MODES,
     MODES,
     AreaLight,
     LambertianMaterial,
+    LayeredBraggMaterial,
     PointLight,
     Scene,
+    ThinFilmMaterial,
+)
+from .thin_film_colour import (
+    DEFAULT_ORDER,
+    PREFILTER_STEP_NM,
+    TABLE_STEP_NM,
+    evanescent_nodes,
+    fourier_windows,
+)
+from .thin_film_colour_gpu import PARAMS_FIELDS as _FILM_COLOUR_FIELDS
+from .thin_film_colour_gpu import (
+    _evanescent_buffer,
+    _placeholder_texture,
+    _table_texture,
+    _windows_buffer,
 )
 
 __all__ = ["MAX_BOUNCES", "PARAMS_DTYPE", "PATHS_PER_DISPATCH", "Renderer",
@@ -118,11 +153,19 @@ _NODE_DTYPE = gpu.struct_dtype([("lo", "vec3<f32>"), ("left_or_first", "u32"),
                                 ("hi", "vec3<f32>"), ("count", "u32")])
 _MATERIAL_DTYPE = gpu.struct_dtype([("albedo", "vec3<f32>"), ("kind", "u32"),
                                     ("structure", "u32"), ("period_map", "u32"),
-                                    ("delta_map", "u32")])
+                                    ("delta_map", "u32"), ("ibl_level", "u32")])
 _STRUCTURE_DTYPE = gpu.struct_dtype([
     ("base_rgb", "vec3<f32>"), ("host", "f32"), ("base_mean", "f32"), ("first_layer", "u32"),
     ("base_spectrum", "u32"), ("lut_rows", "u32"), ("lut_rows_per_radian", "f32"),
 ])
+
+# FilmMaterial of render.wgsl: its FilmColourParams (96 bytes) flattened, then its own fields.
+_FILM_DTYPE = gpu.struct_dtype([
+    *_FILM_COLOUR_FIELDS,
+    ("alpha", "f32"), ("thickness_map", "u32"), ("first_base", "u32"), ("_pad", "u32"),
+])
+# Rows of a film's base index in film_base: every 10 nm over 360..830 nm.
+_FILM_BASE_NM = np.arange(360.0, 831.0, 10.0)
 
 # Share of environment samples aimed at the disc when there is one.
 _DISC_PROBABILITY = 0.5
@@ -264,6 +307,76 @@ def _layered_buffers(structures: list, spectral: bool, colour_method: str, lut: 
     return heads, np.concatenate(records), np.concatenate(tables), constants
 
 
+def _film_buffers(films: list, prefiltered: bool):
+    """``films``, ``fourier_windows``, ``evanescent_nodes``, ``film_table`` and ``film_base``
+    of render.wgsl for the scene's thin-film materials (``films``: (ThinFilmMaterial, map
+    index) pairs). The films share one kind of window: the metals' (a cubic spline in
+    wavelength) as soon as one film lies on a metal, which a constant base index also fits."""
+    dispersive = any(material.base is not None for material, _ in films)
+    windows = fourier_windows("fourier-table", dispersive, prefiltered)
+    nodes = evanescent_nodes("fourier-table")[0].size
+    records = np.zeros(len(films), _FILM_DTYPE)
+    window_rows, node_rows, base_rows = [], [], []
+    srgb = colorimetry.xyz_to_linear_srgb(np.eye(3)).T
+    for k, (material, thickness_map) in enumerate(films):
+        film = material.to_film()
+        record = records[k]
+        record["host"], record["n_film"], record["d_nm"] = 1.0, film.n_film, film.d
+        record["order"], record["windows"], record["nodes"] = DEFAULT_ORDER, windows.count, nodes
+        record["levels"], _, record["samples"], _ = windows.envelope.shape
+        record["step_nm"], record["level_step_nm"] = TABLE_STEP_NM, PREFILTER_STEP_NM
+        record["film"] = k
+        for row in range(3):
+            record[f"adapt{row}"][:3] = srgb[row]
+        record["alpha"] = material.alpha
+        record["thickness_map"] = thickness_map
+        record["first_base"] = k * _FILM_BASE_NM.size
+        window_rows.append(_windows_buffer(film, windows))
+        node_rows.append(_evanescent_buffer(film, "fourier-table"))
+        index = film.base_index(_FILM_BASE_NM)
+        base_rows.append(_vec4(np.column_stack([index.real, index.imag, 0.0 * index.real])))
+    return [records, np.concatenate(window_rows), np.concatenate(node_rows),
+            _table_texture(dispersive, prefiltered), np.concatenate(base_rows)]
+
+
+def _no_films() -> list:
+    """Placeholders for the film bindings of a scene without thin films."""
+    return [np.zeros(1, _FILM_DTYPE), np.zeros((1, 12), np.float32),
+            np.zeros((1, 8), np.float32), _placeholder_texture(), np.zeros((1, 4), np.float32)]
+
+
+_IBL_CODES = {"monte-carlo": 0, "split-sum": 1, "kneiphof": 2}
+_IBL_ALBEDO_NODES = 64  # IBL_ALBEDO_NODES of render.wgsl
+
+
+def _ibl_levels(scene: Scene, ibl: str, mode: str) -> tuple[list, list]:
+    """The prefiltered levels a filtered IBL mode needs (each material's roughness, "cosine"
+    for Lambertian ones; each once) and every material's level, in the scene's order."""
+    if mode != "rgb":
+        raise ValueError(f"ibl={ibl!r} shades in linear sRGB: use mode='rgb' (the spectral "
+                         "transport is for ibl='monte-carlo')")
+    levels, of_material = [], []
+    for name, material in scene.materials.items():
+        if isinstance(material, LambertianMaterial):
+            level = "cosine"
+        elif isinstance(material, ThinFilmMaterial):
+            level = material.alpha
+        else:
+            layer = material.layers[0]
+            if (len(material.layers) != 1 or material.base_albedo is not None
+                    or layer.n1 != 1.0 or layer.host not in (None, 1.0)):
+                raise ValueError(
+                    f"materials.{name}: ibl={ibl!r} shades microfacet materials: a layered "
+                    "material must be a single layer over an absorbing base in air (n1 = 1, "
+                    f"no base_albedo), got {len(material.layers)} layer(s), n1 = {layer.n1}, "
+                    f"base_albedo = {material.base_albedo!r}; use ibl='monte-carlo'")
+            level = layer.alpha
+        if level not in levels:
+            levels.append(level)
+        of_material.append(levels.index(level))
+    return levels, of_material
+
+
 def _spectra() -> np.ndarray:
     """The ``spectra`` buffer of render.wgsl's spectral mode, rows of vec4 on the 1 nm grid
     360..830 nm: Mallett and Yuksel's basis spectra (r, g, b, 0); then the linear sRGB
@@ -370,7 +483,7 @@ class Renderer:
 
     def __init__(self, scene: Scene, size: tuple[int, int] | None = None, seed: int = 0,
                  mode: str | None = None, max_bounces: int = MAX_BOUNCES,
-                 colour_method: str = "averaged"):
+                 colour_method: str = "averaged", ibl: str | None = None):
         width, height = scene.settings.size if size is None else size
         mode = scene.settings.mode if mode is None else mode
         if mode not in MODES:
@@ -393,11 +506,12 @@ class Renderer:
         # id -> (material, its LayeredBragg): a material left unchanged by update() keeps its
         # structure, and with it the tables cached there, so only edited materials re-bake.
         self._structures = {}
+        self._prefiltered = (None, None)
         self.colour_method = colour_method
-        self.update(scene, mode, colour_method)
+        self.update(scene, mode, colour_method, ibl)
 
     def update(self, scene: Scene, mode: str | None = None,
-               colour_method: str | None = None) -> None:
+               colour_method: str | None = None, ibl: str | None = None) -> None:
         """Show another version of the scene, and restart the accumulation.
 
         What an interactive editor needs: materials, lights, environment, camera and mode
@@ -412,6 +526,8 @@ class Renderer:
             The scene's ``settings.mode`` by default.
         colour_method : str, optional
             As the constructor's; by default the current one.
+        ibl : {"monte-carlo", "split-sum", "kneiphof"}, optional
+            The scene's ``settings.ibl`` by default.
 
         Raises
         ------
@@ -425,15 +541,18 @@ class Renderer:
         if colour_method not in COLOUR_METHODS:
             raise ValueError(f"colour_method must be one of {tuple(COLOUR_METHODS)}, got "
                              f"{colour_method!r}")
+        ibl = scene.settings.ibl if ibl is None else ibl
+        if ibl not in IBL_MODES:
+            raise ValueError(f"ibl must be one of {IBL_MODES}, got {ibl!r}")
         geometry_key = (scene.objects, tuple(scene.materials))
-        shading = self._shading(scene, mode, colour_method)
+        shading = self._shading(scene, mode, colour_method, ibl)
         if geometry_key != self._geometry_of:
             geometry = self._geometry(scene)
             self._geometry_of = geometry_key
             self._geometry_inputs, self._extent = geometry
         inputs, constants, environment_map, self._structures, self.table_seconds = shading
         self.scene, self.mode, self.environment_map = scene, mode, environment_map
-        self.colour_method = colour_method
+        self.colour_method, self.ibl = colour_method, ibl
         self._inputs = [*self._geometry_inputs[:4], *inputs]
         constants["CONVEX_ALONE"] = _convex_alone(scene)
         self._constants = constants
@@ -470,19 +589,31 @@ class Renderer:
         ]
         return inputs, float(np.ptp(vertices, axis=0).max())
 
-    def _shading(self, scene: Scene, mode: str, colour_method: str):
+    def _shading(self, scene: Scene, mode: str, colour_method: str, ibl: str):
         """Buffers after the geometry's, the pipeline's constants, the EXR environment, the
         layered materials' structures by id, and the time their tables took."""
         spectral = mode == "spectral"
+        filtered = ibl != "monte-carlo"
+        levels, material_levels = _ibl_levels(scene, ibl, mode) if filtered else ([], [])
         names = list(scene.materials)
         materials = np.zeros(len(names), _MATERIAL_DTYPE)
-        structures, kept = [], {}
+        if filtered:
+            materials["ibl_level"] = material_levels
+        structures, kept, films = [], {}, []
         # Record 0: no map (period 0 tells the kernel to keep the layers' own).
         maps, constant_values = [None], [0.0]
         for k, name in enumerate(names):
             material = scene.materials[name]
             if isinstance(material, LambertianMaterial):
                 materials[k]["albedo"] = _rgb(material.albedo)
+                continue
+            if isinstance(material, ThinFilmMaterial):
+                materials[k]["kind"] = 2
+                materials[k]["structure"] = len(films)
+                films.append((material, 0 if material.thickness_map is None else len(maps)))
+                if material.thickness_map is not None:
+                    maps.append(material.thickness_map)
+                    constant_values.append(material.thickness_nm)
                 continue
             materials[k]["kind"] = 1
             materials[k]["structure"] = len(structures)
@@ -499,7 +630,9 @@ class Renderer:
                 materials[k][field] = len(maps)
                 maps.append(pmap)
                 constant_values.append(own)
-        varying = len(maps) > 1
+        film_maps = any(index for _, index in films)
+        varying = any(m.period_map is not None or m.delta_map is not None
+                      for m in scene.materials.values() if isinstance(m, LayeredBraggMaterial))
         map_records, map_texels = pack_maps(maps)
         for k, (pmap, value) in enumerate(zip(maps, constant_values, strict=True)):
             if pmap is None:
@@ -513,7 +646,9 @@ class Renderer:
             environment_texels = environment_map.packed()
         constants = {"WORKGROUP_SIZE": WORKGROUP_SIZE, "MAX_BOUNCES": self._max_bounces,
                      "LAYERED": bool(structures), "SPECTRAL": spectral,
-                     "ENVIRONMENT_MAP": environment_map is not None}
+                     "ENVIRONMENT_MAP": environment_map is not None,
+                     "THIN_FILMS": bool(films), "FILM_MAPS": film_maps,
+                     "FILM_PREFILTERED": ibl == "kneiphof", "IBL": _IBL_CODES[ibl]}
         if structures:
             if varying and not spectral and colour_method not in FACTORED_COLOUR_METHODS:
                 raise ValueError(
@@ -542,8 +677,35 @@ class Renderer:
             gpu.DeviceArray.upload(environment_texels),
             gpu.DeviceArray.upload(map_records),
             gpu.DeviceArray.upload(map_texels),
+            *(array if isinstance(array, gpu.DeviceArray) else gpu.DeviceArray.upload(array)
+              for array in (_film_buffers(films, ibl == "kneiphof") if films else _no_films())),
+            *self._prefiltered_buffers(scene, environment_map, levels),
         ]
         return inputs, constants, environment_map, kept, table_seconds
+
+    def _prefiltered_buffers(self, scene: Scene, environment_map, levels: list) -> list:
+        """``prefiltered_levels``, ``prefiltered_texels`` and ``ibl_albedo`` of render.wgsl,
+        kept across updates that leave the environment and the levels as they were."""
+        if not levels:
+            return [gpu.DeviceArray.upload(np.zeros((1, 4), np.uint32)),
+                    gpu.DeviceArray.upload(np.zeros((1, 4), np.float32)),
+                    gpu.DeviceArray.upload(np.zeros(1, np.float32))]
+        key = (scene.environment, tuple(levels))
+        known, buffers = self._prefiltered
+        if known != key:
+            from .environment_prefilter import prefilter_environment
+            from .ibl import microfacet_albedo_table
+
+            source = environment_map if environment_map is not None else (
+                ProceduralEnvironment.from_scene(scene.environment))
+            records, texels = prefilter_environment(source, levels).packed()
+            albedo = np.concatenate([
+                np.zeros(_IBL_ALBEDO_NODES) if level == "cosine"
+                else microfacet_albedo_table(level, _IBL_ALBEDO_NODES) for level in levels])
+            buffers = [gpu.DeviceArray.upload(records), gpu.DeviceArray.upload(texels),
+                       gpu.DeviceArray.upload(albedo.astype(np.float32))]
+            self._prefiltered = (key, buffers)
+        return buffers
 
     @property
     def gpu_bytes(self) -> int:

@@ -18,6 +18,7 @@ Example::
     spp = 64                 # samples per pixel
     mode = "rgb"             # or "spectral"
     exposure = 0.0           # EV stops: pixel values are scaled by 2**exposure
+    ibl = "monte-carlo"      # or "split-sum", "kneiphof": filtered image-based lighting
 
     [camera]
     position = [0.0, 1.0, 4.0]
@@ -39,6 +40,13 @@ Example::
     d2_nm = 250.0
     N = 10
     alpha = 0.1
+
+    [materials.soap]
+    type = "thin-film"       # GGX microfacets coated by a film (Belcour & Barla 2017)
+    n_film = 1.33
+    thickness_nm = 450.0     # or thickness_map = { procedural = "noise", range = [200.0, 700.0] }
+    base = "Au"              # a bundled metal, or n_base = 1.5 and k_base = 0.0 (default: air)
+    alpha = 0.2
 
     [[objects]]
     shape = "sphere"         # "mesh" (with path), "sphere", "plane", "teapot"
@@ -68,15 +76,17 @@ from collections.abc import Callable, Mapping
 from importlib import resources
 from pathlib import Path
 
-from ._validation import check_count, check_index, check_thickness
+from ._validation import check_count, check_extinction, check_index, check_thickness
 from .layered import LayeredBragg
-from .materials import BraggMirror
+from .materials import BraggMirror, ThinFilm
+from .metals import METALS
 from .meshes import MESH_SUFFIXES
 from .rough_layer import RoughBraggLayer
 from .transmission_filter import check_filter_alpha
 
 __all__ = [
     "ENVIRONMENT_TYPES",
+    "IBL_MODES",
     "MESH_SUFFIXES",
     "MODES",
     "PRESETS",
@@ -94,11 +104,12 @@ __all__ = [
     "Scene",
     "SceneObject",
     "Settings",
+    "ThinFilmMaterial",
     "load_preset",
     "load_scene",
 ]
 
-PRESETS = ("furnace", "teapot", "fig7", "fig10", "fig11", "fig12")
+PRESETS = ("furnace", "teapot", "fig7", "fig10", "fig11", "fig12", "thin_film")
 """Names of the built-in scenes (:func:`load_preset`)."""
 
 SHAPES = ("mesh", "sphere", "plane", "teapot")
@@ -119,10 +130,16 @@ ENVIRONMENT_TYPES = ("uniform", "sky", "studio", "exr")
 MODES = ("rgb", "spectral")
 """``settings.mode``: linear sRGB transport, or wavelengths sampled per path."""
 
+IBL_MODES = ("monte-carlo", "split-sum", "kneiphof")
+"""``settings.ibl``: how the environment lights surfaces. ``"monte-carlo"`` traces paths (the
+reference); the others shade camera hits from prefiltered environments (:mod:`wgbragg.ibl`):
+Belcour and Barla's reflectance at the ideal reflection direction, or Kneiphof et al.'s filtered
+reflectance (for Bragg layers, its analogue)."""
+
 MAX_IMAGE_SIDE = 16384
 """Largest image width or height in pixels (the largest 2D texture a wgpu device must offer)."""
 
-_MATERIAL_TYPES = ("layered-bragg", "lambertian")
+_MATERIAL_TYPES = ("layered-bragg", "lambertian", "thin-film")
 _LIGHT_TYPES = ("point", "area")
 
 
@@ -319,6 +336,42 @@ class LayeredBraggMaterial:
 
 
 @dataclasses.dataclass(frozen=True)
+class ThinFilmMaterial:
+    """GGX microfacets, each coated by a thin film (Belcour & Barla 2017): the BRDF of
+    :class:`wgbragg.rough_thin_film.RoughThinFilm`, in air.
+
+    Parameters
+    ----------
+    n_film : float
+        Real index of the film (> 0).
+    thickness_nm : float
+        Film thickness in nm (>= 0); with a ``thickness_map``, the map's value replaces it.
+    alpha : float
+        GGX roughness in [0.01, 1].
+    n_base, k_base : float
+        Index and extinction coefficient of a base of constant index (1 and 0 by default: a
+        free-standing film such as a soap bubble).
+    base : str or None
+        A bundled metal (:data:`wgbragg.metals.METALS`) instead of ``n_base, k_base``.
+    thickness_map : ParameterMap or None
+        The thickness (nm) over the surface.
+    """
+
+    n_film: float
+    thickness_nm: float
+    alpha: float
+    n_base: float = 1.0
+    k_base: float = 0.0
+    base: str | None = None
+    thickness_map: ParameterMap | None = None
+
+    def to_film(self, thickness_nm: float | None = None) -> ThinFilm:
+        """The :class:`wgbragg.ThinFilm`, of the given thickness (nm) or the material's own."""
+        d = self.thickness_nm if thickness_nm is None else thickness_nm
+        return ThinFilm(self.n_film, d, self.n_base, self.k_base, base=self.base)
+
+
+@dataclasses.dataclass(frozen=True)
 class LambertianMaterial:
     """A Lambertian reflector.
 
@@ -404,12 +457,15 @@ class Settings:
         See :data:`MODES`.
     exposure : float
         In EV stops: pixel values are scaled by ``2**exposure`` before display.
+    ibl : {"monte-carlo", "split-sum", "kneiphof"}
+        See :data:`IBL_MODES`.
     """
 
     size: tuple[int, int] = (512, 512)
     spp: int = 64
     mode: str = "rgb"
     exposure: float = 0.0
+    ibl: str = "monte-carlo"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -421,7 +477,7 @@ class Scene:
     camera : Camera
     objects : tuple of SceneObject
         At least one.
-    materials : Mapping of str to LayeredBraggMaterial or LambertianMaterial
+    materials : Mapping of str to LayeredBraggMaterial, ThinFilmMaterial or LambertianMaterial
         Read-only, by name.
     lights : tuple of PointLight or AreaLight
         Possibly empty.
@@ -432,7 +488,7 @@ class Scene:
 
     camera: Camera
     objects: tuple[SceneObject, ...]
-    materials: Mapping[str, LayeredBraggMaterial | LambertianMaterial]
+    materials: Mapping[str, LayeredBraggMaterial | ThinFilmMaterial | LambertianMaterial]
     lights: tuple[PointLight | AreaLight, ...]
     environment: Environment
     settings: Settings
@@ -548,6 +604,8 @@ def _materials(ctx: _Context, value) -> dict:
         if kind == "lambertian":
             _keys(ctx, item, key, ("type", "albedo"))
             materials[name] = LambertianMaterial(_albedo(ctx, item["albedo"], f"{key}.albedo"))
+        elif kind == "thin-film":
+            materials[name] = _thin_film(ctx, item, key)
         else:
             materials[name] = _layered(ctx, item, key)
     return materials
@@ -573,6 +631,31 @@ def _layered(ctx: _Context, table: dict, key: str) -> LayeredBraggMaterial:
     except ValueError as error:
         raise ctx.error(f"{key}.layers", str(error)) from None
     return material
+
+
+def _thin_film(ctx: _Context, table: dict, key: str) -> ThinFilmMaterial:
+    _keys(ctx, table, key, ("type", "n_film", "alpha"),
+          ("thickness_nm", "thickness_map", "base", "n_base", "k_base"))
+    if ("thickness_nm" in table) == ("thickness_map" in table):
+        raise ctx.error(key, "give the film's thickness as thickness_nm or as thickness_map, "
+                             "not both or neither")
+    if "base" in table and {"n_base", "k_base"} & table.keys():
+        raise ctx.error(f"{key}.base", "a metal base replaces n_base and k_base: give one or "
+                                       "the other")
+    thickness_map = _map(ctx, table, f"{key}.thickness_map", "thickness_map", math.inf)
+    return ThinFilmMaterial(
+        n_film=_library(ctx, table["n_film"], f"{key}.n_film", check_index),
+        thickness_nm=(thickness_map.range[0] if thickness_map is not None else
+                      _library(ctx, table["thickness_nm"], f"{key}.thickness_nm",
+                               check_thickness)),
+        alpha=_library(ctx, table["alpha"], f"{key}.alpha",
+                       lambda _name, value: check_filter_alpha(value)),
+        n_base=_library(ctx, table.get("n_base", 1.0), f"{key}.n_base", check_index),
+        k_base=_library(ctx, table.get("k_base", 0.0), f"{key}.k_base", check_extinction),
+        base=None if "base" not in table else _choice(ctx, table["base"], f"{key}.base",
+                                                      tuple(METALS)),
+        thickness_map=thickness_map,
+    )
 
 
 def _layer(ctx: _Context, value, key: str) -> BraggLayerSpec:
@@ -724,7 +807,7 @@ def _environment(ctx: _Context, value) -> Environment:
 
 def _settings(ctx: _Context, value) -> Settings:
     table = _table(ctx, value, "settings")
-    _keys(ctx, table, "settings", (), ("size", "spp", "mode", "exposure"))
+    _keys(ctx, table, "settings", (), ("size", "spp", "mode", "exposure", "ibl"))
     size = _array(ctx, table.get("size", [512, 512]), "settings.size")
     if len(size) != 2:
         raise ctx.error("settings.size", f"must be [width, height], got {len(size)} values")
@@ -735,6 +818,7 @@ def _settings(ctx: _Context, value) -> Settings:
         mode=_choice(ctx, table.get("mode", "rgb"), "settings.mode", MODES),
         exposure=_real(ctx, table.get("exposure", 0.0), "settings.exposure", -math.inf,
                        math.inf, closed=(False, False)),
+        ibl=_choice(ctx, table.get("ibl", "monte-carlo"), "settings.ibl", IBL_MODES),
     )
 
 

@@ -30,18 +30,20 @@ from .thin_film_colour import (
     fourier_windows,
 )
 
-__all__ = ["PARAMS_DTYPE", "WORKGROUP_SIZE", "benchmark_xyz", "fourier_xyz"]
+__all__ = ["PARAMS_DTYPE", "PARAMS_FIELDS", "WORKGROUP_SIZE", "benchmark_xyz", "fourier_xyz"]
 
 # As colour_gpu: one invocation sums a whole colour, so small workgroups fill the device sooner.
 WORKGROUP_SIZE = 64
 
-PARAMS_DTYPE = gpu.struct_dtype([
+PARAMS_FIELDS = (
     ("host", "f32"), ("n_film", "f32"), ("d_nm", "f32"), ("sigma_nm", "f32"),
     ("order", "u32"), ("windows", "u32"), ("nodes", "u32"), ("samples", "u32"),
-    ("levels", "u32"), ("step_nm", "f32"), ("level_step_nm", "f32"), ("_pad", "f32"),
+    ("levels", "u32"), ("step_nm", "f32"), ("level_step_nm", "f32"), ("film", "u32"),
     ("adapt0", "vec4<f32>"), ("adapt1", "vec4<f32>"), ("adapt2", "vec4<f32>"),
-])
-"""Layout of ``FilmColourParams`` in ``wgsl/thin_film_colour.wgsl``."""
+)
+"""Fields and WGSL types of ``FilmColourParams`` in ``wgsl/thin_film_colour.wgsl``."""
+PARAMS_DTYPE = gpu.struct_dtype(PARAMS_FIELDS)
+"""Layout of ``FilmColourParams``."""
 
 
 @functools.cache

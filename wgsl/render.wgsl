@@ -20,9 +20,12 @@
 //! include "ggx.wgsl"
 //! include "layered.wgsl"
 //! include "layered_brdf.wgsl"
+//! include "airy.wgsl"
+//! include "thin_film_colour.wgsl"
 //! include "render_scene.wgsl"
 //! include "environment_map.wgsl"
 //! include "parameter_map.wgsl"
+//! include "prefiltered_environment.wgsl"
 
 // Bounces after the camera ray; the path ends at a hit beyond them.
 override MAX_BOUNCES: u32 = 8u;
@@ -37,17 +40,32 @@ override SPECTRAL: bool = false;
 override CONVEX_ALONE: bool = false;
 // The environment is an equirectangular image (environment_texels), not procedural.
 override ENVIRONMENT_MAP: bool = false;
+// The scene holds thin-film materials; FILM_MAPS: some of them vary their thickness over uv;
+// FILM_PREFILTERED: film_table has the prefiltering axis (filtered image-based lighting).
+override THIN_FILMS: bool = false;
+override FILM_MAPS: bool = false;
+override FILM_PREFILTERED: bool = false;
+// How the environment lights surfaces: IBL_MONTE_CARLO traces paths; the filtered modes shade
+// each camera hit once from prefiltered environments, without visibility or bounces (RGB mode,
+// microfacet materials: thin films, single Bragg layers over an absorbing base in air, and
+// Lambertian ones).
+override IBL: u32 = 0u;
+const IBL_MONTE_CARLO: u32 = 0u;
+const IBL_SPLIT_SUM: u32 = 1u;
+const IBL_KNEIPHOF: u32 = 2u;
 
 const MATERIAL_LAMBERTIAN: u32 = 0u;
 const MATERIAL_LAYERED: u32 = 1u;
+const MATERIAL_THIN_FILM: u32 = 2u;
 const FAR: f32 = 3.4e38;
 
 struct Material {
     albedo: vec3<f32>,    // Lambertian albedo, linear sRGB
     kind: u32,
-    structure: u32,       // index in structures, layered materials
+    structure: u32,       // index in structures (layered materials) or films (thin films)
     period_map: u32,      // index in map_records (VARYING_LAYERS): period (nm) over uv
     delta_map: u32,       // d1 / period over uv
+    ibl_level: u32,       // its level of the prefiltered environment (filtered IBL)
 }
 
 struct Params {
@@ -82,10 +100,24 @@ struct Params {
 // pack_maps (wgbragg/parameter_maps.py) when VARYING_LAYERS: record 0 is unused.
 @group(0) @binding(11) var<storage, read> map_records: array<ParameterMapRecord>;
 @group(0) @binding(12) var<storage, read> map_texels: array<f32>;
-@group(0) @binding(13) var<storage, read_write> accum: array<vec4<f32>>;
+// Thin films (THIN_FILMS, wgbragg/render.py _film_buffers): their records, the Fourier
+// colour's windows and evanescent nodes (film_colour, thin_film_colour.wgsl) and table, and
+// each film's base index (n, k) every FILM_BASE_STEP_NM from 360 nm (spectral mode).
+@group(0) @binding(13) var<storage, read> films: array<FilmMaterial>;
+@group(0) @binding(14) var<storage, read> fourier_windows: array<FourierWindow>;
+@group(0) @binding(15) var<storage, read> evanescent_nodes: array<EvanescentNode>;
+@group(0) @binding(16) var film_table: texture_2d<f32>;
+@group(0) @binding(17) var<storage, read> film_base: array<vec4<f32>>;
+// Filtered image-based lighting (IBL != IBL_MONTE_CARLO): the prefiltered environment
+// (wgbragg.environment_prefilter, read by prefiltered_environment.wgsl) and, per level, the
+// microfacet albedo E(cos_v) at IBL_ALBEDO_NODES cosines (wgbragg.ibl.microfacet_albedo_table).
+@group(0) @binding(18) var<storage, read> prefiltered_levels: array<PrefilteredLevel>;
+@group(0) @binding(19) var<storage, read> prefiltered_texels: array<vec4<f32>>;
+@group(0) @binding(20) var<storage, read> ibl_albedo: array<f32>;
+@group(0) @binding(21) var<storage, read_write> accum: array<vec4<f32>>;
 // The radiance of each path of a render dispatch, for accumulate.
-@group(0) @binding(14) var<storage, read_write> paths: array<vec3<f32>>;
-@group(0) @binding(15) var<uniform> params: Params;
+@group(0) @binding(22) var<storage, read_write> paths: array<vec3<f32>>;
+@group(0) @binding(23) var<uniform> params: Params;
 
 // ----------------------------------------------------------------------------- spectra
 
@@ -169,6 +201,88 @@ fn sky_sample(e: Environment, u: vec3<f32>) -> vec3<f32> {
 
 // ----------------------------------------------------------------------------- materials
 
+// GGX microfacets coated by a thin film (Belcour & Barla 2017), in air: the float32 twin of
+// wgbragg.rough_thin_film.RoughThinFilm. The film's reflectance at the microfacet is its
+// Fourier-series colour (linear sRGB: the XYZ matrix is folded into colour.adapt) in RGB mode,
+// and its Airy reflectance at the hero wavelengths in spectral mode.
+struct FilmMaterial {
+    colour: FilmColourParams,   // d_nm is the film's own thickness
+    alpha: f32,
+    thickness_map: u32,         // index in map_records (FILM_MAPS), 0 for none
+    first_base: u32,            // its first row of film_base
+    _pad: u32,
+}
+
+const FILM_BASE_STEP_NM: f32 = 10.0;
+const FILM_BASE_ROWS: u32 = 48u;
+
+// The film thickness at the current shading point, nm (a thickness map varies it).
+var<private> film_thickness: f32;
+
+fn film_base_index(f: FilmMaterial, wavelength_nm: f32) -> vec2<f32> {
+    let at = clamp((wavelength_nm - LAMBDA_LO_NM) / FILM_BASE_STEP_NM, 0.0,
+                   f32(FILM_BASE_ROWS - 1u));
+    let lower = min(u32(at), FILM_BASE_ROWS - 2u);
+    return mix(film_base[f.first_base + lower], film_base[f.first_base + lower + 1u],
+               at - f32(lower)).xy;
+}
+
+// Reflectance of the film at the incidence cosine cos_d on a microfacet; sigma_nm: standard
+// deviation of the thickness (prefiltering, RGB mode with FILM_PREFILTERED only).
+fn film_reflectance(f: FilmMaterial, cos_d: f32, sigma_nm: f32) -> vec4<f32> {
+    let theta = acos(clamp(cos_d, 0.0, 1.0));
+    if (!SPECTRAL) {
+        var p = f.colour;
+        p.d_nm = film_thickness;
+        p.sigma_nm = sigma_nm;
+        return vec4<f32>(film_colour(theta, p, false, FILM_PREFILTERED), 0.0);
+    }
+    var film: ThinFilm;
+    film.host = f.colour.host;
+    film.n_film = f.colour.n_film;
+    film.d_nm = film_thickness;
+    var out = vec4<f32>(0.0);
+    for (var k = 0u; k < 4u; k++) {
+        let base = film_base_index(f, wavelengths[k]);
+        film.n_base = base.x;
+        film.k_base = base.y;
+        out[k] = thin_film_reflectance(film, wavelengths[k], theta, 2u);
+    }
+    return out;
+}
+
+fn film_eval(f: FilmMaterial, wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
+    if (wi.z <= 0.0 || wo.z <= 0.0) {
+        return vec4<f32>(0.0);
+    }
+    let h = normalize(wi + wo);
+    // D G1(wi) G1(wo) / (4 cos_i cos_o), with the cosines divided out of G1 where it is exact.
+    let shape = ggx_D(h.z, f.alpha) * ggx_G1_over_cos(min(wi.z, 1.0), f.alpha)
+        * ggx_G1_over_cos(min(wo.z, 1.0), f.alpha) * 0.25;
+    return film_reflectance(f, dot(wi, h), 0.0) * shape;
+}
+
+fn film_pdf(f: FilmMaterial, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+    if (wi.z <= 0.0 || wo.z <= 0.0) {
+        return 0.0;
+    }
+    let h = normalize(wi + wo);
+    let c = dot(wi, h);
+    return select(0.0, ggx_visible_normal_pdf(wi, h, f.alpha) / (4.0 * c), c > 0.0);
+}
+
+// Visible normals (Heitz 2018): the weight f cos / pdf is R G1(wo).
+fn film_sample(f: FilmMaterial, wi: vec3<f32>, u: vec2<f32>) -> BsdfSample {
+    let m = ggx_sample_visible_normal(wi, u, f.alpha);
+    let c = dot(wi, m);
+    let wo = 2.0 * c * m - wi;
+    if (c <= 0.0 || wo.z <= 0.0) {
+        return BsdfSample(wo, vec4<f32>(0.0), 0.0, false);
+    }
+    let pdf = ggx_visible_normal_pdf(wi, m, f.alpha) / (4.0 * c);
+    return BsdfSample(wo, film_reflectance(f, c, 0.0) * ggx_G1(wo.z, f.alpha), pdf, false);
+}
+
 struct BsdfSample {
     wo: vec3<f32>,
     weight: vec4<f32>,    // f cos / pdf, or the Dirac lobe's weight
@@ -188,6 +302,9 @@ fn layered_eval(s: LayeredStructure, p: LayeredPair) -> vec4<f32> {
 
 // f (1/sr) for local directions, +z the shading normal.
 fn bsdf_eval(m: Material, wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
+    if (THIN_FILMS && m.kind == MATERIAL_THIN_FILM) {
+        return film_eval(films[m.structure], wi, wo);
+    }
     if (LAYERED && m.kind == MATERIAL_LAYERED) {
         let s = structures[m.structure];
         return layered_eval(s, layered_pair(s, wi, wo));
@@ -196,6 +313,9 @@ fn bsdf_eval(m: Material, wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
 }
 
 fn bsdf_pdf(m: Material, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+    if (THIN_FILMS && m.kind == MATERIAL_THIN_FILM) {
+        return film_pdf(films[m.structure], wi, wo);
+    }
     if (LAYERED && m.kind == MATERIAL_LAYERED) {
         return layered_pdf(structures[m.structure], wi, wo);
     }
@@ -203,6 +323,9 @@ fn bsdf_pdf(m: Material, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
 }
 
 fn bsdf_sample(m: Material, wi: vec3<f32>, u: vec3<f32>) -> BsdfSample {
+    if (THIN_FILMS && m.kind == MATERIAL_THIN_FILM) {
+        return film_sample(films[m.structure], wi, u.yz);
+    }
     if (LAYERED && m.kind == MATERIAL_LAYERED) {
         let s = structures[m.structure];
         let drawn = layered_sample(s, wi, u);
@@ -215,6 +338,88 @@ fn bsdf_sample(m: Material, wi: vec3<f32>, u: vec3<f32>) -> BsdfSample {
     }
     let wo = cosine_direction(u.yz);
     return BsdfSample(wo, upsample(m.albedo), wo.z / PI, false);
+}
+
+// ----------------------------------------------------------------------------- filtered IBL
+
+const IBL_ALBEDO_NODES: u32 = 64u;
+
+// E(cos_v) of the level's roughness, linear between nodes at cos_v = (k + 1/2) / nodes.
+fn microfacet_albedo(level: u32, cos_v: f32) -> f32 {
+    let at = clamp(cos_v * f32(IBL_ALBEDO_NODES) - 0.5, 0.0, f32(IBL_ALBEDO_NODES - 1u));
+    let lower = min(u32(at), IBL_ALBEDO_NODES - 2u);
+    let first = level * IBL_ALBEDO_NODES + lower;
+    return mix(ibl_albedo[first], ibl_albedo[first + 1u], at - f32(lower));
+}
+
+// Mean and standard deviation of x = l.v over the prefiltered light directions l (Kneiphof et
+// al. 2019, eqs 20-21).
+fn light_spread(p: Prefiltered, v: vec3<f32>) -> vec2<f32> {
+    let mean = clamp(dot(v, p.mean), -1.0, 1.0);
+    let second = dot(v * v, p.second_diagonal)
+        + 2.0 * (v.x * v.y * p.second_off.x + v.y * v.z * p.second_off.y
+                 + v.z * v.x * p.second_off.z);
+    return vec2<f32>(mean, sqrt(max(0.0, second - mean * mean)));
+}
+
+// Kneiphof et al. 2019 eqs 22-29: the film's colour at the mean microfacet incidence, its
+// Fourier terms filtered by the spread of the optical path difference (the prefiltered table).
+fn film_kneiphof(f: FilmMaterial, spread: vec2<f32>) -> vec4<f32> {
+    let c1 = sqrt(max(0.0, 0.5 * (1.0 + spread.x)));
+    let k = (f.colour.host * f.colour.host) / (f.colour.n_film * f.colour.n_film);
+    let c2_squared = 1.0 + 0.5 * k * (spread.x - 1.0);
+    var sigma_nm = 0.0;
+    if (c2_squared > 0.0) {
+        let mean_c2 = sqrt(c2_squared);
+        // sigma_D = 2 n2 d sigma_c2, and film_colour spreads the m-th term by m 2 n2 c2 sigma.
+        sigma_nm = film_thickness * (0.25 * k / mean_c2 * spread.y) / mean_c2;
+    }
+    return film_reflectance(f, c1, sigma_nm);
+}
+
+// Probabilists' Gauss-Hermite rule of 5 nodes: the mean of g(x) for x ~ N(0, 1).
+const HERMITE_NODES = array<f32, 5>(-2.8569700, -1.3556262, 0.0, 1.3556262, 2.8569700);
+const HERMITE_WEIGHTS = array<f32, 5>(0.0112574, 0.2220759, 0.5333333, 0.2220759, 0.0112574);
+
+// Our analogue for a Bragg layer, whose colour has no short Fourier series in the optical path:
+// its colour averaged over x = l.v ~ N(mean, std^2), each node mapped exactly (no
+// linearisation) to the microfacet incidence theta_d = acos(sqrt((1 + x) / 2)).
+fn bragg_filtered(s: LayeredStructure, spread: vec2<f32>) -> vec3<f32> {
+    let layer = layers[s.first_layer];
+    var total = vec3<f32>(0.0);
+    for (var k = 0u; k < 5u; k++) {
+        let x = clamp(spread.x + HERMITE_NODES[k] * spread.y, -1.0, 1.0);
+        total += HERMITE_WEIGHTS[k] * layer_colour(s, layer, acos(sqrt(0.5 * (1.0 + x))));
+    }
+    return total;
+}
+
+// Radiance towards v (world, unit) of a surface with shading normal n, lit by the
+// prefiltered environment: Lbar(r) E(cos_v) Rbar (split sum: Rbar at the ideal reflection).
+fn ibl_radiance(m: Material, n: vec3<f32>, v: vec3<f32>) -> vec4<f32> {
+    if (m.kind == MATERIAL_LAMBERTIAN) {
+        return upsample(m.albedo * prefiltered_lookup(m.ibl_level, n).radiance);
+    }
+    let cos_v = clamp(dot(n, v), 0.0, 1.0);
+    let p = prefiltered_lookup(m.ibl_level, 2.0 * cos_v * n - v);
+    let light = upsample(p.radiance) * microfacet_albedo(m.ibl_level, cos_v);
+    var reflectance = vec4<f32>(0.0);
+    if (THIN_FILMS && m.kind == MATERIAL_THIN_FILM) {
+        let f = films[m.structure];
+        if (IBL == IBL_KNEIPHOF) {
+            reflectance = film_kneiphof(f, light_spread(p, v));
+        } else {
+            reflectance = film_reflectance(f, cos_v, 0.0);
+        }
+    } else if (LAYERED && m.kind == MATERIAL_LAYERED) {
+        let s = structures[m.structure];
+        if (IBL == IBL_KNEIPHOF) {
+            reflectance = vec4<f32>(bragg_filtered(s, light_spread(p, v)), 0.0);
+        } else {
+            reflectance = vec4<f32>(layer_colour(s, layers[s.first_layer], acos(cos_v)), 0.0);
+        }
+    }
+    return light * reflectance;
 }
 
 // ----------------------------------------------------------------------------- transport
@@ -239,7 +444,8 @@ fn direct_light(m: Material, frame: Frame, wi: vec3<f32>, origin: vec3<f32>,
     var total = vec4<f32>(0.0);
     let d = sky_sample(e, vec3<f32>(random(state), random(state), random(state)));
     let local = to_local(frame, d);
-    if (dot(d, geometric) > 0.0 && local.z > 0.0) {
+    // Filtered IBL lights the surface from the environment by itself.
+    if (IBL == IBL_MONTE_CARLO && dot(d, geometric) > 0.0 && local.z > 0.0) {
         let f = bsdf_eval(m, wi, local);
         if (any(f > vec4<f32>(0.0)) && unoccluded(origin, d, FAR)) {
             let light_pdf = sky_pdf(e, d);
@@ -313,6 +519,13 @@ fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u3
             varying_layer = vec2<f32>(parameter_map_value(m.period_map, surface.uv),
                                       parameter_map_value(m.delta_map, surface.uv));
         }
+        if (THIN_FILMS && m.kind == MATERIAL_THIN_FILM) {
+            let f = films[m.structure];
+            film_thickness = f.colour.d_nm;
+            if (FILM_MAPS && f.thickness_map != 0u) {
+                film_thickness = parameter_map_value(f.thickness_map, surface.uv);
+            }
+        }
         let frame = frame_about(surface.shading);
         let wi = to_local(frame, -d);
         // Interpolated normals can face away from a viewer that the face itself sees.
@@ -323,6 +536,10 @@ fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u3
                         abs(surface.position.z));
         let next = surface.position + surface.geometric * (params.epsilon + 1e-5 * scale);
         radiance += throughput * direct_light(m, frame, wi, next, surface.geometric, state);
+        if (IBL != IBL_MONTE_CARLO) {
+            radiance += throughput * ibl_radiance(m, surface.shading, -d);
+            break;
+        }
 
         let drawn = bsdf_sample(m, wi, vec3<f32>(random(state), random(state), random(state)));
         d = to_world(frame, drawn.wo);

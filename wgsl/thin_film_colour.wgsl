@@ -33,7 +33,8 @@ struct FilmColourParams {
     levels: u32,           // table prefiltering levels
     step_nm: f32,          // OPD step of the table
     level_step_nm: f32,    // OPD standard-deviation step of the levels
-    _pad: f32,
+    film: u32,             // which film: its windows start at film * windows, its evanescent
+                           // nodes at film * nodes (several films share the buffers and table)
     adapt0: vec4<f32>,     // rows of the final XYZ matrix (Bradford E -> D65, or identity)
     adapt1: vec4<f32>,
     adapt2: vec4<f32>,
@@ -162,7 +163,7 @@ fn film_colour(theta: f32, p: FilmColourParams, gaussian: bool, prefiltered: boo
         film.n_film = p.n_film;
         film.d_nm = p.d_nm;
         for (var i = 0u; i < p.nodes; i++) {
-            let node = evanescent_nodes[i];
+            let node = evanescent_nodes[p.film * p.nodes + i];
             film.n_base = node.node.y;
             film.k_base = node.node.z;
             acc += thin_film_reflectance(film, node.node.x, theta, 2u) * node.weight.xyz;
@@ -172,7 +173,7 @@ fn film_colour(theta: f32, p: FilmColourParams, gaussian: bool, prefiltered: boo
         let opd_per_nm = 2.0 * q2;
         let opd = opd_per_nm * p.d_nm;
         for (var b = 0u; b < p.windows; b++) {
-            let w = fourier_windows[b];
+            let w = fourier_windows[p.film * p.windows + b];
             let cs = airy_series(p.host, p.n_film, q1, q2, s, w.node.yz, 0u);
             let cp = airy_series(p.host, p.n_film, q1, q2, s, w.node.yz, 1u);
             acc += (1.0 - 0.5 * (cs.x + cp.x)) * w.white.xyz;
