@@ -56,9 +56,11 @@ the microfacet albedo ``E(cos_v)`` times a reflectance term (:mod:`wgbragg.ibl`)
 reflectance at the ideal reflection direction (Belcour & Barla's real-time approach), or
 Kneiphof et al.'s (2019) filtered reflectance, from the prefiltered mean and covariance of the
 light directions; for a Bragg layer our analogue, the colour averaged over the spread of
-microfacet incidence angles. These modes trace no shadow or bounce rays (as real-time IBL
-does), take thin films, single Bragg layers over an absorbing base in air, and Lambertian
-materials (lit by the cosine-prefiltered environment); point and area lights still add their
+microfacet incidence angles. Layered Bragg materials are shaded layer by layer, each lobe from
+the environment prefiltered for its roughness, through the layers above at the viewing angle
+both ways, and a Lambertian base from the cosine-prefiltered environment. These modes trace
+no shadow or bounce rays (as real-time IBL does) and take thin films, layered Bragg materials
+in air (no smooth coating) and Lambertian materials; point and area lights still add their
 direct light.
 
 Period and delta maps (``period_map``, ``delta_map``, :mod:`wgbragg.parameter_maps`) vary a
@@ -153,7 +155,8 @@ _NODE_DTYPE = gpu.struct_dtype([("lo", "vec3<f32>"), ("left_or_first", "u32"),
                                 ("hi", "vec3<f32>"), ("count", "u32")])
 _MATERIAL_DTYPE = gpu.struct_dtype([("albedo", "vec3<f32>"), ("kind", "u32"),
                                     ("structure", "u32"), ("period_map", "u32"),
-                                    ("delta_map", "u32"), ("ibl_level", "u32")])
+                                    ("delta_map", "u32"), ("ibl_level", "u32"),
+                                    ("ibl_layers", "u32")])
 _STRUCTURE_DTYPE = gpu.struct_dtype([
     ("base_rgb", "vec3<f32>"), ("host", "f32"), ("base_mean", "f32"), ("first_layer", "u32"),
     ("base_spectrum", "u32"), ("lut_rows", "u32"), ("lut_rows_per_radian", "f32"),
@@ -350,30 +353,38 @@ _IBL_ALBEDO_NODES = 64  # IBL_ALBEDO_NODES of render.wgsl
 
 
 def _ibl_levels(scene: Scene, ibl: str, mode: str) -> tuple[list, list]:
-    """The prefiltered levels a filtered IBL mode needs (each material's roughness, "cosine"
-    for Lambertian ones; each once) and every material's level, in the scene's order."""
+    """The prefiltered levels a filtered IBL mode needs, and each material's (first level,
+    layer count), in the scene's order. A material's levels are consecutive: its roughness,
+    or one per layer then "cosine" for a Lambertian base; "cosine" for a Lambertian material.
+    Materials with the same levels share them."""
     if mode != "rgb":
         raise ValueError(f"ibl={ibl!r} shades in linear sRGB: use mode='rgb' (the spectral "
                          "transport is for ibl='monte-carlo')")
     levels, of_material = [], []
     for name, material in scene.materials.items():
+        layers = 0
         if isinstance(material, LambertianMaterial):
-            level = "cosine"
+            own = ("cosine",)
         elif isinstance(material, ThinFilmMaterial):
-            level = material.alpha
+            own = (material.alpha,)
         else:
-            layer = material.layers[0]
-            if (len(material.layers) != 1 or material.base_albedo is not None
-                    or layer.n1 != 1.0 or layer.host not in (None, 1.0)):
+            coated = [spec for spec in material.layers
+                      if spec.n1 != 1.0 or spec.host not in (None, 1.0)]
+            if coated:
                 raise ValueError(
-                    f"materials.{name}: ibl={ibl!r} shades microfacet materials: a layered "
-                    "material must be a single layer over an absorbing base in air (n1 = 1, "
-                    f"no base_albedo), got {len(material.layers)} layer(s), n1 = {layer.n1}, "
-                    f"base_albedo = {material.base_albedo!r}; use ibl='monte-carlo'")
-            level = layer.alpha
-        if level not in levels:
-            levels.append(level)
-        of_material.append(levels.index(level))
+                    f"materials.{name}: ibl={ibl!r} shades layers in air (n1 = 1): a smooth "
+                    f"coating (n1 = {coated[0].n1}, host = {coated[0].host}) needs "
+                    "ibl='monte-carlo'")
+            layers = len(material.layers)
+            own = tuple(spec.alpha for spec in material.layers)
+            if material.base_albedo is not None:
+                own += ("cosine",)
+        first = next((k for k in range(len(levels) - len(own) + 1)
+                      if tuple(levels[k:k + len(own)]) == own), None)
+        if first is None:
+            first = len(levels)
+            levels.extend(own)
+        of_material.append((first, layers))
     return levels, of_material
 
 
@@ -598,7 +609,8 @@ class Renderer:
         names = list(scene.materials)
         materials = np.zeros(len(names), _MATERIAL_DTYPE)
         if filtered:
-            materials["ibl_level"] = material_levels
+            materials["ibl_level"] = [first for first, _ in material_levels]
+            materials["ibl_layers"] = [layers for _, layers in material_levels]
         structures, kept, films = [], {}, []
         # Record 0: no map (period 0 tells the kernel to keep the layers' own).
         maps, constant_values = [None], [0.0]
@@ -698,7 +710,10 @@ class Renderer:
 
             source = environment_map if environment_map is not None else (
                 ProceduralEnvironment.from_scene(scene.environment))
-            records, texels = prefilter_environment(source, levels).packed()
+            # Each distinct level is prefiltered once; repeated ones share its texels.
+            distinct = list(dict.fromkeys(levels))
+            records, texels = prefilter_environment(source, distinct).packed()
+            records = records[[distinct.index(level) for level in levels]]
             albedo = np.concatenate([
                 np.zeros(_IBL_ALBEDO_NODES) if level == "cosine"
                 else microfacet_albedo_table(level, _IBL_ALBEDO_NODES) for level in levels])

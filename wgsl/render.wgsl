@@ -65,7 +65,9 @@ struct Material {
     structure: u32,       // index in structures (layered materials) or films (thin films)
     period_map: u32,      // index in map_records (VARYING_LAYERS): period (nm) over uv
     delta_map: u32,       // d1 / period over uv
-    ibl_level: u32,       // its level of the prefiltered environment (filtered IBL)
+    ibl_level: u32,       // its first level of the prefiltered environment (filtered IBL)
+    ibl_layers: u32,      // layered: its layers, whose levels follow ibl_level (then the
+                          // base's cosine level)
 }
 
 struct Params {
@@ -384,12 +386,50 @@ const HERMITE_WEIGHTS = array<f32, 5>(0.0112574, 0.2220759, 0.5333333, 0.2220759
 // Our analogue for a Bragg layer, whose colour has no short Fourier series in the optical path:
 // its colour averaged over x = l.v ~ N(mean, std^2), each node mapped exactly (no
 // linearisation) to the microfacet incidence theta_d = acos(sqrt((1 + x) / 2)).
-fn bragg_filtered(s: LayeredStructure, spread: vec2<f32>) -> vec3<f32> {
-    let layer = layers[s.first_layer];
+fn bragg_filtered(s: LayeredStructure, layer: RoughLayer, spread: vec2<f32>) -> vec3<f32> {
     var total = vec3<f32>(0.0);
     for (var k = 0u; k < 5u; k++) {
         let x = clamp(spread.x + HERMITE_NODES[k] * spread.y, -1.0, 1.0);
         total += HERMITE_WEIGHTS[k] * layer_colour(s, layer, acos(sqrt(0.5 * (1.0 + x))));
+    }
+    return total;
+}
+
+// Mean cosine of a cosine-distributed direction: where the diffuse base's light crosses the
+// layers, on average.
+const DIFFUSE_MEAN_COS: f32 = 0.6666667;
+
+// The single-reflection model (eq 34) by the split sum, layer by layer: each lobe lit by the
+// environment prefiltered for its roughness (its levels follow the material's first), its
+// colour at the ideal reflection (or filtered, IBL_KNEIPHOF), through the layers above at
+// theta_v both ways; a Lambertian base by the cosine level (the material's last), through the
+// layers at theta_v and at the diffuse mean angle.
+fn layered_ibl(m: Material, n: vec3<f32>, v: vec3<f32>, cos_v: f32) -> vec3<f32> {
+    let s = structures[m.structure];
+    let theta_v = acos(cos_v);
+    let r = 2.0 * cos_v * n - v;
+    var total = vec3<f32>(0.0);
+    var through = vec3<f32>(1.0);
+    var through_diffuse = vec3<f32>(1.0);
+    for (var l = 0u; l < m.ibl_layers; l++) {
+        let layer = layers[s.first_layer + l];
+        let level = m.ibl_level + l;
+        let p = prefiltered_lookup(level, r);
+        var colour: vec3<f32>;
+        if (IBL == IBL_KNEIPHOF) {
+            colour = bragg_filtered(s, layer, light_spread(p, v));
+        } else {
+            colour = layer_colour(s, layer, theta_v);
+        }
+        total += p.radiance * microfacet_albedo(level, cos_v) * colour * through;
+        let t = table_lerp_rgb(layer.transmissivity_rgb, filter_row(layer, theta_v));
+        through *= t * t;
+        through_diffuse *= t * table_lerp_rgb(layer.transmissivity_rgb,
+                                              filter_row(layer, acos(DIFFUSE_MEAN_COS)));
+    }
+    if (BASE == BASE_LAMBERTIAN && any(s.base_rgb > vec3<f32>(0.0))) {
+        let diffuse = prefiltered_lookup(m.ibl_level + m.ibl_layers, n).radiance;
+        total += s.base_rgb * diffuse * through_diffuse;
     }
     return total;
 }
@@ -401,9 +441,11 @@ fn ibl_radiance(m: Material, n: vec3<f32>, v: vec3<f32>) -> vec4<f32> {
         return upsample(m.albedo * prefiltered_lookup(m.ibl_level, n).radiance);
     }
     let cos_v = clamp(dot(n, v), 0.0, 1.0);
-    let p = prefiltered_lookup(m.ibl_level, 2.0 * cos_v * n - v);
-    let light = upsample(p.radiance) * microfacet_albedo(m.ibl_level, cos_v);
+    if (LAYERED && m.kind == MATERIAL_LAYERED) {
+        return vec4<f32>(layered_ibl(m, n, v, cos_v), 0.0);
+    }
     var reflectance = vec4<f32>(0.0);
+    let p = prefiltered_lookup(m.ibl_level, 2.0 * cos_v * n - v);
     if (THIN_FILMS && m.kind == MATERIAL_THIN_FILM) {
         let f = films[m.structure];
         if (IBL == IBL_KNEIPHOF) {
@@ -411,15 +453,8 @@ fn ibl_radiance(m: Material, n: vec3<f32>, v: vec3<f32>) -> vec4<f32> {
         } else {
             reflectance = film_reflectance(f, cos_v, 0.0);
         }
-    } else if (LAYERED && m.kind == MATERIAL_LAYERED) {
-        let s = structures[m.structure];
-        if (IBL == IBL_KNEIPHOF) {
-            reflectance = vec4<f32>(bragg_filtered(s, light_spread(p, v)), 0.0);
-        } else {
-            reflectance = vec4<f32>(layer_colour(s, layers[s.first_layer], acos(cos_v)), 0.0);
-        }
     }
-    return light * reflectance;
+    return upsample(p.radiance) * microfacet_albedo(m.ibl_level, cos_v) * reflectance;
 }
 
 // ----------------------------------------------------------------------------- transport
