@@ -1,4 +1,4 @@
-"""wgbragg demo: edit a teapot's Bragg layers live while it is path-traced on the GPU.
+"""wgbragg demo: edit a teapot's Bragg layers or thin film live while it is path-traced on the GPU.
 
 Run with ``make demo`` (which does all the set-up) or ``python demo.py``: a window shows the
 teapot preset (two rough Bragg layers over a dark diffuse base, under a sky) rendered
@@ -6,7 +6,9 @@ progressively, and a side panel with sliders for each layer (Lambda, delta = d1 
 n2, alpha), the structure (layer count, n1, the base's albedo rho_d), the colour method, RGB or
 spectral transport and the environment; the selected layer's reflectance at normal incidence
 with its landmarks and its colour against the angle; and the interactive budgets as measured.
-Drag the picture to orbit, scroll to zoom; every edit restarts the accumulation.
+The material can be switched to a rough thin film (thickness, or a noise map's range; n_film;
+a dielectric or metal base; alpha), which ``--scene thin_film`` opens on. Drag the picture to
+orbit, scroll to zoom; every edit restarts the accumulation.
 
 ``python demo.py --offscreen --spp 64 -o demo.png`` renders the same window without a display
 and prints the image's path (also what happens when no display is found).
@@ -46,7 +48,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="WIDTHxHEIGHT of the render in pixels (default 256x256)")
     parser.add_argument("--scene", default="teapot",
                         help=f"a preset ({', '.join(PRESETS)}) or a scene file with a "
-                             "layered-bragg material (default teapot)")
+                             "layered-bragg or thin-film material (default teapot)")
     parser.add_argument("--mode", choices=MODES, default=None,
                         help="light transport (default: the scene's)")
     args = parser.parse_args(argv)

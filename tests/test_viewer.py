@@ -9,6 +9,7 @@ names them in the failure.
 
 from __future__ import annotations
 
+import colorsys
 import gc
 import os
 import re
@@ -23,8 +24,8 @@ import pytest
 from PIL import Image
 
 from conftest import EXPECT_LAVAPIPE
-from wgbragg.scene import LayeredBraggMaterial
-from wgbragg.viewer import Viewer
+from wgbragg.scene import LayeredBraggMaterial, ThinFilmMaterial
+from wgbragg.viewer import DEFAULT_FILM, Viewer
 
 pytestmark = pytest.mark.gpu
 
@@ -46,6 +47,18 @@ def saturation(pixels: np.ndarray) -> np.ndarray:
 
 def differs(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.abs(a.astype(np.float64) - b.astype(np.float64)).mean())
+
+
+def mean_hue(pixels: np.ndarray, min_saturation: float = 0.25) -> float:
+    """Circular mean HSV hue, in degrees, of the 8-bit RGB pixels at least this saturated."""
+    chosen = pixels.reshape(-1, 3)[saturation(pixels).ravel() >= min_saturation] / 255.0
+    assert len(chosen) >= 5, "too few saturated pixels for a hue"
+    angle = 2.0 * np.pi * np.array([colorsys.rgb_to_hsv(*rgb)[0] for rgb in chosen])
+    return float(np.degrees(np.arctan2(np.sin(angle).mean(), np.cos(angle).mean())) % 360.0)
+
+
+def hue_distance(a: float, b: float) -> float:
+    return abs((a - b + 180.0) % 360.0 - 180.0)
 
 
 # ---------------------------------------------------------------------------------- the model
@@ -77,6 +90,18 @@ def viewer():
     (lambda v: v.edit(zoom=2.0), "unknown edit(s) ['zoom']"),
     (lambda v: v.zoom(0.0), "factor must be a finite real number > 0"),
     (lambda v: v.colour_strip(0, samples=1), "samples must be >= 2"),
+    (lambda v: v.edit(material_type="metal"), "material_type must be one of"),
+    (lambda v: v.set_film(thickness_nm=-1.0), "thickness_nm must be a finite thickness"),
+    (lambda v: v.set_film(n_film=0.0), "n_film must be a finite refractive index > 0"),
+    (lambda v: v.set_film(alpha=0.001), "alpha must be in [0.01, 1]"),
+    (lambda v: v.set_film(base="Pt"), "base must be None or one of ('Ag', 'Al', 'Au', 'Cu')"),
+    (lambda v: v.set_film(base="Au", n_base=1.5), "a metal base replaces n_base and k_base"),
+    (lambda v: v.set_film(k_base=-0.1), "k_base must be a finite extinction coefficient"),
+    (lambda v: v.set_film(noise_range_nm=(600.0, 200.0)), "lo <= hi, got (600.0, 200.0)"),
+    (lambda v: v.set_film(noise_range_nm=(600.0,)), "noise_range_nm must be (lo, hi)"),
+    (lambda v: v.set_film(noise="yes"), "noise must be True or False"),
+    (lambda v: v.set_film(d=400.0), "unknown film field(s) ['d']"),
+    (lambda v: v.film_colour_strip(samples=1), "samples must be >= 2"),
 ])
 def test_bad_edits_name_the_parameter_and_change_nothing(viewer, call, message):
     viewer.frame()
@@ -89,7 +114,7 @@ def test_bad_edits_name_the_parameter_and_change_nothing(viewer, call, message):
 def test_viewer_refuses_bad_construction():
     with pytest.raises(ValueError, match="size must be two integers"):
         Viewer("teapot", size=(0, 64))
-    with pytest.raises(ValueError, match="no layered-bragg material"):
+    with pytest.raises(ValueError, match="no layered-bragg material or thin-film material"):
         Viewer("furnace")
     with pytest.raises(ValueError, match="material must be one of"):
         Viewer("teapot", material="floor")
@@ -174,6 +199,64 @@ def test_side_panel_data(viewer):
     assert saturation(colours).max() > 0.5
     viewer.edit(colour_method="approx")
     assert not np.array_equal(viewer.colour_strip(0)[1], colours)
+
+
+def test_the_thin_film_is_edited_and_each_kind_keeps_its_settings(viewer):
+    viewer.frame()
+    assert viewer.material_type == "layered-bragg" and viewer.film == DEFAULT_FILM
+    viewer.edit(material_type="thin-film")
+    assert viewer.passes == 0 and viewer.material is viewer.film
+    assert viewer.scene.materials["two_layers"] == DEFAULT_FILM
+    viewer.set_film(thickness_nm=320.0, n_film=1.8, base="Cu", alpha=0.2, noise=False)
+    film = viewer.film
+    assert (film.thickness_nm, film.n_film, film.base, film.alpha) == (320.0, 1.8, "Cu", 0.2)
+    assert (film.n_base, film.k_base, film.thickness_map) == (1.0, 0.0, None)
+    # Rendered with a constant map, so that the noise toggle keeps the pipeline.
+    shown = viewer.scene.materials["two_layers"]
+    assert isinstance(shown, ThinFilmMaterial) and shown.thickness_map.range == (320.0, 320.0)
+    assert viewer.budgets.table_ms == 0.0  # films bake no tables
+    # A dielectric base comes back as it was; the noise map too, with a new range.
+    viewer.set_film(base=None)
+    assert (viewer.film.base, viewer.film.n_base, viewer.film.k_base) == (None, 1.5, 0.0)
+    viewer.set_film(k_base=0.5, noise=True, noise_range_nm=(100.0, 300.0))
+    assert viewer.film.thickness_map.range == (100.0, 300.0) == viewer.noise_range_nm
+    assert viewer.film.thickness_map.procedural == "noise" and viewer.film_thickness_nm == 200.0
+    viewer.frame()
+    # Bragg edits while the film is shown change the kept layers, not the image.
+    viewer.set_layer(0, N=4)
+    viewer.edit(n1=1.1)
+    assert viewer.passes == 1 and viewer.layers[0].N == 4
+    viewer.edit(material_type="layered-bragg")
+    assert viewer.passes == 0 and viewer.material is viewer.bragg
+    assert viewer.scene.materials["two_layers"].layers[0].N == 4
+    viewer.edit(material_type="thin-film")
+    assert viewer.film.k_base == 0.5 and viewer.film.thickness_map.range == (100.0, 300.0)
+
+
+def test_the_thin_film_preset_opens_on_its_film():
+    viewer = Viewer("thin_film", size=(32, 32), preview_scale=2)
+    assert viewer.material_type == "thin-film" and viewer.material_name == "film"
+    assert viewer.film.thickness_map.procedural == "noise"
+    # The Bragg layers it can switch to are the teapot preset's.
+    assert len(viewer.layers) == 2
+    assert np.isfinite(viewer.frame()).all()
+
+
+def test_film_side_panel_data(viewer):
+    viewer.edit(material_type="thin-film")
+    viewer.set_film(noise=False, thickness_nm=250.0, n_film=2.0, base=None, n_base=1.5,
+                    k_base=0.0)
+    wavelength, reflectance = viewer.film_spectrum()
+    assert wavelength.shape == reflectance.shape == (471,)
+    # A 250 nm film of index 2 over glass: Airy fringes between the bare interfaces' 4 %
+    # and the quarter-wave maximum ((r12 - r23) / (1 - r12 r23))^2 = 0.23.
+    assert 0.03 < reflectance.min() < 0.05 and 0.2 < reflectance.max() < 0.24
+    theta, colours = viewer.film_colour_strip()
+    assert theta[0] == 0.0 and theta[-1] == 90.0 and colours.shape == (46, 3)
+    assert saturation(colours[:10]).min() > 0.3  # magenta-red near normal incidence
+    viewer.set_film(thickness_nm=450.0)
+    assert hue_distance(mean_hue(viewer.film_colour_strip()[1][:10], 0.0),
+                        mean_hue(colours[:10], 0.0)) > 90.0
 
 
 # --------------------------------------------------------------------------------- the window
@@ -285,6 +368,60 @@ def test_frames_change_after_edits(window):
         assert differs(window.picture(frame), window.picture(previous)) > 0
         assert window.picture(frame).std() > 5, "blank picture"
         previous = frame
+
+
+def test_switching_to_the_thin_film_changes_the_frame_and_the_panel(window):
+    viewer = window.viewer
+    first = window.capture()  # 1 spp
+    bragg = window.capture()  # Dear ImGui lays the panel out from its second frame
+    viewer.edit(material_type="thin-film")
+    assert viewer.passes == 0
+    film = window.capture()
+    assert viewer.passes == 1
+    assert differs(window.picture(film), window.picture(first)) > 2.0
+    assert window.picture(film).std() > 5, "blank picture"
+    # The panel shows the film's spectrum and colours instead of the layer's.
+    assert differs(panel_region(window, film), panel_region(window, bragg)) > 2.0
+    # Back to the layers, as they were: the same first sample.
+    viewer.edit(material_type="layered-bragg")
+    assert differs(window.picture(window.capture()), window.picture(first)) == 0.0
+
+
+def test_film_thickness_changes_the_hue(window):
+    viewer = window.viewer
+    viewer.edit(material_type="thin-film")
+    pictures, strips = [], []
+    # n_film 2 over glass at normal incidence: magenta-red at 250 nm, green at 450 nm.
+    for d in (250.0, 450.0):
+        viewer.set_film(noise=False, thickness_nm=d, alpha=0.05)
+        for _ in range(3):
+            window.draw()
+        frame = window.capture()  # 4 spp
+        pictures.append(window.picture(frame))
+        # The strip's first third: the colour up to 30 degrees.
+        x0, y0, x1, y1 = (round(v) for v in window.strip_rect)
+        strips.append(frame[y0 + 2:y1 - 2, x0 + 2:x0 + (x1 - x0) // 3])
+    # The same seed draws the same paths: pixels whose paths never meet the teapot are equal.
+    teapot = (pictures[0] != pictures[1]).any(axis=-1)
+    hues = [mean_hue(p[teapot]) for p in pictures] + [mean_hue(s) for s in strips]
+    print(f"hues: teapot {hues[0]:.0f} -> {hues[1]:.0f} deg, strip {hues[2]:.0f} -> "
+          f"{hues[3]:.0f} deg ({teapot.mean():.0%} of the picture)")
+    assert hue_distance(hues[0], hues[1]) > 45.0
+    assert hue_distance(hues[2], hues[3]) > 90.0
+
+
+def test_the_noise_toggle_changes_the_frame(window):
+    viewer = window.viewer
+    viewer.edit(material_type="thin-film")
+    viewer.set_film(noise=False, thickness_nm=500.0)
+    window.draw()
+    uniform = window.capture()
+    viewer.set_film(noise=True, noise_range_nm=(250.0, 750.0))
+    assert viewer.passes == 0
+    noisy = window.capture()
+    assert differs(window.picture(noisy), window.picture(uniform)) > 2.0
+    viewer.set_film(noise_range_nm=(300.0, 400.0))
+    assert differs(window.picture(window.capture()), window.picture(noisy)) > 1.0
 
 
 def test_dragging_the_picture_orbits_with_a_preview(window):

@@ -1,7 +1,9 @@
-"""The interactive demo's model: a progressive render whose Bragg materials are edited live.
+"""The interactive demo's model: a progressive render whose Bragg or thin-film material is
+edited live.
 
-A :class:`Viewer` holds a scene (by default the teapot preset), one of its layered Bragg
-materials being edited, the camera orbit and the display settings, and renders the scene
+A :class:`Viewer` holds a scene (by default the teapot preset), the material being edited (one
+of its layered Bragg or thin-film materials, which the viewer can turn into the other kind), the
+camera orbit and the display settings, and renders the scene
 progressively with :class:`wgbragg.render.Renderer`: :meth:`Viewer.frame` adds one sample per
 pixel and returns the image to show, and every edit restarts the accumulation. It has no window
 of its own: :mod:`wgbragg.viewer_window` draws it with its controls (``demo.py``), and tests and
@@ -12,6 +14,8 @@ scripts drive it directly::
     viewer.edit(mode="spectral", environment="studio", yaw_deg=40.0)
     pixels = viewer.frame()              # (256, 256, 3) uint8 sRGB
     viewer.budgets.table_ms              # the tables re-baked by the last Bragg edit
+    viewer.edit(material_type="thin-film")
+    viewer.set_film(thickness_nm=500.0, base="Au", noise=True, noise_range_nm=(300.0, 700.0))
 
 Interactive budgets (the Bragg paper's figures; :data:`TABLE_BUDGET_MS`,
 :data:`FILTER_BUDGET_S`, :data:`PREVIEW_BUDGET_FPS`) are measured with ``time.perf_counter``
@@ -24,9 +28,18 @@ frame is slower (software Vulkan); released, the full-resolution renderer takes 
 accumulates. An edit updates the renderer in use at once and the other one when it is next
 shown.
 
+Thin films (``material_type="thin-film"``, :meth:`Viewer.set_film`) are GGX microfacets coated
+by a film, optionally of a thickness varying by a noise map; they need no tables, so an edit
+costs only an upload. The viewer renders the film with a thickness map always (a constant one
+when the thickness is uniform), so that turning the noise on or off does not specialise another
+pipeline (seconds on a software Vulkan), and switching the material's kind keeps the other
+kind's settings.
+
 The side panel's data are here too: the selected layer's reflectance at normal incidence
 (:meth:`Viewer.spectrum`), its landmarks (:meth:`Viewer.landmarks`) and its colour from 0 to
-90 degrees by the current colour method (:meth:`Viewer.colour_strip`).
+90 degrees by the current colour method (:meth:`Viewer.colour_strip`); for the film, its
+reflectance (:meth:`Viewer.film_spectrum`) and its RGB mode colour
+(:meth:`Viewer.film_colour_strip`).
 """
 
 from __future__ import annotations
@@ -41,10 +54,11 @@ import types
 import numpy as np
 
 from . import luts
-from ._validation import check_count, check_index, check_thickness
+from ._validation import check_count, check_extinction, check_index, check_thickness
 from .colorimetry import xyz_weights
 from .colour_methods import COLOUR_METHODS
 from .materials import BraggMirror
+from .metals import METALS
 from .render import Renderer, display_transform
 from .scene import (
     ENVIRONMENT_TYPES,
@@ -53,14 +67,20 @@ from .scene import (
     BraggLayerSpec,
     Environment,
     LayeredBraggMaterial,
+    ParameterMap,
     Scene,
+    ThinFilmMaterial,
     load_preset,
 )
 from .transmission_filter import check_filter_alpha
 
 __all__ = [
+    "DEFAULT_FILM",
+    "FILM_COLOUR_METHOD",
+    "FILM_FIELDS",
     "FILTER_BUDGET_S",
     "LAYER_FIELDS",
+    "MATERIAL_TYPES",
     "MAX_LAYERS",
     "PREVIEW_BUDGET_FPS",
     "PREVIEW_SCALES",
@@ -81,6 +101,17 @@ MAX_LAYERS = 4
 """Most Bragg layers the viewer stacks."""
 LAYER_FIELDS = ("period_nm", "delta", "N", "n2", "alpha")
 """What :meth:`Viewer.set_layer` edits (``n1`` is the whole structure's: :meth:`Viewer.edit`)."""
+MATERIAL_TYPES = ("layered-bragg", "thin-film")
+"""What the edited material can be (:meth:`Viewer.edit`'s ``material_type``): rough Bragg
+layers, or GGX microfacets coated by a thin film."""
+FILM_FIELDS = ("thickness_nm", "n_film", "base", "n_base", "k_base", "alpha", "noise",
+               "noise_range_nm")
+"""What :meth:`Viewer.set_film` edits."""
+DEFAULT_FILM = ThinFilmMaterial(n_film=2.0, thickness_nm=500.0, alpha=0.08, n_base=1.5,
+                                thickness_map=ParameterMap(None, "noise", (250.0, 750.0), 4.0))
+"""The film a scene without one starts from (that of the ``thin_film`` preset)."""
+FILM_COLOUR_METHOD = "fourier-table"
+"""How the renderer colours films in RGB mode (order 3), and so the film's colour strip."""
 
 # Share of a preview frame's time left to the window's own drawing when choosing the scale.
 _PREVIEW_HEADROOM = 0.75
@@ -171,6 +202,19 @@ def _albedo(value) -> float | tuple[float, float, float] | None:
     return tuple(_real("base_albedo", c, 0.0, 1.0) for c in channels)
 
 
+def _thickness_range(value) -> tuple[float, float]:
+    try:
+        bounds = tuple(value)
+    except TypeError:
+        bounds = ()
+    if len(bounds) != 2:
+        raise ValueError(f"noise_range_nm must be (lo, hi) in nm, got {value!r}")
+    lo, hi = (check_thickness(f"noise_range_nm[{k}]", b) for k, b in enumerate(bounds))
+    if lo > hi:
+        raise ValueError(f"noise_range_nm must be (lo, hi) with lo <= hi, got ({lo}, {hi})")
+    return lo, hi
+
+
 def _srgb_bytes(linear: np.ndarray) -> np.ndarray:
     """Linear sRGB, clipped to [0, 1], as 8-bit sRGB (no tone map: a reflectance colour)."""
     c = np.clip(linear, 0.0, 1.0)
@@ -204,8 +248,39 @@ def _strip(spec: BraggLayerSpec, method: str, samples: int) -> np.ndarray:
     return colours
 
 
+@functools.lru_cache(maxsize=32)
+def _film_spectrum(material: ThinFilmMaterial, thickness_nm: float) -> np.ndarray:
+    wavelength = xyz_weights()[0]
+    values = material.to_film(thickness_nm).reflectance(wavelength, 0.0, "unpolarized")
+    values.setflags(write=False)
+    return values
+
+
+@functools.lru_cache(maxsize=32)
+def _film_strip(material: ThinFilmMaterial, thickness_nm: float, samples: int) -> np.ndarray:
+    theta = np.radians(np.linspace(0.0, 90.0, samples))
+    colours = _srgb_bytes(material.to_film(thickness_nm).rgb(theta, method=FILM_COLOUR_METHOD))
+    colours.setflags(write=False)
+    return colours
+
+
+def _default_bragg() -> LayeredBraggMaterial:
+    """The Bragg layers a scene without any starts from: the teapot preset's."""
+    return load_preset("teapot").materials["two_layers"]
+
+
+def _rendered(material):
+    """A material as the viewer puts it in the scene: a film always with a thickness map
+    (a constant one for a uniform film: the same image, and the same pipeline as with the
+    noise on)."""
+    if isinstance(material, ThinFilmMaterial) and material.thickness_map is None:
+        d = material.thickness_nm
+        return dataclasses.replace(material, thickness_map=ParameterMap(None, "noise", (d, d)))
+    return material
+
+
 class Viewer:
-    """A scene rendered progressively while its Bragg material is edited.
+    """A scene rendered progressively while its Bragg or thin-film material is edited.
 
     Parameters
     ----------
@@ -214,7 +289,9 @@ class Viewer:
     size : tuple of 2 ints
         Width and height of the image in pixels.
     material : str, optional
-        The layered Bragg material to edit; the scene's first by default.
+        The layered Bragg or thin-film material to edit; the scene's first by default. It
+        starts as it is in the scene; the other kind (:meth:`edit`'s ``material_type``) from
+        the teapot preset's layers or :data:`DEFAULT_FILM`.
     mode : {"rgb", "spectral"}, optional
         The scene's ``settings.mode`` by default.
     colour_method : str
@@ -235,7 +312,8 @@ class Viewer:
     Raises
     ------
     ValueError
-        For a parameter out of range, or a scene without a layered Bragg material.
+        For a parameter out of range, or a scene without a layered Bragg or thin-film
+        material.
 
     Attributes
     ----------
@@ -243,6 +321,8 @@ class Viewer:
         As last edited.
     size : tuple of 2 ints
     material_name : str
+    material_type : {"layered-bragg", "thin-film"}
+        What the edited material is now.
     mode, colour_method : str
     yaw_deg, pitch_deg, distance : float
         The camera about its target (see :meth:`edit`), from the scene's camera at first.
@@ -261,12 +341,28 @@ class Viewer:
             scene = load_preset(scene)
         if not isinstance(scene, Scene):
             raise ValueError(f"scene must be a Scene or a preset name, got {scene!r}")
-        layered = [name for name, m in scene.materials.items()
-                   if isinstance(m, LayeredBraggMaterial)]
-        if material is None and not layered:
-            raise ValueError("scene has no layered-bragg material to edit")
-        self.material_name = _choice("material", layered[0] if material is None else material,
-                                     layered)
+        editable = [name for name, m in scene.materials.items()
+                    if isinstance(m, LayeredBraggMaterial | ThinFilmMaterial)]
+        if material is None and not editable:
+            raise ValueError("scene has no layered-bragg material or thin-film material to edit")
+        self.material_name = _choice("material", editable[0] if material is None else material,
+                                     editable)
+        edited = scene.materials[self.material_name]
+        if isinstance(edited, ThinFilmMaterial):
+            self.material_type = "thin-film"
+            self._bragg, self._film = _default_bragg(), edited
+        else:
+            self.material_type = "layered-bragg"
+            self._bragg, self._film = edited, DEFAULT_FILM
+        # The noise map that `noise` turns on, and the dielectric base that a metal replaces,
+        # kept while they are off.
+        self._noise_map = self._film.thickness_map or DEFAULT_FILM.thickness_map
+        if self._film.thickness_map is not None:
+            # The uniform thickness the film gets when its noise is turned off.
+            self._film = dataclasses.replace(self._film,
+                                             thickness_nm=0.5 * sum(self._noise_map.range))
+        self._dielectric = ((self._film.n_base, self._film.k_base) if self._film.base is None
+                            else (DEFAULT_FILM.n_base, DEFAULT_FILM.k_base))
         if preview_scale is not None:
             check_count("preview_scale", preview_scale)
         if not (isinstance(size, tuple | list) and len(size) == 2 and all(
@@ -282,7 +378,7 @@ class Viewer:
         self._interaction_scale = 1
         self.budgets = Budgets()
         self.last_frame: np.ndarray | None = None
-        self.scene = scene
+        self.scene = self._with_material(scene, self.material)
         if environment_path is None and scene.environment.type == "exr":
             environment_path = scene.environment.path
         self._environment_path = environment_path
@@ -303,14 +399,30 @@ class Viewer:
     # ------------------------------------------------------------------ state
 
     @property
-    def material(self) -> LayeredBraggMaterial:
-        """The edited material."""
-        return self.scene.materials[self.material_name]
+    def material(self) -> LayeredBraggMaterial | ThinFilmMaterial:
+        """The edited material, as shown: :attr:`bragg` or :attr:`film`."""
+        return self._film if self.material_type == "thin-film" else self._bragg
+
+    @property
+    def bragg(self) -> LayeredBraggMaterial:
+        """The Bragg layers, shown or kept while the film is."""
+        return self._bragg
+
+    @property
+    def film(self) -> ThinFilmMaterial:
+        """The thin film, shown or kept while the Bragg layers are (its ``thickness_map`` is
+        None for a uniform thickness, the noise map otherwise)."""
+        return self._film
+
+    @property
+    def noise_range_nm(self) -> tuple[float, float]:
+        """The thickness range of the film's noise map, nm (kept while the noise is off)."""
+        return self._noise_map.range
 
     @property
     def layers(self) -> tuple[BraggLayerSpec, ...]:
-        """Its layers, from the top down."""
-        return self.material.layers
+        """The Bragg layers, from the top down."""
+        return self._bragg.layers
 
     @property
     def passes(self) -> int:
@@ -389,16 +501,78 @@ class Viewer:
             raise ValueError(f"layer {index}: {error}") from None
         if edited.alpha != spec.alpha:
             self._load_filter(edited.alpha)
-        material = dataclasses.replace(self.material,
+        material = dataclasses.replace(self._bragg,
                                        layers=(*layers[:index], edited, *layers[index + 1:]))
-        self._apply(self._with_material(self.scene, material), self.mode, self.colour_method,
-                    {})
+        self._apply(self.scene, self.mode, self.colour_method, {}, _bragg=material)
 
-    def edit(self, **changes) -> None:
-        """Change the structure, the rendering or the camera; restart the accumulation.
+    def set_film(self, **fields) -> None:
+        """Edit the thin film and restart the accumulation (while it is shown).
 
         Parameters
         ----------
+        **fields
+            Any of :data:`FILM_FIELDS`: ``thickness_nm`` (the uniform thickness, nm, >= 0),
+            ``n_film`` (> 0), ``base`` (a bundled metal, one of
+            :data:`wgbragg.metals.METALS`, or None for a base of constant index),
+            ``n_base`` (> 0) and ``k_base`` (>= 0) of that base (giving one turns a metal
+            base into it), ``alpha`` (GGX roughness in [0.01, 1]), ``noise`` (bool: the
+            thickness varies over the surface by value noise) and ``noise_range_nm`` (its
+            ``(lo, hi)``, nm, 0 <= lo <= hi; kept while the noise is off).
+
+        Raises
+        ------
+        ValueError
+            Naming the field out of range; the viewer is then left as it was.
+        """
+        unknown = set(fields) - set(FILM_FIELDS)
+        if unknown:
+            raise ValueError(f"unknown film field(s) {sorted(unknown)}: accepted are "
+                             f"{FILM_FIELDS}")
+        film, noise_map, dielectric = self._film, self._noise_map, self._dielectric
+        changes = {}
+        if "thickness_nm" in fields:
+            changes["thickness_nm"] = check_thickness("thickness_nm", fields["thickness_nm"])
+        if "n_film" in fields:
+            changes["n_film"] = check_index("n_film", fields["n_film"])
+        if "alpha" in fields:
+            changes["alpha"] = check_filter_alpha(fields["alpha"])
+        metal = film.base
+        if "base" in fields:
+            metal = fields["base"]
+            if metal is not None and metal not in METALS:
+                raise ValueError(f"base must be None or one of {tuple(METALS)}, got {metal!r}")
+        if "n_base" in fields or "k_base" in fields:
+            if fields.get("base") is not None:
+                raise ValueError("base: a metal base replaces n_base and k_base: give one or "
+                                 "the other")
+            dielectric = (check_index("n_base", fields.get("n_base", dielectric[0])),
+                          check_extinction("k_base", fields.get("k_base", dielectric[1])))
+            metal = None
+        changes["base"] = metal
+        changes["n_base"], changes["k_base"] = (1.0, 0.0) if metal is not None else dielectric
+        if "noise_range_nm" in fields:
+            noise_map = dataclasses.replace(noise_map,
+                                            range=_thickness_range(fields["noise_range_nm"]))
+        noise = fields.get("noise", film.thickness_map is not None)
+        if not isinstance(noise, bool | np.bool_):
+            raise ValueError(f"noise must be True or False, got {noise!r}")
+        changes["thickness_map"] = noise_map if noise else None
+        edited = dataclasses.replace(film, **changes)
+        try:
+            edited.to_film()
+        except ValueError as error:
+            raise ValueError(f"film: {error}") from None
+        self._apply(self.scene, self.mode, self.colour_method, {}, _film=edited,
+                    _noise_map=noise_map, _dielectric=dielectric)
+
+    def edit(self, **changes) -> None:
+        """Change the material, the rendering or the camera; restart the accumulation.
+
+        Parameters
+        ----------
+        material_type : {"layered-bragg", "thin-film"}
+            Show the Bragg layers or the thin film (:data:`MATERIAL_TYPES`); the other keeps
+            its settings.
         n1 : float
             Index of every layer's ``n1``, the host around the layers (>= 1; above 1 a smooth
             coating covers them).
@@ -420,13 +594,17 @@ class Viewer:
         exposure : float
             EV stops of the display (finite); the only edit that keeps the samples.
 
+        The structure's edits (``n1``, ``base_albedo``, ``layers``) apply to the Bragg layers
+        whichever material is shown; alone, they leave the film's image (and its samples) as
+        they are.
+
         Raises
         ------
         ValueError
             Naming the parameter out of range (or unknown); nothing is changed then.
         """
-        accepted = ("n1", "base_albedo", "layers", "mode", "colour_method", "environment",
-                    "yaw_deg", "pitch_deg", "distance", "exposure")
+        accepted = ("material_type", "n1", "base_albedo", "layers", "mode", "colour_method",
+                    "environment", "yaw_deg", "pitch_deg", "distance", "exposure")
         unknown = set(changes) - set(accepted)
         if unknown:
             raise ValueError(f"unknown edit(s) {sorted(unknown)}: accepted are {accepted}")
@@ -461,12 +639,16 @@ class Viewer:
                                     _PITCH_LIMIT_DEG)
         camera["distance"] = _finite("distance", camera["distance"], positive=True)
         exposure = _finite("exposure", changes.get("exposure", self.exposure))
+        state = {}
+        if "material_type" in changes:
+            state["material_type"] = _choice("material_type", changes["material_type"],
+                                             MATERIAL_TYPES)
         if any(name in changes for name in camera):
             scene = dataclasses.replace(scene, camera=self._camera(**camera))
         if material:
-            scene = self._with_material(scene, dataclasses.replace(self.material, **material))
+            state["_bragg"] = dataclasses.replace(self._bragg, **material)
         if set(changes) != {"exposure"}:
-            self._apply(scene, mode, colour_method, camera)
+            self._apply(scene, mode, colour_method, camera, **state)
         self.exposure = exposure
 
     def orbit(self, d_yaw_deg: float, d_pitch_deg: float) -> None:
@@ -551,7 +733,41 @@ class Viewer:
         return (np.linspace(0.0, 90.0, samples),
                 _strip(self._layer(index), self.colour_method, samples))
 
+    @property
+    def film_thickness_nm(self) -> float:
+        """The thickness the film's side panel shows, nm: the uniform one, or the middle of
+        the noise range."""
+        if self._film.thickness_map is None:
+            return self._film.thickness_nm
+        return 0.5 * sum(self._film.thickness_map.range)
+
+    def film_spectrum(self) -> tuple[np.ndarray, np.ndarray]:
+        """The film (of :attr:`film_thickness_nm`) at normal incidence: wavelengths (360..830
+        nm, 1 nm) and unpolarized Airy reflectance (float64 reference)."""
+        return xyz_weights()[0], _film_spectrum(self._film_key(), self.film_thickness_nm)
+
+    def film_colour_strip(self, samples: int = 46) -> tuple[np.ndarray, np.ndarray]:
+        """The film's colour (of :attr:`film_thickness_nm`) against the angle in air, as RGB
+        mode renders it (:data:`FILM_COLOUR_METHOD`).
+
+        Returns
+        -------
+        theta_deg : numpy.ndarray, shape (samples,)
+            0 to 90 degrees.
+        colours : numpy.ndarray, shape (samples, 3), uint8
+            The reflectance colours as sRGB bytes (clipped, not tone mapped).
+        """
+        samples = check_count("samples", samples)
+        if samples < 2:
+            raise ValueError(f"samples must be >= 2, got {samples}")
+        return (np.linspace(0.0, 90.0, samples),
+                _film_strip(self._film_key(), self.film_thickness_nm, samples))
+
     # ------------------------------------------------------------------ internals
+
+    def _film_key(self) -> ThinFilmMaterial:
+        """The film without its map: what its spectrum and colours depend on."""
+        return dataclasses.replace(self._film, thickness_map=None)
 
     def _layer(self, index: int) -> BraggLayerSpec:
         if isinstance(index, bool) or not isinstance(index, int) or not (
@@ -575,8 +791,8 @@ class Viewer:
         position = tuple(float(x) for x in np.add(camera.look_at, offset))
         return dataclasses.replace(camera, position=position)
 
-    def _with_material(self, scene: Scene, material: LayeredBraggMaterial) -> Scene:
-        materials = {**scene.materials, self.material_name: material}
+    def _with_material(self, scene: Scene, material) -> Scene:
+        materials = {**scene.materials, self.material_name: _rendered(material)}
         return dataclasses.replace(scene, materials=types.MappingProxyType(materials))
 
     def _load_filter(self, alpha: float) -> None:
@@ -589,20 +805,31 @@ class Viewer:
         budgets.filter_source = events[-1].action if events else "in memory"
         budgets.filter_alpha = alpha
 
-    def _apply(self, scene: Scene, mode: str, colour_method: str, camera: dict) -> None:
-        """Make ``scene`` current and update the renderer in use now; on a ValueError from
-        the renderer, restore the previous state."""
-        saved = (self.scene, self.mode, self.colour_method, self._version,
-                 self._material_version)
-        material_changed = scene.materials[self.material_name] != self.material
+    def _apply(self, scene: Scene, mode: str, colour_method: str, camera: dict,
+               **state) -> None:
+        """Make ``state`` (the viewer's material attributes) current, with ``scene`` showing
+        the edited material, and update the renderer in use now; on a ValueError from the
+        renderer, restore the previous state. An edit of materials that leaves the image as
+        it was (the kind not shown) keeps the samples."""
+        names = ("scene", "mode", "colour_method", "_version", "_material_version", *state)
+        saved = {name: getattr(self, name) for name in names}
+        for name, value in state.items():
+            setattr(self, name, value)
+        scene = self._with_material(scene, self.material)
+        if state and (scene, mode, colour_method) == (self.scene, self.mode, self.colour_method):
+            for name, value in camera.items():
+                setattr(self, name, value)
+            return
+        material_changed = (scene.materials[self.material_name]
+                            != self.scene.materials[self.material_name])
         self.scene, self.mode, self.colour_method = scene, mode, colour_method
         self._version += 1
         self._material_version += material_changed
         try:
             self._slot(self._scale_now())
         except ValueError:
-            (self.scene, self.mode, self.colour_method, self._version,
-             self._material_version) = saved
+            for name, value in saved.items():
+                setattr(self, name, value)
             raise
         for name, value in camera.items():
             setattr(self, name, value)

@@ -3,9 +3,11 @@
 The picture is the viewer's progressive render, drawn by ``wgsl/blit.wgsl`` at the largest
 whole scale that fits left of the side panel (nearest texels; smaller windows shrink it,
 filtered). The side panel (Dear ImGui through ``wgpu.utils.imgui``, like BRDF Explorer's)
-holds the budgets as measured, the rendering and structure controls, one section per Bragg
-layer, the selected layer's reflectance at normal incidence with its landmarks, and its colour
-from 0 to 90 degrees by the current colour method. A left drag on the picture orbits the
+holds the budgets as measured, the rendering controls, the material's: Bragg layers (the
+structure, one section per layer) or a thin film (thickness or a noise map's range, indices,
+a metal or dielectric base, roughness), and the selected layer's or the film's reflectance at
+normal incidence (with the layer's landmarks) and its colour from 0 to 90 degrees by the
+current colour method (the film's as RGB mode renders it). A left drag on the picture orbits the
 camera about its target and the wheel zooms; every edit restarts the accumulation, and while
 a drag or a slider is held the viewer shows its low-resolution preview.
 
@@ -26,6 +28,7 @@ import numpy as np
 from . import gpu
 from .colour_methods import COLOUR_METHODS
 from .viewer import (
+    FILM_COLOUR_METHOD,
     FILTER_BUDGET_S,
     LAYER_FIELDS,
     MAX_LAYERS,
@@ -59,6 +62,17 @@ _LAYER_SLIDERS = {
     "n2": ("n2", 1.0, 3.0, "%.3f", False),
     "alpha": ("alpha (roughness)", 0.01, 1.0, "%.2g", True),
 }
+_FILM_SLIDERS = {
+    "thickness_nm": ("d (film)", 0.0, 1200.0, "%.0f nm", False),
+    "n_film": ("n_film", 1.0, 2.5, "%.3f", False),
+    "n_base": ("n_base", 1.0, 3.0, "%.3f", False),
+    "k_base": ("k_base", 0.0, 5.0, "%.3f", False),
+    "alpha": ("alpha (roughness)", 0.01, 1.0, "%.2g", True),
+}
+_NOISE_SLIDERS = (("d low (noise)", 0), ("d high (noise)", 1))
+# The material choice (Viewer.material_type) and the film's bases: a constant index or a metal.
+_MATERIAL_LABELS = (("layered-bragg", "Bragg layers"), ("thin-film", "thin film"))
+_FILM_BASES = ("dielectric (n, k)", "Au", "Ag", "Cu", "Al")
 # Panel geometry in logical pixels: labels right of the controls, plot and strip heights.
 _LABEL_WIDTH = 140.0
 _PLOT_HEIGHT = 100.0
@@ -431,9 +445,17 @@ class ViewerWindow:
         colour = imgui.color_convert_float4_to_u32
         draw = imgui.get_window_draw_list()
         width = imgui.get_content_region_avail().x
+        film = viewer.material_type == "thin-film"
 
-        imgui.separator_text(f"layer {index}: R at normal incidence")
-        wavelength, reflectance = viewer.spectrum(index)
+        if film:
+            imgui.separator_text(f"thin film, d = {viewer.film_thickness_nm:.0f} nm: R at "
+                                 "normal incidence")
+            wavelength, reflectance = viewer.film_spectrum()
+            marks = None
+        else:
+            imgui.separator_text(f"layer {index}: R at normal incidence")
+            wavelength, reflectance = viewer.spectrum(index)
+            marks = viewer.landmarks(index)
         origin = imgui.get_cursor_screen_pos()
         x0, y0 = origin.x, origin.y
         x1, y1 = x0 + width, y0 + _PLOT_HEIGHT
@@ -446,8 +468,8 @@ class ViewerWindow:
         def x_of(nm):
             return x0 + (nm - low) / (high - low) * (x1 - x0)
 
-        marks = viewer.landmarks(index)
-        for nm, kind in zip(marks.wavelength_nm, marks.kind, strict=True):
+        for nm, kind in () if marks is None else zip(marks.wavelength_nm, marks.kind,
+                                                     strict=True):
             draw.add_line((x_of(nm), y0), (x_of(nm), y1),
                           colour(imgui.ImVec4(*_LANDMARK_COLOURS[str(kind)])), 1.0)
         points = [imgui.ImVec2(x_of(nm), y1 - r * (y1 - y0))
@@ -456,14 +478,19 @@ class ViewerWindow:
         draw.add_rect((x0, y0), (x1, y1), colour(imgui.ImVec4(0.4, 0.4, 0.45, 1.0)))
         imgui.dummy((width, _PLOT_HEIGHT))
         imgui.text(f"{low:.0f} nm")
-        for kind, rgba in _LANDMARK_COLOURS.items():
+        for kind, rgba in () if film else _LANDMARK_COLOURS.items():
             imgui.same_line()
             imgui.text_colored(imgui.ImVec4(*rgba), kind)
         imgui.same_line(width - 45.0)
         imgui.text(f"{high:.0f} nm")
 
-        imgui.separator_text(f"layer {index}: colour, 0 to 90 deg in n1 ({viewer.colour_method})")
-        theta, colours = viewer.colour_strip(index)
+        if film:
+            imgui.separator_text(f"thin film: colour, 0 to 90 deg ({FILM_COLOUR_METHOD})")
+            theta, colours = viewer.film_colour_strip()
+        else:
+            imgui.separator_text(f"layer {index}: colour, 0 to 90 deg in n1 "
+                                 f"({viewer.colour_method})")
+            theta, colours = viewer.colour_strip(index)
         origin = imgui.get_cursor_screen_pos()
         x0, y0 = origin.x, origin.y
         x1, y1 = x0 + width, y0 + _STRIP_HEIGHT
@@ -503,6 +530,15 @@ class ViewerWindow:
     def _structure_controls(self) -> None:
         imgui, viewer = self._imgui, self.viewer
         imgui.separator_text(f"material {viewer.material_name!r}")
+        for k, (kind, label) in enumerate(_MATERIAL_LABELS):
+            if k:
+                imgui.same_line()
+            if imgui.radio_button(label, viewer.material_type == kind) and (
+                    viewer.material_type != kind):
+                viewer.edit(material_type=kind)
+        if viewer.material_type == "thin-film":
+            self._film_controls()
+            return
         changed, count = imgui.slider_int("layers", len(viewer.layers), 1, MAX_LAYERS)
         if changed:
             viewer.edit(layers=count)
@@ -510,7 +546,7 @@ class ViewerWindow:
                                          "%.3f")
         if changed:
             viewer.edit(n1=n1)
-        albedo = viewer.material.base_albedo
+        albedo = viewer.bragg.base_albedo
         rgb = [0.0] * 3 if albedo is None else (
             [float(albedo)] * 3 if np.isscalar(albedo) else list(albedo))
         changed, rgb = imgui.color_edit3("rho_d (base)", rgb, imgui.ColorEditFlags_.float)
@@ -541,3 +577,44 @@ class ViewerWindow:
                 value = _round_alpha(value)
             if changed and value != values[field]:
                 viewer.set_layer(index, **{field: value})
+
+    def _film_controls(self) -> None:
+        imgui, viewer = self._imgui, self.viewer
+        film = viewer.film
+        noise = film.thickness_map is not None
+        values = {"thickness_nm": film.thickness_nm, "n_film": film.n_film,
+                  "n_base": film.n_base, "k_base": film.k_base, "alpha": film.alpha}
+
+        def slider(field):
+            label, low, high, shown, logarithmic = _FILM_SLIDERS[field]
+            flags = imgui.SliderFlags_.logarithmic if logarithmic else 0
+            changed, value = imgui.slider_float(label, values[field], low, high, shown, flags)
+            if changed and value != values[field]:
+                viewer.set_film(**{field: value})
+
+        imgui.begin_disabled(noise)  # the noise map replaces the uniform thickness
+        slider("thickness_nm")
+        imgui.end_disabled()
+        changed, on = imgui.checkbox("vary d by noise", noise)
+        imgui.set_item_tooltip("value noise over the surface's texture coordinates")
+        if changed:
+            viewer.set_film(noise=on)
+        if on:
+            bounds = list(viewer.noise_range_nm)
+            for label, k in _NOISE_SLIDERS:
+                changed, value = imgui.slider_float(label, bounds[k], 0.0, 1200.0, "%.0f nm")
+                if changed and value != bounds[k]:
+                    bounds[k] = value
+                    # The other end follows, so that low <= high.
+                    bounds[1 - k] = max(bounds[1 - k], value) if k == 0 else min(
+                        bounds[1 - k], value)
+                    viewer.set_film(noise_range_nm=tuple(bounds))
+        slider("n_film")
+        base = 0 if film.base is None else _FILM_BASES.index(film.base)
+        changed, base = imgui.combo("base", base, _FILM_BASES)
+        if changed:
+            viewer.set_film(base=None if base == 0 else _FILM_BASES[base])
+        if film.base is None:
+            slider("n_base")
+            slider("k_base")
+        slider("alpha")
