@@ -24,6 +24,7 @@ import pytest
 from PIL import Image
 
 from conftest import EXPECT_LAVAPIPE
+from wgbragg.render import Renderer, display_transform
 from wgbragg.scene import LayeredBraggMaterial, ThinFilmMaterial
 from wgbragg.viewer import DEFAULT_FILM, Viewer
 
@@ -181,6 +182,28 @@ def test_preview_frames_render_smaller_and_keep_the_full_accumulation(viewer):
     assert viewer.passes == 1  # the full image restarted for the edit made meanwhile
     viewer.frame()
     assert viewer.passes == 2
+
+
+def test_the_preview_lights_with_filtered_ibl_where_the_scene_allows_it():
+    """Camera rays only (split-sum IBL) keep the preview at full resolution: its frame is the
+    filtered renderer's; a coated structure, or preview_ibl=False, previews with paths."""
+    viewer = Viewer("teapot", size=(32, 32), seed=3)
+    viewer.frame()
+    viewer.interacting = True
+    assert viewer.preview_lighting == "split-sum"
+    preview = viewer.frame()
+    assert viewer.budgets.preview_scale == 1
+    expected = Renderer(viewer.scene, size=(32, 32), seed=3, mode="rgb", ibl="split-sum")
+    np.testing.assert_array_equal(preview, display_transform(expected.render(1),
+                                                             viewer.exposure))
+    viewer.interacting = False
+    assert viewer.frame().shape == preview.shape and viewer.passes == 2
+    coated = Viewer("fig11", size=(16, 16))
+    coated.interacting = True
+    assert coated.preview_lighting == "monte-carlo"
+    plain = Viewer("teapot", size=(16, 16), preview_ibl=False)
+    plain.interacting = True
+    assert plain.preview_lighting == "monte-carlo"
 
 
 def test_side_panel_data(viewer):

@@ -22,11 +22,14 @@ Interactive budgets (the Bragg paper's figures; :data:`TABLE_BUDGET_MS`,
 on every edit and frame and kept in :attr:`Viewer.budgets`.
 
 Progressive refinement. While :attr:`Viewer.interacting` is set (a drag in the window, a slider
-held), frames come from a second renderer at ``1 / preview_scale`` of the resolution, shown
-with each pixel repeated, so that the preview keeps :data:`PREVIEW_BUDGET_FPS` where one full
-frame is slower (software Vulkan); released, the full-resolution renderer takes over and
-accumulates. An edit updates the renderer in use at once and the other one when it is next
-shown.
+held), frames come from a second renderer. Where the scene allows it (no smooth coating), that
+renderer shades with filtered image-based lighting (:data:`PREVIEW_IBL`, see
+:mod:`wgbragg.render`): camera rays only, no shadow or bounce rays, about three times cheaper
+than a path, so the preview keeps full resolution; otherwise, or where even that is too slow,
+it renders at ``1 / preview_scale`` of the resolution, shown with each pixel repeated, so that
+the preview keeps :data:`PREVIEW_BUDGET_FPS` where one full frame is slower (software Vulkan);
+released, the full-resolution path tracer takes over and accumulates. An edit updates the
+renderer in use at once and the others when they are next shown.
 
 Thin films (``material_type="thin-film"``, :meth:`Viewer.set_film`) are GGX microfacets coated
 by a film, optionally of a thickness varying by a noise map; they need no tables, so an edit
@@ -59,7 +62,7 @@ from .colorimetry import xyz_weights
 from .colour_methods import COLOUR_METHODS
 from .materials import BraggMirror
 from .metals import METALS
-from .render import Renderer, display_transform
+from .render import Renderer, _ibl_levels, display_transform
 from .scene import (
     ENVIRONMENT_TYPES,
     MAX_IMAGE_SIDE,
@@ -97,6 +100,9 @@ PREVIEW_BUDGET_FPS = 10.0
 """Preview frames per second while interacting."""
 PREVIEW_SCALES = (1, 2, 4, 8)
 """Resolution divisors the automatic preview chooses from."""
+PREVIEW_IBL = "split-sum"
+"""How preview frames light the scene where it allows filtered image-based lighting (the
+cheapest filtered mode; ``"monte-carlo"`` elsewhere)."""
 MAX_LAYERS = 4
 """Most Bragg layers the viewer stacks."""
 LAYER_FIELDS = ("period_nm", "delta", "N", "n2", "alpha")
@@ -264,6 +270,15 @@ def _film_strip(material: ThinFilmMaterial, thickness_nm: float, samples: int) -
     return colours
 
 
+def _filtered_ibl_allowed(scene: Scene) -> bool:
+    """Whether filtered image-based lighting can shade ``scene`` (no smooth coating)."""
+    try:
+        _ibl_levels(scene, PREVIEW_IBL, "rgb")
+    except ValueError:
+        return False
+    return True
+
+
 def _default_bragg() -> LayeredBraggMaterial:
     """The Bragg layers a scene without any starts from: the teapot preset's."""
     return load_preset("teapot").materials["two_layers"]
@@ -308,6 +323,9 @@ class Viewer:
     environment_path : path-like, optional
         An equirectangular EXR that ``edit(environment="exr")`` uses; by default the
         scene's own, if it has one.
+    preview_ibl : bool
+        Preview with filtered image-based lighting (:data:`PREVIEW_IBL`) where the scene
+        allows it; False previews with paths at reduced resolution.
 
     Raises
     ------
@@ -336,7 +354,8 @@ class Viewer:
     def __init__(self, scene: Scene | str = "teapot", size: tuple[int, int] = (256, 256),
                  material: str | None = None, mode: str | None = None,
                  colour_method: str = "averaged", seed: int = 0, max_bounces: int = 8,
-                 preview_scale: int | None = None, environment_path=None):
+                 preview_scale: int | None = None, environment_path=None,
+                 preview_ibl: bool = True):
         if isinstance(scene, str):
             scene = load_preset(scene)
         if not isinstance(scene, Scene):
@@ -376,6 +395,8 @@ class Viewer:
         self.exposure = scene.settings.exposure
         self._interacting = False
         self._interaction_scale = 1
+        self._preview_ibl = bool(preview_ibl)
+        self._interaction_ibl = "monte-carlo"
         self.budgets = Budgets()
         self.last_frame: np.ndarray | None = None
         self.scene = self._with_material(scene, self.material)
@@ -384,17 +405,19 @@ class Viewer:
         self._environment_path = environment_path
         self._seed, self._max_bounces = seed, max_bounces
         self._preview_scale = preview_scale
-        self._pixel_seconds: float | None = None
+        # Running mean seconds per pixel of a frame, per lighting ("monte-carlo" or PREVIEW_IBL).
+        self._pixel_seconds: dict[str, float] = {}
         # Running mean frame time of preview (True) and full-resolution (False) frames.
         self._frame_seconds: dict[bool, float] = {}
         self._version = self._material_version = 0
-        self._slots: dict[int, _Slot] = {}
+        self._slots: dict[tuple[int, str], _Slot] = {}
         camera = scene.camera
         offset = np.subtract(camera.position, camera.look_at)
         self.distance = float(np.linalg.norm(offset))
         self.yaw_deg = math.degrees(math.atan2(offset[0], offset[2]))
         self.pitch_deg = math.degrees(math.asin(offset[1] / self.distance))
-        self._slot(1)  # the full-resolution renderer, validating size, seed and max_bounces
+        # The full-resolution renderer, validating size, seed and max_bounces.
+        self._slot(1, "monte-carlo")
 
     # ------------------------------------------------------------------ state
 
@@ -441,7 +464,9 @@ class Viewer:
     @interacting.setter
     def interacting(self, value: bool) -> None:
         if value and not self._interacting:
-            self._interaction_scale = self.preview_scale()
+            self._interaction_ibl = PREVIEW_IBL if (
+                self._preview_ibl and _filtered_ibl_allowed(self.scene)) else "monte-carlo"
+            self._interaction_scale = self.preview_scale(self._interaction_ibl)
         self._interacting = bool(value)
 
     @property
@@ -671,13 +696,13 @@ class Viewer:
             sRGB after the display transform; a preview has its pixels repeated to the full
             size.
         """
-        scale = self._scale_now()
-        slot = self._slot(scale)
+        scale, ibl = self._key_now()
+        slot = self._slot(scale, ibl)
         start = time.perf_counter()
         image = slot.renderer.render(1)
         pixels = self._show(slot, image, scale)
         seconds = time.perf_counter() - start
-        self._measure(self._interacting, scale, seconds, image.shape[0] * image.shape[1])
+        self._measure(self._interacting, scale, ibl, seconds, image.shape[0] * image.shape[1])
         return pixels
 
     def refine(self, spp: int) -> np.ndarray:
@@ -688,19 +713,31 @@ class Viewer:
         numpy.ndarray, shape (height, width, 3), uint8
             As :meth:`frame`.
         """
-        slot = self._slot(1)
+        slot = self._slot(1, "monte-carlo")
         return self._show(slot, slot.renderer.render(check_count("spp", spp)), 1)
 
-    def preview_scale(self) -> int:
-        """Resolution divisor of preview frames: the given one, or the automatic choice."""
+    @property
+    def preview_lighting(self) -> str:
+        """How the preview lights the scene: :data:`PREVIEW_IBL`, or ``"monte-carlo"`` (paths)
+        where the scene does not allow filtered lighting or ``preview_ibl`` was False."""
+        return self._interaction_ibl if self._interacting else (
+            PREVIEW_IBL if self._preview_ibl and _filtered_ibl_allowed(self.scene)
+            else "monte-carlo")
+
+    def preview_scale(self, lighting: str | None = None) -> int:
+        """Resolution divisor of preview frames: the given one, or the automatic choice for
+        the preview's ``lighting`` (by default :attr:`preview_lighting`)."""
         if self._preview_scale is not None:
             return self._preview_scale
-        if self._pixel_seconds is None:
-            return 2
+        lighting = self.preview_lighting if lighting is None else lighting
+        pixel_seconds = self._pixel_seconds.get(lighting)
+        if pixel_seconds is None:
+            # Filtered lighting traces camera rays only: full resolution until measured.
+            return 1 if lighting != "monte-carlo" else 2
         budget = _PREVIEW_HEADROOM / PREVIEW_BUDGET_FPS
         width, height = self.size
         for scale in PREVIEW_SCALES:
-            if self._pixel_seconds * -(-width // scale) * -(-height // scale) <= budget:
+            if pixel_seconds * -(-width // scale) * -(-height // scale) <= budget:
                 return scale
         return PREVIEW_SCALES[-1]
 
@@ -826,7 +863,7 @@ class Viewer:
         self._version += 1
         self._material_version += material_changed
         try:
-            self._slot(self._scale_now())
+            self._slot(*self._key_now())
         except ValueError:
             for name, value in saved.items():
                 setattr(self, name, value)
@@ -834,22 +871,26 @@ class Viewer:
         for name, value in camera.items():
             setattr(self, name, value)
 
-    def _scale_now(self) -> int:
-        return self._interaction_scale if self._interacting else 1
+    def _key_now(self) -> tuple[int, str]:
+        if self._interacting:
+            return self._interaction_scale, self._interaction_ibl
+        return 1, "monte-carlo"
 
-    def _slot(self, scale: int) -> _Slot:
-        """The renderer of resolution divisor ``scale``, created or updated to the current
-        scene."""
-        slot = self._slots.get(scale)
+    def _slot(self, scale: int, ibl: str) -> _Slot:
+        """The renderer of resolution divisor ``scale`` and lighting ``ibl``, created or
+        updated to the current scene (filtered lighting in RGB mode, which it needs)."""
+        slot = self._slots.get((scale, ibl))
+        mode = self.mode if ibl == "monte-carlo" else "rgb"
         if slot is None:
             width, height = self.size
             renderer = Renderer(self.scene, size=(-(-width // scale), -(-height // scale)),
-                                seed=self._seed, mode=self.mode, max_bounces=self._max_bounces,
-                                colour_method=self.colour_method)
-            slot = self._slots[scale] = _Slot(renderer, self._version, self._material_version)
+                                seed=self._seed, mode=mode, max_bounces=self._max_bounces,
+                                colour_method=self.colour_method, ibl=ibl)
+            slot = self._slots[scale, ibl] = _Slot(renderer, self._version,
+                                                   self._material_version)
         elif slot.version != self._version:
             start = time.perf_counter()
-            slot.renderer.update(self.scene, self.mode, self.colour_method)
+            slot.renderer.update(self.scene, mode, self.colour_method, ibl)
             seconds = time.perf_counter() - start
             if slot.material_version != self._material_version:
                 self.budgets.update_ms = 1e3 * seconds
@@ -867,14 +908,16 @@ class Viewer:
         self.last_frame = pixels
         return pixels
 
-    def _measure(self, preview: bool, scale: int, seconds: float, pixels: int) -> None:
+    def _measure(self, preview: bool, scale: int, ibl: str, seconds: float,
+                 pixels: int) -> None:
         previous = self._frame_seconds.get(preview)
         average = seconds if previous is None else (
             (1.0 - _SMOOTHING) * previous + _SMOOTHING * seconds)
         self._frame_seconds[preview] = average
         per_pixel = seconds / pixels
-        self._pixel_seconds = per_pixel if self._pixel_seconds is None else (
-            (1.0 - _SMOOTHING) * self._pixel_seconds + _SMOOTHING * per_pixel)
+        known = self._pixel_seconds.get(ibl)
+        self._pixel_seconds[ibl] = per_pixel if known is None else (
+            (1.0 - _SMOOTHING) * known + _SMOOTHING * per_pixel)
         if preview:
             self.budgets.preview_fps = 1.0 / average
             self.budgets.preview_scale = scale

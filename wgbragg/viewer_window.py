@@ -426,7 +426,8 @@ class ViewerWindow:
                               "frames/s)", None)
         else:
             self._budget_line(f"preview: {self.preview_fps:.1f} frames/s (render "
-                              f"{budgets.preview_fps:.1f} at 1/{budgets.preview_scale} size)",
+                              f"{budgets.preview_fps:.1f} at 1/{budgets.preview_scale} size, "
+                              f"{self.viewer.preview_lighting})",
                               self.preview_fps >= PREVIEW_BUDGET_FPS)
         if budgets.table_ms is None:
             self._budget_line(f"tables: edit a layer (<= {TABLE_BUDGET_MS:g} ms)", None)
