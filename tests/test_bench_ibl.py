@@ -74,7 +74,8 @@ def test_section_replaced_and_headed(bench, run):
     assert text.count(bench.BEGIN_MARKER) == text.count(bench.END_MARKER) == 1
     assert "stale numbers" not in text
     assert text.startswith("# Benchmarks\n\nIntro text.\n")
-    assert text.rstrip().endswith(LATER_SECTION.rstrip())
+    # Kept whole; the rendered comparison's own section, new to this document, follows it.
+    assert LATER_SECTION.rstrip() in text
     section = _section(bench, text)
     assert section in printed
     assert f"## {bench.HEADING}" in section
@@ -147,3 +148,26 @@ def test_default_outputs(bench):
     full = bench.parse_args([])
     assert bench._docs.section_output(full, bench.DEFAULT_OUTPUT) == bench.DEFAULT_OUTPUT
     assert bench.figures_folder(full) == bench.DEFAULT_FIGURES
+
+
+def test_rendered_spheres_section(bench, run):
+    """The renderer's modes against its path tracer: every case with finite errors and frame
+    times, under its own markers."""
+    text, printed, _ = run
+    assert text.count(bench.RENDER_BEGIN) == text.count(bench.RENDER_END) == 1
+    start = text.index(bench.RENDER_BEGIN)
+    section = text[start:text.index(bench.RENDER_END) + len(bench.RENDER_END)]
+    assert section in printed
+    cases = [(e, m, a) for e in bench.RENDER_QUICK.environments
+             for m in bench.RENDER_QUICK.materials for a in bench.RENDER_QUICK.alphas]
+    errors = _table_after(section, "### SMAPE and mean dE2000")[1:]
+    assert [(row[0], row[1], float(row[2])) for row in errors] == cases
+    for row in errors:
+        values = [float(cell) for cell in row[3:7]]
+        assert all(math.isfinite(v) and v >= 0.0 for v in values), row
+        assert row[7] in ("yes", "no")
+    times = _table_after(section, "### Time per 1-spp frame")[1:]
+    assert len(times) == len(cases)
+    for row in times:
+        assert all(bench._docs.parse_time(cell) > 0 for cell in (*row[3:6], *row[7:9])), row
+    assert _table_after(section, "### Target")[1][1] in ("yes", "no")

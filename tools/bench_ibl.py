@@ -29,9 +29,14 @@ Outputs:
   ``theta_o`` = 0..89 degrees and a grid of thicknesses or periods, per material and
   ``alpha``), written into ``docs/benchmarks.md`` between ``<!-- bench_ibl:begin -->`` and
   ``<!-- bench_ibl:end -->`` in full mode only;
+- a second section, the renderer's modes (``wgbragg.Renderer(scene, ibl=...)``) on rendered
+  spheres against its path tracer (SMAPE, mean dE2000, time per 1-spp frame side by side), for
+  films, a Bragg layer and two Bragg layers over a diffuse base at ``alpha`` in {0.05, 0.25,
+  0.5}, between ``<!-- bench_ibl_render:begin -->`` and ``<!-- bench_ibl_render:end -->``;
 - PNG colour strips like Kneiphof's Fig. 7 (x = ``theta_o``; rows ``sqrt(alpha)`` or ``d``;
   panels split-sum, kneiphof, reference) under ``out/ibl/`` in full mode (generated output,
-  not committed).
+  not committed), and ``ibl_render_spheres.png``: the rendered film sphere per ``alpha``, split
+  sum, kneiphof and path tracer side by side.
 
 Usage::
 
@@ -47,6 +52,7 @@ import argparse
 import dataclasses
 import shlex
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -547,6 +553,226 @@ def figures(cfg: Config, folder: Path, progress: bool = True) -> list[Path]:
     return written
 
 
+# ----------------------------------------------------------------------------- rendered spheres
+
+RENDER_ALPHAS = (0.05, 0.25, 0.5)
+RENDER_MODES = ("split-sum", "kneiphof")
+# Kneiphof et al. 2019, Fig. 3 (the Tissot bust's film and base); a film over gold; the Bragg
+# layer of the table above, and the teapot preset's two layers over a dark diffuse base.
+RENDER_MATERIALS = {
+    "film over 2.0+0.5i": ('type = "thin-film"\nn_film = 1.3\nthickness_nm = 650.0\n'
+                           'n_base = 2.0\nk_base = 0.5\nalpha = {alpha}'),
+    "film over Au": 'type = "thin-film"\nn_film = 1.45\nthickness_nm = 300.0\nbase = "Au"\n'
+                    'alpha = {alpha}',
+    "Bragg layer": ('type = "layered-bragg"\n[[materials.m.layers]]\nn1 = 1.0\nn2 = 1.5\n'
+                    'd1_nm = 125.0\nd2_nm = 125.0\nN = 10\nalpha = {alpha}'),
+    "two Bragg layers + base": (
+        'type = "layered-bragg"\nbase_albedo = [0.05, 0.04, 0.06]\n'
+        '[[materials.m.layers]]\nn1 = 1.0\nn2 = 1.5\nperiod_nm = 180.0\ndelta = 0.5\nN = 8\n'
+        'alpha = {alpha}\n[[materials.m.layers]]\nn1 = 1.0\nn2 = 1.5\nperiod_nm = 230.0\n'
+        'delta = 0.5\nN = 10\nalpha = 0.3'),
+}
+_SPHERE = """
+[camera]
+position = [0.0, 0.0, 40.0]
+look_at = [0.0, 0.0, 0.0]
+fov_deg = 3.2
+[environment]
+type = "{environment}"
+[materials.m]
+{material}
+[[objects]]
+shape = "sphere"
+material = "m"
+"""
+
+
+@dataclasses.dataclass(frozen=True)
+class RenderConfig:
+    """The rendered comparison's grid."""
+
+    size: int
+    reference_spp: int
+    filtered_spp: int
+    environments: tuple[str, ...]
+    materials: tuple[str, ...]
+    alphas: tuple[float, ...]
+
+
+RENDER_FULL = RenderConfig(64, 4096, 16, ("studio", "sky"), tuple(RENDER_MATERIALS),
+                           RENDER_ALPHAS)
+RENDER_QUICK = RenderConfig(16, 64, 4, ("studio",), ("film over 2.0+0.5i", "Bragg layer"),
+                            (0.25,))
+
+
+def sphere_scene(folder: Path, environment: str, material: str, alpha: float):
+    """A unit sphere filling a nearly orthographic view, under a procedural environment."""
+    from wgbragg.scene import load_scene
+
+    path = folder / "sphere.toml"
+    path.write_text(_SPHERE.format(environment=environment,
+                                   material=RENDER_MATERIALS[material].format(alpha=alpha)),
+                    encoding="utf-8")
+    return load_scene(path)
+
+
+def image_errors(image: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
+    """(SMAPE, mean dE2000) over the pixels the sphere covers; both images are scaled by the
+    reference's 99th-percentile luminance before CIELAB (a white of Y = 1)."""
+    import colour
+
+    from wgbragg.metrics import smape
+
+    luminance = reference @ np.array([0.2126, 0.7152, 0.0722])
+    covered = luminance > 1e-3
+    scale = np.percentile(luminance[covered], 99.0)
+
+    def lab(linear):
+        xyz = colour.RGB_to_XYZ(np.clip(linear, 0.0, None) / scale,
+                                colour.RGB_COLOURSPACES["sRGB"], apply_cctf_decoding=False)
+        return colour.XYZ_to_Lab(xyz)
+
+    delta_e = colour.delta_E(lab(image), lab(reference), method="CIE 2000")
+    return float(smape(image[covered], reference[covered])), float(delta_e[covered].mean())
+
+
+def _frame_seconds(renderer, frames: int = 5) -> float:
+    """Median wall-clock seconds of one 1-spp frame (render and readback)."""
+    renderer.render(1)
+    times = []
+    for _ in range(frames):
+        start = time.perf_counter()
+        renderer.render(1)
+        times.append(time.perf_counter() - start)
+    return float(np.median(times))
+
+
+def render_comparison(config: RenderConfig, folder: Path, progress: bool) -> list[dict]:
+    """Per (environment, material, alpha): each filtered mode's SMAPE and dE2000 against the
+    path-traced reference, and the 1-spp frame time of every mode at the same size."""
+    from wgbragg.render import Renderer
+
+    rows = []
+    cases = [(e, m, a) for e in config.environments for m in config.materials
+             for a in config.alphas]
+    for environment, material, alpha in tqdm(cases, desc="rendered spheres",
+                                             disable=not progress):
+        scene = sphere_scene(folder, environment, material, alpha)
+        size = (config.size, config.size)
+        reference = Renderer(scene, size=size, ibl="monte-carlo", max_bounces=1)
+        reference_image = reference.render(config.reference_spp)
+        row = {"environment": environment, "material": material, "alpha": alpha,
+               "monte-carlo": _frame_seconds(reference)}
+        for mode in RENDER_MODES:
+            start = time.perf_counter()
+            renderer = Renderer(scene, size=size, ibl=mode, max_bounces=1)
+            row[f"{mode} setup"] = time.perf_counter() - start
+            image = renderer.render(config.filtered_spp)
+            row[mode] = _frame_seconds(renderer)
+            row[f"{mode} error"] = image_errors(image, reference_image)
+        rows.append(row)
+    return rows
+
+
+RENDER_BEGIN, RENDER_END = _docs.markers("bench_ibl_render")
+RENDER_HEADING = "IBL modes in the renderer: rendered spheres against the path tracer"
+
+
+def render_markdown(rows: list[dict], config: RenderConfig, command: str, seconds: float,
+                    facts: dict) -> str:
+    """The rendered comparison's markdown section, markers included."""
+    out = [RENDER_BEGIN, f"## {RENDER_HEADING}", "",
+           "_Generated by `tools/bench_ibl.py` with the command below; do not edit between the "
+           "markers._"]
+    if config is RENDER_QUICK:
+        out += ["", "**Quick mode: small grid, the numbers are indicative only.**"]
+    out += [
+        "",
+        f"- Command: `{command}`",
+        f"- Date: {facts['date']}; adapter {facts['adapter']}; {facts['cpu']}, "
+        f"{facts['cores']} cores; {seconds:.0f} s",
+        f"- A unit sphere filling a {config.size} x {config.size} view (3.2 deg field of view "
+        "from 40 units) under a procedural environment (`studio`: key light of 15 deg radius; "
+        "`sky`: a sun of 2.5 deg, radiance 80). Reference: `ibl=\"monte-carlo\"` (the path "
+        f"tracer; one bounce is exact for a lone convex object), {config.reference_spp} spp. "
+        f"Filtered modes: {config.filtered_spp} spp (pixel jitter only: they shade "
+        "deterministically). RGB mode.",
+        "- Errors over the pixels the sphere covers: SMAPE (the paper's convention) and mean "
+        "CIE dE2000 with both images scaled by the reference's 99th-percentile luminance.",
+        "- Time: median wall clock of one 1-spp frame (render and readback) of each mode, "
+        "side by side in this run; set-up is a filtered renderer's construction (environment "
+        "prefiltered per roughness, microfacet albedo table, pipeline).",
+        "",
+        "### SMAPE and mean dE2000 against the path tracer",
+        "",
+    ]
+    header = ["environment", "material", ALPHA, "split-sum SMAPE", "kneiphof SMAPE",
+              "split-sum dE2000", "kneiphof dE2000", "kneiphof closer"]
+    body = []
+    for row in rows:
+        split, filtered = row["split-sum error"], row["kneiphof error"]
+        closer = filtered[0] < split[0] and filtered[1] < split[1]
+        body.append([row["environment"], row["material"], f"{row['alpha']:g}",
+                     f"{split[0]:.4f}", f"{filtered[0]:.4f}", f"{split[1]:.2f}",
+                     f"{filtered[1]:.2f}", "yes" if closer else "no"])
+    out += _table(header, body)
+    out += ["", "### Time per 1-spp frame", ""]
+    header = ["environment", "material", ALPHA, "monte-carlo", "split-sum", "kneiphof",
+              "split-sum speed-up", "split-sum set-up", "kneiphof set-up"]
+    body = [[row["environment"], row["material"], f"{row['alpha']:g}",
+             _docs.human_time(row["monte-carlo"]), _docs.human_time(row["split-sum"]),
+             _docs.human_time(row["kneiphof"]),
+             f"{row['monte-carlo'] / row['split-sum']:.1f}{_docs.TIMES}",
+             _docs.human_time(row["split-sum setup"]),
+             _docs.human_time(row["kneiphof setup"])] for row in rows]
+    out += _table(header, body)
+    high = [row for row in rows if row["alpha"] >= 0.25]
+    met = all(row["kneiphof error"][0] < row["split-sum error"][0]
+              and row["kneiphof error"][1] < row["split-sum error"][1] for row in high)
+    out += ["", "### Target", "",
+            *_table(["target", "met"],
+                    [["kneiphof closer to the reference than split-sum (SMAPE and dE2000) at "
+                      f"{ALPHA} >= 0.25 in every configuration",
+                      ("yes" if met else "no") if high else "not checked"]]),
+            RENDER_END]
+    return "\n".join(out)
+
+
+def render_figure(config: RenderConfig, folder: Path, path: Path) -> Path:
+    """Rendered spheres of the film over 2.0+0.5i: rows alpha, columns split-sum, kneiphof,
+    path tracer (a rendered counterpart of Kneiphof et al.'s Fig. 3)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from wgbragg.render import Renderer, display_transform
+    from wgbragg._io import atomic_path
+
+    material = config.materials[0]
+    modes = ("split-sum", "kneiphof", "monte-carlo")
+    figure, axes = plt.subplots(len(config.alphas), 3, figsize=(7.5, 2.5 * len(config.alphas)),
+                                squeeze=False)
+    for i, alpha in enumerate(config.alphas):
+        scene = sphere_scene(folder, config.environments[0], material, alpha)
+        for j, mode in enumerate(modes):
+            spp = config.reference_spp if mode == "monte-carlo" else config.filtered_spp
+            image = Renderer(scene, size=(128, 128), ibl=mode, max_bounces=1).render(spp)
+            axes[i, j].imshow(display_transform(image))
+            axes[i, j].set_xticks([])
+            axes[i, j].set_yticks([])
+            if i == 0:
+                axes[i, j].set_title("path tracer" if mode == "monte-carlo" else mode)
+        axes[i, 0].set_ylabel(f"{ALPHA} = {alpha:g}")
+    figure.suptitle(f"{material}, {config.environments[0]} environment")
+    figure.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as temporary:
+        figure.savefig(temporary, dpi=100, format="png")
+    plt.close(figure)
+    return path
+
+
 # --------------------------------------------------------------------------- command line
 
 
@@ -584,6 +810,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     command = shlex.join(["python", "tools/bench_ibl.py", *argv])
     sections = [(render_section(run_benchmark(cfg, progress), command), BEGIN_MARKER,
                  END_MARKER)]
+    render_config = RENDER_QUICK if args.quick else RENDER_FULL
+    with tempfile.TemporaryDirectory() as scenes:
+        start = time.perf_counter()
+        rows = render_comparison(render_config, Path(scenes), progress)
+        sections.append((render_markdown(rows, render_config, command,
+                                         time.perf_counter() - start, _docs.run_facts()),
+                         RENDER_BEGIN, RENDER_END))
+        folder = figures_folder(args)
+        if folder is not None and not args.quick:
+            print(render_figure(render_config, Path(scenes), folder / "ibl_render_spheres.png"),
+                  file=sys.stderr)
     output = _docs.section_output(args, DEFAULT_OUTPUT)
     for text, begin, end in sections:
         _docs.publish(text, output, begin, end)

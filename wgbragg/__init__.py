@@ -28,8 +28,14 @@ Public API::
     sky.radiance_at(d); sky.pdf(d); d = sky.sample(u); sky.packed()   # GPU layout
     write_exr("render.exr", image)                                   # float32, atomic
 
+    from wgbragg import RoughThinFilm, prefilter_environment
+    RoughThinFilm(ThinFilm(1.33, 400.0, base="Au"), alpha=0.2).brdf(wi, wo)  # BB17 microfacets
+    prefilter_environment(sky, [0.25, "cosine"])      # for filtered image-based lighting
+    wgbragg.ibl   # split-sum / Kneiphof 2019 reflectance terms, microfacet albedo (twins)
+
     from wgbragg import Renderer, load_preset, load_scene, save_png, smape
     r = Renderer(load_scene("scene.toml"), size=(256, 256), mode="spectral")
+    Renderer(scene, ibl="kneiphof")   # or "split-sum": camera hits shaded from prefiltered light
     image = r.render(64)          # or r.render(seconds=10); linear sRGB, (H, W, 3)
     save_png(image, "out.png")    # exposure, tone map, sRGB; atomic
     smape(image, reference)       # the Bragg paper's image error
@@ -37,14 +43,16 @@ Public API::
 Units: nm and radians (angles in the host medium).
 """
 
-from . import microfacet, optics
+from . import ibl, microfacet, optics
 from .environment_map import EnvironmentMap
+from .environment_prefilter import prefilter_environment
 from .exr import read_exr, write_exr
 from .layered import LayeredBragg
 from .materials import BraggMirror, ThinFilm
 from .metrics import smape
 from .render import Renderer, save_png
 from .rough_layer import RoughBraggLayer
+from .rough_thin_film import RoughThinFilm
 from .scene import load_preset, load_scene
 from .transmission_filter import TransmissionFilter
 
@@ -56,13 +64,16 @@ __all__ = [
     "LayeredBragg",
     "Renderer",
     "RoughBraggLayer",
+    "RoughThinFilm",
     "ThinFilm",
     "TransmissionFilter",
     "__version__",
+    "ibl",
     "load_preset",
     "load_scene",
     "microfacet",
     "optics",
+    "prefilter_environment",
     "read_exr",
     "save_png",
     "smape",

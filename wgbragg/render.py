@@ -712,7 +712,7 @@ class Renderer:
                 ProceduralEnvironment.from_scene(scene.environment))
             # Each distinct level is prefiltered once; repeated ones share its texels.
             distinct = list(dict.fromkeys(levels))
-            records, texels = prefilter_environment(source, distinct).packed()
+            records, texels = prefilter_environment(source, distinct, progress=False).packed()
             records = records[[distinct.index(level) for level in levels]]
             albedo = np.concatenate([
                 np.zeros(_IBL_ALBEDO_NODES) if level == "cosine"

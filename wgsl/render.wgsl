@@ -477,15 +477,17 @@ fn direct_light(m: Material, frame: Frame, wi: vec3<f32>, origin: vec3<f32>,
                 geometric: vec3<f32>, state: ptr<function, u32>) -> vec4<f32> {
     let e = params.environment;
     var total = vec4<f32>(0.0);
-    let d = sky_sample(e, vec3<f32>(random(state), random(state), random(state)));
-    let local = to_local(frame, d);
     // Filtered IBL lights the surface from the environment by itself.
-    if (IBL == IBL_MONTE_CARLO && dot(d, geometric) > 0.0 && local.z > 0.0) {
-        let f = bsdf_eval(m, wi, local);
-        if (any(f > vec4<f32>(0.0)) && unoccluded(origin, d, FAR)) {
-            let light_pdf = sky_pdf(e, d);
-            let weight = power_heuristic(light_pdf, bsdf_pdf(m, wi, local));
-            total += f * local.z * upsample(sky_radiance(e, d)) * (weight / light_pdf);
+    if (IBL == IBL_MONTE_CARLO) {
+        let d = sky_sample(e, vec3<f32>(random(state), random(state), random(state)));
+        let local = to_local(frame, d);
+        if (dot(d, geometric) > 0.0 && local.z > 0.0) {
+            let f = bsdf_eval(m, wi, local);
+            if (any(f > vec4<f32>(0.0)) && unoccluded(origin, d, FAR)) {
+                let light_pdf = sky_pdf(e, d);
+                let weight = power_heuristic(light_pdf, bsdf_pdf(m, wi, local));
+                total += f * local.z * upsample(sky_radiance(e, d)) * (weight / light_pdf);
+            }
         }
     }
     for (var k = 0u; k < params.point_lights; k++) {
