@@ -44,6 +44,7 @@ bench: setup
 	$(PY) tools/bench_rough.py
 	$(PY) tools/bench_layered.py
 	$(PY) tools/bench_render.py
+	$(PY) tools/bench_ibl.py
 
 clean:
 	rm -rf $(VENV) out build dist .pytest_cache .ruff_cache .hypothesis
