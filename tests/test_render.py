@@ -269,6 +269,16 @@ def test_cli_renders_the_furnace_preset(device, tmp_path, capsys):
     assert str(output) in capsys.readouterr().out
 
 
+def test_cli_renders_with_filtered_image_based_lighting(device, tmp_path, capsys):
+    """--ibl: the white furnace shaded from its cosine-prefiltered environment is 1 too."""
+    png, exr = tmp_path / "furnace.png", tmp_path / "furnace.exr"
+    code = main(["render", "--scene", "furnace", "-o", str(png), "--spp", "2", "--size", "8x6",
+                 "--ibl", "kneiphof", "--exr", str(exr), "--no-progress"])
+    assert code == 0
+    np.testing.assert_allclose(read_exr(exr), 1.0, rtol=1e-4)
+    assert "ibl kneiphof" in capsys.readouterr().out
+
+
 def test_cli_renders_spectral_for_a_time_with_an_exr(device, tmp_path, capsys):
     png, exr = tmp_path / "furnace.png", tmp_path / "furnace.exr"
     code = main(["render", "--scene", "furnace", "-o", str(png), "--seconds", "0.2",
