@@ -468,13 +468,18 @@ class Renderer:
         Surface interactions shaded along a path, 1 to 64. Fewer make an interactive preview
         cheaper; a convex object alone under an environment needs 1 (what it reflects can
         only be the environment).
+    ibl : {"monte-carlo", "split-sum", "kneiphof"}, optional
+        How the environment lights surfaces (see the module docstring); the scene's
+        ``settings.ibl`` by default. The filtered modes need ``mode="rgb"`` and no smooth
+        coating.
 
     Raises
     ------
     ValueError
         For a size, seed or mode out of range, an unreadable EXR environment or map texture,
-        maps on a material that is not a single layer over an absorbing base, or a scene
-        whose BVH is too deep for the GPU traversal stack.
+        maps on a material that is not a single layer over an absorbing base, a scene
+        whose BVH is too deep for the GPU traversal stack, or a filtered ``ibl`` mode with
+        spectral transport or a smooth coating.
 
     Attributes
     ----------
@@ -488,6 +493,7 @@ class Renderer:
     triangles : int
         Triangles in the scene.
     mode : str
+    ibl : str
     environment_map : wgbragg.environment_map.EnvironmentMap or None
         The scene's EXR environment, as sampled.
     """
