@@ -46,9 +46,8 @@ override THIN_FILMS: bool = false;
 override FILM_MAPS: bool = false;
 override FILM_PREFILTERED: bool = false;
 // How the environment lights surfaces: IBL_MONTE_CARLO traces paths; the filtered modes shade
-// each camera hit once from prefiltered environments, without visibility or bounces (RGB mode,
-// microfacet materials: thin films, single Bragg layers over an absorbing base in air, and
-// Lambertian ones).
+// each camera hit once from prefiltered environments, without environment visibility or
+// bounces (RGB mode; thin films, layered Bragg materials in air, Lambertian materials).
 override IBL: u32 = 0u;
 const IBL_MONTE_CARLO: u32 = 0u;
 const IBL_SPLIT_SUM: u32 = 1u;
