@@ -15,6 +15,8 @@ Measured on lavapipe (2 cores), split-sum / kneiphof SMAPE at alpha 0.05, 0.25, 
 
 from __future__ import annotations
 
+import dataclasses
+
 import colour
 import numpy as np
 import pytest
@@ -185,3 +187,28 @@ def test_filtered_modes_refuse_what_they_cannot_shade(device, tmp_path):
         Renderer(_scene(tmp_path, "film", 0.2), size=(8, 8), ibl="split-sum", mode="spectral")
     with pytest.raises(ValueError, match="ibl must be one of"):
         Renderer(_scene(tmp_path, "film", 0.2), size=(8, 8), ibl="karis")
+
+
+def test_a_roughness_edit_prefilters_only_the_new_roughness(device, tmp_path, monkeypatch):
+    """Levels the scene keeps are reused across updates; the image is a fresh renderer's."""
+    import wgbragg.environment_prefilter as prefilter_module
+
+    asked = []
+    original = prefilter_module.prefilter_environment
+
+    def recording(source, levels, **options):
+        asked.append(list(levels))
+        return original(source, levels, **options)
+
+    monkeypatch.setattr(prefilter_module, "prefilter_environment", recording)
+    two = load_preset("teapot")
+    renderer = Renderer(two, size=(16, 16), ibl="split-sum", mode="rgb", seed=1)
+    assert asked == [[0.05, 0.3, "cosine"]]
+    material = two.materials["two_layers"]
+    edited = dataclasses.replace(material, layers=(
+        material.layers[0], dataclasses.replace(material.layers[1], alpha=0.2)))
+    scene = dataclasses.replace(two, materials={**two.materials, "two_layers": edited})
+    renderer.update(scene, "rgb", ibl="split-sum")
+    assert asked[1:] == [[0.2]]
+    fresh = Renderer(scene, size=(16, 16), ibl="split-sum", mode="rgb", seed=1)
+    np.testing.assert_array_equal(renderer.render(2), fresh.render(2))

@@ -524,6 +524,8 @@ class Renderer:
         # structure, and with it the tables cached there, so only edited materials re-bake.
         self._structures = {}
         self._prefiltered = (None, None)
+        # (environment, level) -> (width, height, texels) of the levels the scene uses.
+        self._level_texels = {}
         self.colour_method = colour_method
         self.update(scene, mode, colour_method, ibl)
 
@@ -703,7 +705,9 @@ class Renderer:
 
     def _prefiltered_buffers(self, scene: Scene, environment_map, levels: list) -> list:
         """``prefiltered_levels``, ``prefiltered_texels`` and ``ibl_albedo`` of render.wgsl,
-        kept across updates that leave the environment and the levels as they were."""
+        kept across updates that leave the environment and the levels as they were. Each
+        level's texels are kept too while the scene uses it, so that a roughness edit
+        prefilters only the new roughness."""
         if not levels:
             return [gpu.DeviceArray.upload(np.zeros((1, 4), np.uint32)),
                     gpu.DeviceArray.upload(np.zeros((1, 4), np.float32)),
@@ -714,12 +718,24 @@ class Renderer:
             from .environment_prefilter import prefilter_environment
             from .ibl import microfacet_albedo_table
 
-            source = environment_map if environment_map is not None else (
-                ProceduralEnvironment.from_scene(scene.environment))
-            # Each distinct level is prefiltered once; repeated ones share its texels.
             distinct = list(dict.fromkeys(levels))
-            records, texels = prefilter_environment(source, distinct, progress=False).packed()
-            records = records[[distinct.index(level) for level in levels]]
+            kept = {level: texels for (environment, level), texels in self._level_texels.items()
+                    if environment == scene.environment and level in distinct}
+            missing = [level for level in distinct if level not in kept]
+            if missing:
+                source = environment_map if environment_map is not None else (
+                    ProceduralEnvironment.from_scene(scene.environment))
+                records, texels = prefilter_environment(source, missing,
+                                                        progress=False).packed()
+                for level, (width, height, first, _) in zip(missing, records, strict=True):
+                    kept[level] = (width, height,
+                                   texels[4 * first:4 * (first + width * height)])
+            self._level_texels = {(scene.environment, level): kept[level] for level in distinct}
+            # Repeated levels share their texels.
+            starts = np.cumsum([0] + [kept[level][0] * kept[level][1] for level in distinct])
+            records = np.array([(kept[level][0], kept[level][1], starts[distinct.index(level)], 0)
+                                for level in levels], np.uint32)
+            texels = np.concatenate([kept[level][2] for level in distinct])
             albedo = np.concatenate([
                 np.zeros(_IBL_ALBEDO_NODES) if level == "cosine"
                 else microfacet_albedo_table(level, _IBL_ALBEDO_NODES) for level in levels])
