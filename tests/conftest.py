@@ -147,6 +147,28 @@ def expected_direction_counts(density, cos_edges, phi_edges, n_samples, order=16
     return n_samples * np.einsum("ijab,ia,jb->ij", density(cells), wc, wp)
 
 
+def sample_chi2_pvalue(material, wi, seed, random_dims, n_samples=100_000, n_cos=12,
+                       n_phi=24) -> float:
+    """p-value of a chi-square test of ``material.sample(wi, u, 550.0)`` against
+    ``material.pdf`` on a (cos theta, phi) grid, ``u`` of ``random_dims`` uniform numbers per
+    sample. The mass the density lacks (a Dirac reflection, directions lost below the horizon
+    or to total internal reflection) is one more cell, matched by the samples whose pdf is 0."""
+    rng = np.random.default_rng(seed)
+    wo, _, pdf = material.sample(wi, rng.random((n_samples, random_dims)), 550.0)
+    kept = pdf > 0.0
+    cos_edges = np.linspace(0.0, 1.0, n_cos + 1) ** 0.5
+    phi_edges = np.linspace(-np.pi, np.pi, n_phi + 1)
+    observed, _, _ = np.histogram2d(wo[kept, 2], np.arctan2(wo[kept, 1], wo[kept, 0]),
+                                    bins=[cos_edges, phi_edges])
+    expected = expected_direction_counts(
+        lambda cells: material.pdf(wi, cells.reshape(-1, 3)).reshape(cells.shape[:-1]),
+        cos_edges, phi_edges, n_samples)
+    observed = np.append(observed.ravel(), np.count_nonzero(~kept))
+    expected = np.append(expected.ravel(), n_samples - expected.sum())
+    assert expected[-1] > -1e-3 * n_samples  # the density never holds more than 1
+    return pooled_chi2_pvalue(observed, expected)
+
+
 def pooled_chi2_pvalue(observed, expected) -> float:
     """p-value of Pearson's chi-square with the cells expecting fewer than 5 samples pooled
     into one (so that the statistic's chi-square law holds)."""
