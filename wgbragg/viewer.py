@@ -270,6 +270,14 @@ def _film_strip(material: ThinFilmMaterial, thickness_nm: float, samples: int) -
     return colours
 
 
+def _strip_angles(samples) -> np.ndarray:
+    """The angles of a colour strip, 0 to 90 degrees in ``samples`` (>= 2) steps."""
+    samples = check_count("samples", samples)
+    if samples < 2:
+        raise ValueError(f"samples must be >= 2, got {samples}")
+    return np.linspace(0.0, 90.0, samples)
+
+
 def _filtered_ibl_allowed(scene: Scene) -> bool:
     """Whether filtered image-based lighting can shade ``scene`` (no smooth coating)."""
     try:
@@ -764,11 +772,8 @@ class Viewer:
         colours : numpy.ndarray, shape (samples, 3), uint8
             The reflectance colours as sRGB bytes (clipped, not tone mapped).
         """
-        samples = check_count("samples", samples)
-        if samples < 2:
-            raise ValueError(f"samples must be >= 2, got {samples}")
-        return (np.linspace(0.0, 90.0, samples),
-                _strip(self._layer(index), self.colour_method, samples))
+        theta_deg = _strip_angles(samples)
+        return theta_deg, _strip(self._layer(index), self.colour_method, theta_deg.size)
 
     @property
     def film_thickness_nm(self) -> float:
@@ -794,11 +799,8 @@ class Viewer:
         colours : numpy.ndarray, shape (samples, 3), uint8
             The reflectance colours as sRGB bytes (clipped, not tone mapped).
         """
-        samples = check_count("samples", samples)
-        if samples < 2:
-            raise ValueError(f"samples must be >= 2, got {samples}")
-        return (np.linspace(0.0, 90.0, samples),
-                _film_strip(self._film_key(), self.film_thickness_nm, samples))
+        theta_deg = _strip_angles(samples)
+        return theta_deg, _film_strip(self._film_key(), self.film_thickness_nm, theta_deg.size)
 
     # ------------------------------------------------------------------ internals
 
