@@ -155,6 +155,17 @@ class _BaseAlbedo:
         self._spectrum = lambda wl: np.stack(
             [np.interp(wl, basis[0], basis[1][:, c]) for c in range(3)], axis=-1) @ rgb
 
+    @classmethod
+    def tabulated(cls, wavelength: np.ndarray, values: np.ndarray) -> _BaseAlbedo:
+        """An albedo tabulated on increasing wavelengths, unchecked: the effective albedo of a
+        base with its interreflections may exceed 1."""
+        base = cls(None)
+        base.given = (wavelength, values)
+        base._spectrum = lambda wl: np.interp(wl, wavelength, values)
+        grid, weights = colorimetry.xyz_weights()
+        base.rgb = colorimetry.xyz_to_linear_srgb(base._spectrum(grid) @ weights)
+        return base
+
     @property
     def absorbing(self) -> bool:
         return self._spectrum is None
@@ -199,6 +210,14 @@ class LayeredBragg:
         ``None``: an absorbing base. Otherwise a Lambertian base: a grey albedo, a linear sRGB
         albedo (a bounded spectrum from Mallett & Yuksel's basis in spectral evaluations), or a
         tabulated spectrum (linear interpolation, end values held), all in [0, 1].
+    base_interreflection : bool, optional
+        ``False`` (default): eq 34 as published, the base's light reflected once. ``True``:
+        the Lambertian base's term also carries the light that the layers (and the coating)
+        above send back down to it, summed as a geometric series: the base albedo ``rho``
+        becomes ``rho / (1 - rho R_down)`` per wavelength, with ``R_down`` the cosine-weighted
+        hemispherical reflectance of the stack seen from the base (:meth:`base_return`). The
+        paths this adds are the main part of what a single-reflection model misses over a
+        bright base (the Bragg paper's Fig. 7); :meth:`simulate` is unaffected.
 
     Raises
     ------
@@ -215,6 +234,7 @@ class LayeredBragg:
 
     layers: tuple[RoughBraggLayer, ...]
     base_albedo: object = None
+    base_interreflection: bool = False
 
     def __post_init__(self) -> None:
         layers = self.layers
@@ -236,6 +256,9 @@ class LayeredBragg:
         if len(layers) > 1 and not all(layer.ballistic for layer in layers):
             raise ValueError("a layer whose mirror is seen from another medium (host != n1) "
                              "transmits non-ballistically: it must be the only layer")
+        if not isinstance(self.base_interreflection, bool):
+            raise ValueError(f"base_interreflection must be True or False, got "
+                             f"{self.base_interreflection!r}")
         object.__setattr__(self, "layers", layers)
         object.__setattr__(self, "_base", _BaseAlbedo(self.base_albedo))
         object.__setattr__(self, "_tables", {})
@@ -266,6 +289,64 @@ class LayeredBragg:
     def base_spectrum(self, wavelength_nm) -> np.ndarray:
         """Albedo of the base at ``wavelength_nm`` (zeros when absorbing)."""
         return self._base.spectrum(check_wavelength(wavelength_nm))
+
+    def base_return(self, wavelength_nm=None) -> np.ndarray:
+        """``R_down``: the fraction of the light a Lambertian base emits that comes back to it.
+
+        The stack seen from the base, each layer crossed or reflected once per pass::
+
+            R_up(theta) = sum_l (G1_l - t_l) prod_{k below l} t_k^2 + F_c prod_k t_k^2
+            R_down = int_0^{pi/2} R_up(theta) sin(2 theta) dtheta
+
+        with ``t_k(theta)`` the layers' integrated transmissivity (eq 28), ``G1_l - t_l`` what
+        layer ``l``'s visible microfacets reflect (the simulation's layer: an index-matched
+        one lets ``G1`` through and reflects nothing) and ``F_c`` the coating's internal
+        reflectance (1 beyond its critical angle; 0 without a coating).
+
+        Parameters
+        ----------
+        wavelength_nm : array_like, optional
+            Wavelengths in nm (default: the 1 nm grid 360..830).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``R_down`` in [0, 1], float64, the shape of the wavelengths.
+        """
+        wavelength = (colorimetry.xyz_weights()[0] if wavelength_nm is None
+                      else check_wavelength(wavelength_nm))
+        flat = np.unique(wavelength.ravel())
+        theta = self.layers[0].filter.theta_i
+        rows = np.broadcast_to(theta[:, None], (theta.size, flat.size))
+        columns = np.broadcast_to(flat[None, :], rows.shape)
+        up = np.zeros(rows.shape)
+        through = np.ones(rows.shape)
+        cosine = np.cos(theta)[:, None]
+        for index in reversed(range(len(self.layers))):
+            visible = _G1_over_cos(cosine, self.layers[index].alpha) * cosine
+            t = np.clip(self._transmissivity(index, rows, columns, "numpy"), 0.0, visible)
+            up = up + (visible - t) * through
+            through = through * t * t
+        if self.has_coating:
+            n = self.host_index
+            sin_air = n * np.sin(theta)
+            cos_air = np.sqrt(np.maximum(0.0, 1.0 - sin_air * sin_air))
+            internal = np.where(sin_air < 1.0, coating_reflectance(cos_air, n), 1.0)
+            up = up + internal[:, None] * through
+        weight = np.sin(2.0 * theta)
+        returned = np.trapezoid(up * weight[:, None], theta, axis=0) / np.trapezoid(weight, theta)
+        return np.interp(wavelength, flat, np.clip(returned, 0.0, 1.0))
+
+    def _brdf_base(self) -> _BaseAlbedo:
+        """The base albedo of eq 34: as given, or with its interreflections summed."""
+        if not self.base_interreflection or self._base.absorbing:
+            return self._base
+
+        def build():
+            grid = colorimetry.xyz_weights()[0]
+            rho = self._base.spectrum(grid)
+            return _BaseAlbedo.tabulated(grid, rho / (1.0 - rho * self.base_return(grid)))
+        return self._cached(("base",), build)
 
     def coating_reflectance(self, wi) -> np.ndarray:
         """Reflectance of the coating's Dirac mirror lobe for ``wi`` (0 without a coating)."""
@@ -370,8 +451,9 @@ class LayeredBragg:
                      * self._transmissivity_rgb(index, theta_o, backend))
             through = through * t
         if not self._base.absorbing:
-            albedo = (self._base.spectrum(np.broadcast_to(wavelength, np.shape(through)))
-                      if spectral else self._base.rgb)
+            base = self._brdf_base()
+            albedo = (base.spectrum(np.broadcast_to(wavelength, np.shape(through)))
+                      if spectral else base.rgb)
             total = total + albedo / np.pi * through
         return total
 
@@ -488,7 +570,7 @@ class LayeredBragg:
             probabilities.append(remaining * (1.0 - p_trans))
             remaining = remaining * p_trans
         if not self._base.absorbing:
-            probabilities.append(remaining * self._base.mean())
+            probabilities.append(remaining * self._brdf_base().mean())
         p = np.stack(probabilities, axis=-1)
         total = p.sum(axis=-1, keepdims=True)
         uniform = np.full(p.shape, 1.0 / p.shape[-1])

@@ -159,14 +159,15 @@ def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
                 record["reflectance_rgb"] = append(
                     structure._reflectance_rgb_lut(index, "gpu", colour_method))
     params = np.zeros((), PARAMS_DTYPE)
-    params["base_rgb"] = structure.base_rgb
+    base = structure._brdf_base()
+    params["base_rgb"] = base.rgb
     params["host"] = structure.host_index
-    params["base_mean"] = 0.0 if structure.absorbing_base else structure._base.mean()
+    params["base_mean"] = 0.0 if structure.absorbing_base else base.mean()
     lut_grid = structure._lut_grid()
     params["lut_rows"] = lut_grid.size
     params["lut_rows_per_radian"] = 1.0 / (lut_grid[1] - lut_grid[0])
     if kind == _SPECTRAL and not structure.absorbing_base:
-        params["base_spectrum"] = append(structure.base_spectrum(colorimetry.xyz_weights()[0]))
+        params["base_spectrum"] = append(base.spectrum(colorimetry.xyz_weights()[0]))
     tables = np.concatenate(blocks)
     for array in (tables, records, params):
         array.setflags(write=False)
