@@ -182,3 +182,45 @@ def pooled_chi2_pvalue(observed, expected) -> float:
         stat += (observed[low].sum() - expected[low].sum()) ** 2 / expected[low].sum()
         cells += 1
     return float(chi2.sf(stat, cells - 1))
+
+
+# ------------------------------------------------------------ layered structures at fixed pairs
+
+
+def unit_direction(theta_deg, phi_deg=0.0) -> np.ndarray:
+    """Unit vectors (..., 3) at polar angle ``theta_deg`` and azimuth ``phi_deg`` (degrees)."""
+    theta, phi = np.radians(theta_deg), np.radians(phi_deg)
+    return np.stack(np.broadcast_arrays(np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi),
+                                        np.cos(theta)), axis=-1)
+
+
+# (theta_i, theta_o, phi_o) in degrees, phi_i = 0: near and off the mirror direction; the pairs
+# at which the layered model and its simulation are compared.
+LAYERED_PAIRS = np.array([(20.0, 25.0, 180.0), (45.0, 40.0, 170.0), (5.0, 30.0, 180.0),
+                          (60.0, 60.0, 180.0), (30.0, 70.0, 90.0), (70.0, 20.0, 200.0)])
+
+
+def paper_smape(a, b) -> float:
+    """The Bragg paper's SMAPE: mean |a - b| / ((|a| + |b|) / 2)."""
+    return float(np.mean(np.abs(a - b) / (0.5 * (np.abs(a) + np.abs(b)))))
+
+
+def cosine_mean(g) -> float:
+    """2 int_0^{pi/2} g(theta) cos sin dtheta: the mean of g over a cosine distribution."""
+    import math
+
+    from scipy.integrate import quad
+
+    return quad(lambda t: 2.0 * g(t) * math.cos(t) * math.sin(t), 0.0, math.pi / 2,
+                epsabs=1e-12, limit=200)[0]
+
+
+def coating_internal_reflectance(theta: float, n: float) -> float:
+    """A coating of index ``n`` seen from inside at ``theta``: Fresnel, 1 beyond its critical
+    angle."""
+    import math
+
+    from wgbragg.layered import coating_reflectance
+
+    out = n * math.sin(theta)
+    return 1.0 if out >= 1.0 else float(coating_reflectance(math.sqrt(1.0 - out * out), n))

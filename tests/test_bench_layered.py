@@ -50,8 +50,8 @@ def test_every_estimator_is_timed_and_scored(bench, run):
     text, _ = run
     rows = _rows(text, "### Time, SMAPE")
     assert [(r[0], r[1]) for r in rows] == [
-        (label, "GT (all paths)" if e == "GT" else e) for label, *_, albedo in bench.QUICK.structures
-        for e in bench.estimators(albedo)]
+        (label, "GT (all paths)" if e == "GT" else e)
+        for label, *_, albedo in bench.QUICK.structures for e in bench.estimators(albedo)]
     assert {r[1] for r in rows} == {"GT (all paths)", *bench.ESTIMATORS[1:]}
     for row in rows:
         if row[1] != "GT (all paths)":

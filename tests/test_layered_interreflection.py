@@ -11,7 +11,9 @@ import math
 
 import numpy as np
 import pytest
-from scipy.integrate import quad
+from conftest import LAYERED_PAIRS, coating_internal_reflectance, cosine_mean
+from conftest import paper_smape as smape
+from conftest import unit_direction as direction
 
 from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer
 from wgbragg.layered import coating_reflectance
@@ -25,33 +27,9 @@ WAVELENGTHS = np.array([420.0, 500.0, 580.0, 660.0])
 TABLE_RTOL = 2e-3  # the transmissivity tables reproduce G1 to ~1e-4, theta rows 0.25 degree
 
 
-def direction(theta_deg, phi_deg=0.0):
-    theta, phi = np.radians(theta_deg), np.radians(phi_deg)
-    return np.stack(np.broadcast_arrays(np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi),
-                                        np.cos(theta)), axis=-1)
-
-
-# (theta_i, theta_o, phi_o) in degrees, phi_i = 0: near and off the mirror direction.
-PAIRS = np.array([(20.0, 25.0, 180.0), (45.0, 40.0, 170.0), (5.0, 30.0, 180.0),
-                  (60.0, 60.0, 180.0), (30.0, 70.0, 90.0), (70.0, 20.0, 200.0)])
+PAIRS = LAYERED_PAIRS
 WI = direction(PAIRS[:, 0])
 WO = direction(PAIRS[:, 1], PAIRS[:, 2])
-
-
-def smape(a, b):
-    return float(np.mean(np.abs(a - b) / (0.5 * (np.abs(a) + np.abs(b)))))
-
-
-def cosine_mean(g):
-    """2 int_0^{pi/2} g(theta) cos sin dtheta."""
-    return quad(lambda t: 2.0 * g(t) * math.cos(t) * math.sin(t), 0.0, math.pi / 2,
-                epsabs=1e-12, limit=200)[0]
-
-
-def internal_reflectance(theta, n):
-    """The coating seen from inside n: Fresnel, 1 beyond the critical angle."""
-    out = n * math.sin(theta)
-    return 1.0 if out >= 1.0 else float(coating_reflectance(math.sqrt(1.0 - out * out), n))
 
 
 @pytest.fixture(scope="module")
@@ -86,7 +64,7 @@ def test_index_matched_layer_returns_the_closed_form(filters, n):
     gives (tests/test_layered_simulation.py, test_index_matched_layer_over_a_white_base)."""
     alpha = 0.4
     s = structure(BraggMirror(n, n, 200.0, 200.0, 10), alpha, 1.0, filters)
-    b = cosine_mean(lambda t: ggx_G1(math.cos(t), alpha) ** 2 * internal_reflectance(t, n))
+    b = cosine_mean(lambda t: ggx_G1(math.cos(t), alpha) ** 2 * coating_internal_reflectance(t, n))
     returned = s.base_return(WAVELENGTHS)
     assert returned.shape == WAVELENGTHS.shape
     np.testing.assert_allclose(returned, b, atol=1e-3)

@@ -23,7 +23,9 @@ import math
 
 import numpy as np
 import pytest
-from scipy.integrate import quad
+from conftest import LAYERED_PAIRS, coating_internal_reflectance, cosine_mean
+from conftest import paper_smape as smape
+from conftest import unit_direction as direction
 
 from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer, layered_simulation
 from wgbragg.colorimetry import linear_srgb_to_xyz, xyz_to_linear_srgb, xyz_weights
@@ -45,21 +47,9 @@ WHITE_ATOL = 3e-3     # the 1 nm sRGB white point: a flat spectrum gives 1 withi
 FIG7_RESOLUTION_DEG = 0.125
 
 
-def direction(theta_deg, phi_deg=0.0):
-    theta, phi = np.radians(theta_deg), np.radians(phi_deg)
-    return np.stack(np.broadcast_arrays(np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi),
-                                        np.cos(theta)), axis=-1)
-
-
-# (theta_i, theta_o, phi_o) in degrees, phi_i = 0: near and off the mirror direction.
-PAIRS = np.array([(20.0, 25.0, 180.0), (45.0, 40.0, 170.0), (5.0, 30.0, 180.0),
-                  (60.0, 60.0, 180.0), (30.0, 70.0, 90.0), (70.0, 20.0, 200.0)])
+PAIRS = LAYERED_PAIRS
 WI = direction(PAIRS[:, 0])
 WO = direction(PAIRS[:, 1], PAIRS[:, 2])
-
-
-def smape(a, b):
-    return float(np.mean(np.abs(a - b) / (0.5 * (np.abs(a) + np.abs(b)))))
 
 
 def within_sigmas(a, b, error):
@@ -201,12 +191,6 @@ def test_albedo_of_the_paths_is_at_most_one(filters):
         assert np.all(mean <= 1.0 + SIGMAS * error), transmission
 
 
-def inner_cosine_integral(g):
-    """2 int_0^{pi/2} g(theta) cos sin dtheta: the mean of g over a cosine distribution."""
-    return quad(lambda t: 2.0 * g(t) * math.cos(t) * math.sin(t), 0.0, math.pi / 2,
-                epsabs=1e-12, limit=200)[0]
-
-
 @pytest.mark.parametrize("n", [1.0, 1.35])
 def test_index_matched_layer_over_a_white_base(filters, n):
     """R = 0: the layer only lets through G1 (eq 30) each way, and the base reflects all.
@@ -224,11 +208,10 @@ def test_index_matched_layer_over_a_white_base(filters, n):
     s = LayeredBragg([layer], base_albedo=1.0)
 
     def inside(t):
-        out = n * math.sin(t)
-        return 1.0 if out >= 1.0 else float(coating_reflectance(math.sqrt(1.0 - out * out), n))
+        return coating_internal_reflectance(t, n)
 
-    a = inner_cosine_integral(lambda t: ggx_G1(math.cos(t), alpha) * (1.0 - inside(t)))
-    b = inner_cosine_integral(lambda t: ggx_G1(math.cos(t), alpha) ** 2 * inside(t))
+    a = cosine_mean(lambda t: ggx_G1(math.cos(t), alpha) * (1.0 - inside(t)))
+    b = cosine_mean(lambda t: ggx_G1(math.cos(t), alpha) ** 2 * inside(t))
     wi, wo = WI[:4], WO[:4]
     ci, co = (np.sqrt(1.0 - (1.0 - w[:, 2] ** 2) / n**2) for w in (wi, wo))
     fresnel_i, fresnel_o = coating_reflectance(wi[:, 2], n), coating_reflectance(wo[:, 2], n)
