@@ -421,3 +421,15 @@ def test_a_scene_that_tries_to_execute_is_just_data(tmp_path):
             load_scene(write(tmp_path, MINIMAL.replace(old, new, 1)))
     assert not sentinel.exists()
     assert not (tmp_path / "x").exists()
+
+
+def test_base_interreflection_reaches_the_structure(tmp_path, no_filters):
+    loaded = load_scene(write(tmp_path, MINIMAL.replace(
+        "base_albedo = 0.5", "base_albedo = 0.5\nbase_interreflection = true", 1)))
+    material = loaded.materials["blue"]
+    assert material.base_interreflection
+    assert material.to_structure().base_interreflection
+    assert not load_scene(write(tmp_path, MINIMAL)).materials["blue"].base_interreflection
+    message = refused(tmp_path, MINIMAL.replace(
+        "base_albedo = 0.5", "base_albedo = 0.5\nbase_interreflection = 1", 1))
+    assert ": materials.blue.base_interreflection: must be true or false, got 1" in message

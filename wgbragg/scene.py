@@ -33,6 +33,7 @@ Example::
     [materials.blue]
     type = "layered-bragg"
     base_albedo = 0.5        # absent: an absorbing base
+    base_interreflection = true  # optional (false): the base's light sent back by the stack
     [[materials.blue.layers]]   # from the top down
     n1 = 1.0
     n2 = 1.5
@@ -307,12 +308,16 @@ class LayeredBraggMaterial:
     period_map, delta_map : ParameterMap or None
         When given, the period (nm) or ``delta = d1 / period`` of every layer varies over the
         surface; the renderer evaluates them per shading point.
+    base_interreflection : bool
+        :class:`wgbragg.LayeredBragg`'s option: the base's albedo with the light the stack
+        sends back down to it summed.
     """
 
     layers: tuple[BraggLayerSpec, ...]
     base_albedo: float | tuple[float, float, float] | None = None
     period_map: ParameterMap | None = None
     delta_map: ParameterMap | None = None
+    base_interreflection: bool = False
 
     def to_structure(self, period_nm: float | None = None,
                      delta: float | None = None) -> LayeredBragg:
@@ -332,7 +337,8 @@ class LayeredBraggMaterial:
         LayeredBragg
         """
         return LayeredBragg([spec.to_layer(period_nm, delta) for spec in self.layers],
-                            base_albedo=self.base_albedo)
+                            base_albedo=self.base_albedo,
+                            base_interreflection=self.base_interreflection)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -611,8 +617,15 @@ def _materials(ctx: _Context, value) -> dict:
     return materials
 
 
+def _flag(ctx: _Context, value, key: str) -> bool:
+    if not isinstance(value, bool):
+        raise ctx.error(key, f"must be true or false, got {value!r}")
+    return value
+
+
 def _layered(ctx: _Context, table: dict, key: str) -> LayeredBraggMaterial:
-    _keys(ctx, table, key, ("type", "layers"), ("base_albedo", "period_map", "delta_map"))
+    _keys(ctx, table, key, ("type", "layers"),
+          ("base_albedo", "base_interreflection", "period_map", "delta_map"))
     items = _array(ctx, table["layers"], f"{key}.layers")
     if not items:
         raise ctx.error(f"{key}.layers", "must hold at least one layer")
@@ -623,6 +636,8 @@ def _layered(ctx: _Context, table: dict, key: str) -> LayeredBraggMaterial:
         base_albedo=None if base is None else _albedo(ctx, base, f"{key}.base_albedo"),
         period_map=_map(ctx, table, f"{key}.period_map", "period_map", math.inf),
         delta_map=_map(ctx, table, f"{key}.delta_map", "delta_map", 1.0),
+        base_interreflection=_flag(ctx, table.get("base_interreflection", False),
+                                   f"{key}.base_interreflection"),
     )
     # The library decides which combinations of layers make a structure (a shared host, a
     # non-ballistic layer only alone); the base is left out since each albedo is checked above.
