@@ -258,9 +258,11 @@ def _batch(direction_shape: tuple, wavelength) -> _Batch:
 
 
 def _vec4(array, shape) -> np.ndarray:
-    out = np.zeros((int(np.prod(shape, dtype=np.int64)), 4), np.float32)
-    out[:, :3] = np.broadcast_to(array, (*shape, 3)).reshape(-1, 3)
-    return out
+    # Cast before broadcasting: a direction shared by many samples is converted once.
+    out = np.empty((*shape, 4), np.float32)
+    out[..., :3] = np.asarray(array, np.float32)
+    out[..., 3] = 0.0
+    return out.reshape(-1, 4)
 
 
 def _setup(structure, operation: str, first, second, wavelength, batch: _Batch, method: str,
