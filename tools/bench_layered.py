@@ -395,26 +395,26 @@ def render_section(results: Results, command: str) -> str:
                          human_ratio(eff / sr)])
     lines += _table(["structure", "estimator", "spp", "time", "SMAPE vs GT", "Eff",
                      "Eff / Eff(SR sim.)"], rows)
-    model = [max(results.efficiency(label, e) for e in estimators(albedo)[2:])
-             / results.efficiency(label, "SR sim.") for label, *_, albedo in cfg.structures]
-    lut = [max(results.efficiency(label, e) for e in estimators(albedo)[2:] if "LUT" in e)
-           / results.efficiency(label, "SR sim.") for label, *_, albedo in cfg.structures]
-    published = [max(results.efficiency(label, e) for e in MODELS)
-                 / results.efficiency(label, "SR sim.") for label, *_ in cfg.structures]
-    published_lut = [max(results.efficiency(label, e) for e in MODELS[1:])
-                     / results.efficiency(label, "SR sim.") for label, *_ in cfg.structures]
+    def worst(lut: bool, base_ir: bool) -> float:
+        """The worst structure's best ratio among the model's variants with (or without) the
+        LUT, with "+ base IR" (or as published)."""
+        return min(max(results.efficiency(label, e) for e in estimators(albedo)[2:]
+                       if ("LUT" in e) == lut and (base_ir or not e.endswith(BASE_IR)))
+                   / results.efficiency(label, "SR sim.") for label, *_, albedo in cfg.structures)
+
+    model, lut = worst(False, True), worst(True, True)
+    published, published_lut = worst(False, False), worst(True, False)
     lines += ["", "### Targets", ""]
     lines += _table(["target", "measured", "met"], [
-        [f"model (best variant) >= {TARGET_MODEL:g}x the SR simulation's efficiency (paper: "
-         f"{PAPER_RATIOS})",
-         f"worst {human_ratio(min(model))}", "yes" if min(model) >= TARGET_MODEL else "no"],
-        [f"model-LUT (best variant) >= {TARGET_LUT:g}x", f"worst {human_ratio(min(lut))}",
-         "yes" if min(lut) >= TARGET_LUT else "no"],
+        [f"model (exact Yeh, no LUT; best variant) >= {TARGET_MODEL:g}x the SR simulation's "
+         f"efficiency (paper: {PAPER_RATIOS})",
+         f"worst {human_ratio(model)}", "yes" if model >= TARGET_MODEL else "no"],
+        [f"model-LUT (best variant) >= {TARGET_LUT:g}x", f"worst {human_ratio(lut)}",
+         "yes" if lut >= TARGET_LUT else "no"],
         [f"model as published (eq 34, no base IR) >= {TARGET_MODEL:g}x",
-         f"worst {human_ratio(min(published))}",
-         "yes" if min(published) >= TARGET_MODEL else "no"],
-        [f"model-LUT as published >= {TARGET_LUT:g}x", f"worst {human_ratio(min(published_lut))}",
-         "yes" if min(published_lut) >= TARGET_LUT else "no"],
+         f"worst {human_ratio(published)}", "yes" if published >= TARGET_MODEL else "no"],
+        [f"model-LUT as published >= {TARGET_LUT:g}x", f"worst {human_ratio(published_lut)}",
+         "yes" if published_lut >= TARGET_LUT else "no"],
     ])
     lines += [
         "",
