@@ -224,3 +224,28 @@ def coating_internal_reflectance(theta: float, n: float) -> float:
 
     out = n * math.sin(theta)
     return 1.0 if out >= 1.0 else float(coating_reflectance(math.sqrt(1.0 - out * out), n))
+
+
+# ------------------------------------------------------------ benchmark reports
+
+
+def bench_section(bench, text: str) -> str:
+    """The part of ``text`` a benchmark tool wrote, its markers included."""
+    start, stop = text.index(bench.BEGIN_MARKER), text.index(bench.END_MARKER)
+    return text[start:stop + len(bench.END_MARKER)]
+
+
+def markdown_rows(text: str, heading: str) -> list[list[str]]:
+    """Cells of every row of the first markdown table after ``heading``: header, rule, body."""
+    rows: list[list[str]] = []
+    for line in text[text.index(heading):].splitlines()[1:]:
+        if line.startswith("|"):
+            rows.append([c.strip() for c in line.strip().strip("|").split("|")])
+        elif rows:
+            break
+    return rows
+
+
+def markdown_table(text: str, heading: str) -> list[list[str]]:
+    """:func:`markdown_rows` without the rule (rows whose first cell is only dashes)."""
+    return [row for row in markdown_rows(text, heading) if not set(row[0]) <= set("-")]

@@ -12,7 +12,7 @@ import io
 
 import numpy as np
 import pytest
-from conftest import load_tool
+from conftest import bench_section, load_tool, markdown_table
 
 pytestmark = pytest.mark.gpu
 
@@ -41,24 +41,6 @@ def runs(bench, tmp_path_factory):
     return texts, printed[0]
 
 
-def _section(bench, text):
-    start, stop = text.index(bench.BEGIN_MARKER), text.index(bench.END_MARKER)
-    return text[start:stop + len(bench.END_MARKER)]
-
-
-def _table_after(section, heading):
-    """Rows (lists of cells, header included) of the first markdown table after ``heading``."""
-    rows = []
-    for line in section[section.index(heading):].splitlines()[1:]:
-        if line.startswith("|"):
-            cells = [c.strip() for c in line.strip().strip("|").split("|")]
-            if not set(cells[0]) <= set("-"):
-                rows.append(cells)
-        elif rows:
-            break
-    return rows
-
-
 def test_section_replaced_not_duplicated(bench, runs):
     (first, second), printed = runs
     for text in (first, second):
@@ -66,13 +48,13 @@ def test_section_replaced_not_duplicated(bench, runs):
         assert "stale numbers" not in text
         assert text.startswith("# Benchmarks\n\nIntro text.\n")
         assert text.rstrip().endswith(LATER_SECTION.rstrip())
-    assert _section(bench, first) in printed
-    assert "Quick mode" in _section(bench, first)
+    assert bench_section(bench, first) in printed
+    assert "Quick mode" in bench_section(bench, first)
 
 
 def test_delta_e_table_has_every_method_and_order(bench, runs):
     (text, _), _ = runs
-    rows = _table_after(_section(bench, text), '### dE2000 against "reference"')
+    rows = markdown_table(bench_section(bench, text), '### dE2000 against "reference"')
     header, body = rows[0], rows[1:]
     assert header == ["method", *[f"base {b}" for b in bench.QUICK.bases], "all"]
     assert [row[0] for row in body] == [bench.label(*key) for key in bench.rows(bench.QUICK)]
@@ -84,7 +66,7 @@ def test_delta_e_table_has_every_method_and_order(bench, runs):
 
 def test_white_point_table(bench, runs):
     (text, _), _ = runs
-    body = _table_after(_section(bench, text), "### Perfect reflector")[1:]
+    body = markdown_table(bench_section(bench, text), "### Perfect reflector")[1:]
     verdict = {row[0]: row[2] for row in body}
     assert verdict == {"reference": "yes", "fourier-table": "yes", "fourier-gaussian": "yes",
                        bench.UNCORRECTED: "no"}
@@ -92,11 +74,11 @@ def test_white_point_table(bench, runs):
 
 def test_gpu_and_timing_tables(bench, runs):
     (text, _), _ = runs
-    section = _section(bench, text)
-    body = _table_after(section, "### numpy against GPU")[1:]
+    section = bench_section(bench, text)
+    body = markdown_table(section, "### numpy against GPU")[1:]
     assert len(body) == 1 + 2 * len(bench.QUICK.orders)
     assert all(row[-1] == "yes" for row in body)
-    body = _table_after(section, "### Time per colour")[1:]
+    body = markdown_table(section, "### Time per colour")[1:]
     assert len(body) == 2 * (1 + 2 * len(bench.QUICK.orders))
     for row in body:
         assert all(bench.parse_time(cell) > 0 for cell in row[2:]), row
@@ -104,11 +86,11 @@ def test_gpu_and_timing_tables(bench, runs):
 
 def test_prefilter_and_targets(bench, runs):
     (text, _), _ = runs
-    section = _section(bench, text)
-    body = _table_after(section, "### Thickness prefiltering")[1:]
+    section = bench_section(bench, text)
+    body = markdown_table(section, "### Thickness prefiltering")[1:]
     assert len(body) == 2 * len(bench.QUICK.bases) * len(bench.QUICK.prefilter_std_nm)
     assert all(0.0 <= float(row[3]) <= float(row[4]) for row in body)
-    targets = _table_after(section, "### Targets")[1:]
+    targets = markdown_table(section, "### Targets")[1:]
     assert "mean dE2000 <= 1" in targets[0][0]
     assert all(row[2] in ("yes", "no", "not checked") for row in targets)
 

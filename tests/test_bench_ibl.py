@@ -13,7 +13,7 @@ import io
 import math
 
 import pytest
-from conftest import load_tool
+from conftest import bench_section, load_tool, markdown_table
 from PIL import Image
 
 LATER_SECTION = "## A later benchmark\n\n<!-- other:begin -->\nkeep me\n<!-- other:end -->\n"
@@ -39,27 +39,9 @@ def run(bench, tmp_path_factory):
     return path.read_text(encoding="utf-8"), capture.getvalue(), folder / "figures"
 
 
-def _section(bench, text):
-    start, stop = text.index(bench.BEGIN_MARKER), text.index(bench.END_MARKER)
-    return text[start:stop + len(bench.END_MARKER)]
-
-
-def _table_after(section, heading):
-    """Rows (lists of cells, header included) of the first markdown table after ``heading``."""
-    rows = []
-    for line in section[section.index(heading):].splitlines()[1:]:
-        if line.startswith("|"):
-            cells = [c.strip() for c in line.strip().strip("|").split("|")]
-            if not set(cells[0]) <= set("-"):
-                rows.append(cells)
-        elif rows:
-            break
-    return rows
-
-
 def _errors(bench, text):
     """(material, alpha, mode) -> (mean dE, max dE, SMAPE) parsed from the section."""
-    rows = _table_after(_section(bench, text), "### CIE dE2000")
+    rows = markdown_table(bench_section(bench, text), "### CIE dE2000")
     out = {}
     for row in rows[1:]:
         material, alpha = row[0], float(row[1])
@@ -76,7 +58,7 @@ def test_section_replaced_and_headed(bench, run):
     assert text.startswith("# Benchmarks\n\nIntro text.\n")
     # Kept whole; the rendered comparison's own section, new to this document, follows it.
     assert LATER_SECTION.rstrip() in text
-    section = _section(bench, text)
+    section = bench_section(bench, text)
     assert section in printed
     assert f"## {bench.HEADING}" in section
     assert "IBL modes under uniform light (Kneiphof Fig. 7 analog)" in section
@@ -100,14 +82,14 @@ def test_kneiphof_beats_the_split_sum_on_films_when_rough(bench, run):
         for alpha in (a for a in bench.QUICK.alphas if a >= 0.25):
             split, filtered = errors[base, alpha, "split-sum"], errors[base, alpha, "kneiphof"]
             assert filtered[0] < split[0] and filtered[2] < split[2], (base, alpha)
-    verdicts = _table_after(_section(bench, run[0]), "### Does kneiphof beat")[1:]
+    verdicts = markdown_table(bench_section(bench, run[0]), "### Does kneiphof beat")[1:]
     assert all(row[2] in ("yes", "no") for row in verdicts)
     assert all(row[2] == "yes" for row in verdicts if row[0] in bench.QUICK.bases)
 
 
 def test_floor_and_table_error_are_reported(bench, run):
-    section = _section(bench, run[0])
-    rows = _table_after(section, "### Floor")[1:]
+    section = bench_section(bench, run[0])
+    rows = markdown_table(section, "### Floor")[1:]
     assert [row[0] for row in rows] == [*bench.QUICK.bases, bench.BRAGG]
     assert all(bench.parse_cell(row[1])[0] >= 0.0 for row in rows)
     assert "max dE2000 = " in section
@@ -160,14 +142,14 @@ def test_rendered_spheres_section(bench, run):
     assert section in printed
     cases = [(e, m, a) for e in bench.RENDER_QUICK.environments
              for m in bench.RENDER_QUICK.materials for a in bench.RENDER_QUICK.alphas]
-    errors = _table_after(section, "### SMAPE and mean dE2000")[1:]
+    errors = markdown_table(section, "### SMAPE and mean dE2000")[1:]
     assert [(row[0], row[1], float(row[2])) for row in errors] == cases
     for row in errors:
         values = [float(cell) for cell in row[3:7]]
         assert all(math.isfinite(v) and v >= 0.0 for v in values), row
         assert row[7] in ("yes", "no")
-    times = _table_after(section, "### Time per 1-spp frame")[1:]
+    times = markdown_table(section, "### Time per 1-spp frame")[1:]
     assert len(times) == len(cases)
     for row in times:
         assert all(bench._docs.parse_time(cell) > 0 for cell in (*row[3:6], *row[7:9])), row
-    assert _table_after(section, "### Target")[1][1] in ("yes", "no")
+    assert markdown_table(section, "### Target")[1][1] in ("yes", "no")

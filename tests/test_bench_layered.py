@@ -8,7 +8,7 @@ import io
 
 import numpy as np
 import pytest
-from conftest import load_tool
+from conftest import load_tool, markdown_rows
 
 pytestmark = pytest.mark.gpu
 
@@ -30,14 +30,7 @@ def run(bench, tmp_path_factory):
 
 
 def _rows(text: str, heading: str) -> list[list[str]]:
-    lines = text[text.index(heading):].splitlines()[1:]
-    rows = []
-    for line in lines:
-        if line.startswith("|"):
-            rows.append([c.strip() for c in line.strip().strip("|").split("|")])
-        elif rows:
-            break
-    return rows[2:]
+    return markdown_rows(text, heading)[2:]
 
 
 def test_section_written_once(bench, run):

@@ -14,7 +14,7 @@ import re
 
 import numpy as np
 import pytest
-from conftest import load_tool
+from conftest import bench_section, load_tool, markdown_table
 
 pytestmark = pytest.mark.gpu
 
@@ -46,25 +46,9 @@ def runs(bench, tmp_path_factory):
     return texts, printed
 
 
-def _section(bench, text: str) -> str:
-    start, stop = text.index(bench.BEGIN_MARKER), text.index(bench.END_MARKER)
-    return text[start:stop + len(bench.END_MARKER)]
-
-
 def _table_after(section: str, heading: str) -> dict[str, list[str]]:
     """Rows (label -> cells) of the first markdown table after ``heading``."""
-    lines = section[section.index(heading):].splitlines()[1:]
-    rows: dict[str, list[str]] = {}
-    started = False
-    for line in lines:
-        if line.startswith("|"):
-            started = True
-            cells = [c.strip() for c in line.strip().strip("|").split("|")]
-            if not set(cells[0]) <= set("-"):
-                rows[cells[0]] = cells[1:]
-        elif started:
-            break
-    return rows
+    return {row[0]: row[1:] for row in markdown_table(section, heading)}
 
 
 def _is_placeholder(bench, cell: str) -> bool:
@@ -88,18 +72,18 @@ def test_section_written_once_between_markers(bench, runs):
 
 def test_rerun_replaces_section(bench, runs):
     (first, second), _ = runs
-    outside = [t.replace(_section(bench, t), "") for t in (first, second)]
+    outside = [t.replace(bench_section(bench, t), "") for t in (first, second)]
     assert outside[0] == outside[1]
 
 
 def test_section_printed(bench, runs):
     (first, _), (printed, _) = runs
-    assert _section(bench, first) in printed
+    assert bench_section(bench, first) in printed
 
 
 def test_every_method_has_a_rate_row(bench, runs):
     (text, _), _ = runs
-    rows = _table_after(_section(bench, text), "### Evaluations per second")
+    rows = _table_after(bench_section(bench, text), "### Evaluations per second")
     assert [row for row in rows if row != "method"] == [m.label for m in bench.METHODS]
     assert len(rows["method"]) == len(bench.N_VALUES) + 1
     for method in bench.METHODS:
@@ -117,7 +101,7 @@ def test_every_method_has_a_rate_row(bench, runs):
 
 def test_flatness_column_parses(bench, runs):
     (text, _), _ = runs
-    rows = _table_after(_section(bench, text), "### Evaluations per second")
+    rows = _table_after(bench_section(bench, text), "### Evaluations per second")
     for method in bench.METHODS:
         cell = rows[method.label][-1]
         if method.linear or cell == bench.NOT_INSTALLED:
@@ -128,7 +112,7 @@ def test_flatness_column_parses(bench, runs):
 
 def test_ratio_rows_parse(bench, runs):
     (text, _), _ = runs
-    rows = _table_after(_section(bench, text), "### Speed-up")
+    rows = _table_after(bench_section(bench, text), "### Speed-up")
     labels = [f"÷ {bench.METHOD_BY_KEY[k].label}" for k in bench.RATIO_KEYS]
     assert [row for row in rows if not row.startswith("GPU kernel (s)")] == labels
     for key, label in zip(bench.RATIO_KEYS, labels, strict=True):
@@ -143,7 +127,7 @@ def test_ratio_rows_parse(bench, runs):
 
 def test_header_facts(bench, runs):
     (text, _), _ = runs
-    section = _section(bench, text)
+    section = bench_section(bench, text)
     from wgbragg import gpu
 
     assert gpu.adapter_info()["name"] in section

@@ -7,7 +7,7 @@ import contextlib
 import io
 
 import pytest
-from conftest import load_tool
+from conftest import load_tool, markdown_rows
 
 pytestmark = pytest.mark.gpu
 
@@ -24,14 +24,7 @@ def run(tmp_path_factory):
 
 
 def _rows(text: str, heading: str) -> list[list[str]]:
-    lines = text[text.index(heading):].splitlines()[1:]
-    rows = []
-    for line in lines:
-        if line.startswith("|"):
-            rows.append([c.strip() for c in line.strip().strip("|").split("|")])
-        elif rows:
-            break
-    return rows[2:]
+    return markdown_rows(text, heading)[2:]
 
 
 def test_section_written_once(run):

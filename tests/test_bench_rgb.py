@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import load_tool
+from conftest import bench_section, load_tool, markdown_table
 from PIL import Image
 
 pytestmark = pytest.mark.gpu
@@ -50,25 +50,6 @@ def runs(bench, tmp_path_factory):
     return texts, printed[0], plot
 
 
-def _section(bench, text: str) -> str:
-    start, stop = text.index(bench.BEGIN_MARKER), text.index(bench.END_MARKER)
-    return text[start:stop + len(bench.END_MARKER)]
-
-
-def _table_after(section: str, heading: str) -> list[list[str]]:
-    """Rows (lists of cells, header included) of the first markdown table after ``heading``."""
-    lines = section[section.index(heading):].splitlines()[1:]
-    rows: list[list[str]] = []
-    for line in lines:
-        if line.startswith("|"):
-            cells = [c.strip() for c in line.strip().strip("|").split("|")]
-            if not set(cells[0]) <= set("-"):
-                rows.append(cells)
-        elif rows:
-            break
-    return rows
-
-
 def _methods():
     from wgbragg.colour_methods import COLOUR_METHODS, GPU_COLOUR_METHODS
 
@@ -87,18 +68,18 @@ def test_section_replaced_not_duplicated(bench, runs):
         assert text.startswith("# Benchmarks\n\nIntro text.\n")
         assert text.rstrip().endswith(LATER_SECTION.rstrip())
         assert text.count("## Colour methods: speed and accuracy") == 1
-    outside = [t.replace(_section(bench, t), "") for t in (first, second)]
+    outside = [t.replace(bench_section(bench, t), "") for t in (first, second)]
     assert outside[0] == outside[1]
 
 
 def test_section_printed(bench, runs):
     (first, _), printed, _ = runs
-    assert _section(bench, first) in printed
+    assert bench_section(bench, first) in printed
 
 
 def test_header_facts(bench, runs):
     (text, _), _, _ = runs
-    section = _section(bench, text)
+    section = bench_section(bench, text)
     from wgbragg import gpu
 
     assert gpu.adapter_info()["name"] in section
@@ -113,7 +94,7 @@ def test_header_facts(bench, runs):
 
 def test_time_table_has_every_method(bench, runs):
     (text, _), _, _ = runs
-    rows = _table_after(_section(bench, text), "### Time per colour")
+    rows = markdown_table(bench_section(bench, text), "### Time per colour")
     header, body = rows[0], rows[1:]
     assert header[-1] == "all" and len(header) == 2 + len(bench.QUICK.periods_nm) + 1
     methods, gpu_methods = _methods()
@@ -130,7 +111,7 @@ def test_time_table_has_every_method(bench, runs):
 
 def test_speedup_table_parses(bench, runs):
     (text, _), _, _ = runs
-    rows = _table_after(_section(bench, text), "### Speed-up over")
+    rows = markdown_table(bench_section(bench, text), "### Speed-up over")
     body = rows[1:]
     measured = [row for row in body if not row[0].startswith("paper")]
     for row in measured:
@@ -144,7 +125,7 @@ def test_speedup_table_parses(bench, runs):
 
 def test_delta_e_table_has_every_method(bench, runs):
     (text, _), _, _ = runs
-    rows = _table_after(_section(bench, text), "### dE2000 against")
+    rows = markdown_table(bench_section(bench, text), "### dE2000 against")
     header, body = rows[0], rows[1:]
     assert header[1:] == [f"N = {n}" for n in bench.QUICK.counts] + ["N ≥ 10", "all N"]
     methods, _ = _methods()
@@ -159,7 +140,7 @@ def test_delta_e_table_has_every_method(bench, runs):
 
 def test_gpu_agreement_table(bench, runs):
     (text, _), _, _ = runs
-    body = _table_after(_section(bench, text), "### numpy against GPU")[1:]
+    body = markdown_table(bench_section(bench, text), "### numpy against GPU")[1:]
     methods, gpu_methods = _methods()
     assert [row[0] for row in body] == [bench.method_label(m) for m in methods]
     for method, row in zip(methods, body, strict=True):
@@ -174,7 +155,8 @@ def test_converged_table(bench, runs):
     """The check of the reference itself: every method, reference included, against the
     converged integral."""
     (text, _), _, _ = runs
-    body = _table_after(_section(bench, text), "### dE2000 against the converged integral")[1:]
+    section = bench_section(bench, text)
+    body = markdown_table(section, "### dE2000 against the converged integral")[1:]
     methods, _ = _methods()
     assert [row[0] for row in body] == [bench.method_label(m) for m in methods]
     for row in body:
@@ -198,7 +180,7 @@ def test_fine_integral(bench):
 
 def test_spectral_sweep_rows(bench, runs):
     (text, _), _, _ = runs
-    body = _table_after(_section(bench, text), '### "spectral"')[1:]
+    body = markdown_table(bench_section(bench, text), '### "spectral"')[1:]
     assert [int(row[0]) for row in body] == list(bench.QUICK.samples)
     for row in body:
         for cell in row[1:4]:
@@ -210,7 +192,7 @@ def test_spectral_sweep_rows(bench, runs):
 
 def test_targets_listed(bench, runs):
     (text, _), _, _ = runs
-    body = _table_after(_section(bench, text), "### Targets")[1:]
+    body = markdown_table(bench_section(bench, text), "### Targets")[1:]
     targets = " ".join(row[0] for row in body)
     for needle in ("`averaged`: mean dE2000 <= 0.5", "over all N", "the speed of `reference`",
                    "`approx`: the paper's Table 1", "`approx`: dE2000 reported",
@@ -250,7 +232,7 @@ def test_gpu_methods_read_at_run_time(bench, monkeypatch):
     assert ("reference", *bench.GPU_WALL) in results.seconds
     assert not results.sweep_gpu_delta_e
     section = bench.render_section(results, "python tools/bench_rgb.py")
-    rows = _table_after(section, "### numpy against GPU")[1:]
+    rows = markdown_table(section, "### numpy against GPU")[1:]
     spectral = next(row for row in rows if row[0].startswith("spectral"))
     assert spectral[1] == "no GPU kernel yet"
 

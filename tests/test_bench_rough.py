@@ -14,7 +14,7 @@ import io
 import math
 
 import pytest
-from conftest import load_tool
+from conftest import bench_section, load_tool, markdown_rows
 
 LATER_SECTION = "## A later benchmark\n\n<!-- other:begin -->\nkeep me\n<!-- other:end -->\n"
 
@@ -39,22 +39,10 @@ def run(bench, tmp_path_factory):
     return path, path.read_text(encoding="utf-8"), capture.getvalue()
 
 
-def _section(bench, text: str) -> str:
-    start, stop = text.index(bench.BEGIN_MARKER), text.index(bench.END_MARKER)
-    return text[start:stop + len(bench.END_MARKER)]
-
-
 def _table(section: str, heading: str) -> list[dict[str, str]]:
     """The first markdown table after the line starting with ``heading``, as one dict per
     row keyed by the header cells."""
-    lines = section[section.index(heading):].splitlines()[1:]
-    rows: list[list[str]] = []
-    for line in lines:
-        if line.startswith("|"):
-            rows.append([c.strip() for c in line.strip().strip("|").split("|")])
-        elif rows:
-            break
-    header, rule, *body = rows
+    header, rule, *body = markdown_rows(section, heading)
     assert set("".join(rule)) == {"-"}
     assert all(len(row) == len(header) for row in body), heading
     return [dict(zip(header, row, strict=True)) for row in body]
@@ -79,7 +67,7 @@ def test_section_replaces_the_stale_one(bench, run):
     assert text.rstrip().endswith(LATER_SECTION.rstrip())
     assert text.count("## Rough Bragg layers") == 1
     # Writing the same section again changes nothing: replaced, never appended.
-    section = _section(bench, text)
+    section = bench_section(bench, text)
     bench._docs.write_section(path, section, bench.BEGIN_MARKER, bench.END_MARKER)
     assert path.read_text(encoding="utf-8") == text
     assert [p.name for p in path.parent.iterdir()] == [path.name]  # no temporary files left
@@ -88,7 +76,7 @@ def test_section_replaces_the_stale_one(bench, run):
 @pytest.mark.gpu
 def test_section_printed_and_headed(bench, run):
     _, text, printed = run
-    section = _section(bench, text)
+    section = bench_section(bench, text)
     assert section in printed
     from wgbragg import gpu
 
@@ -105,7 +93,7 @@ def test_section_printed_and_headed(bench, run):
 @pytest.mark.gpu
 def test_bake_table(bench, run):
     _, text, _ = run
-    rows = _table(_section(bench, text), "### F_")
+    rows = _table(bench_section(bench, text), "### F_")
     cfg = bench.QUICK
     assert [float(row[bench.ALPHA]) for row in rows] == list(cfg.alphas)
     for row in rows:
@@ -120,7 +108,7 @@ def test_bake_table(bench, run):
 @pytest.mark.gpu
 def test_transmissivity_table(bench, run):
     _, text, _ = run
-    rows = _table(_section(bench, text), "### Integrated transmissivity")
+    rows = _table(bench_section(bench, text), "### Integrated transmissivity")
     cfg = bench.QUICK
     expected = [(layer.label, bench.grid_label(step)) for layer in bench.layers(cfg)
                 for step in cfg.steps_nm]
@@ -145,7 +133,7 @@ def test_transmissivity_table(bench, run):
 @pytest.mark.gpu
 def test_rgb_table(bench, run):
     _, text, _ = run
-    rows = _table(_section(bench, text), "### `transmissivity_rgb`")
+    rows = _table(bench_section(bench, text), "### `transmissivity_rgb`")
     assert [row["layer"] for row in rows] == [layer.label for layer in bench.layers(bench.QUICK)]
     for row in rows:
         _positive_time(bench, row["GPU f32"])
@@ -155,7 +143,7 @@ def test_rgb_table(bench, run):
 @pytest.mark.gpu
 def test_size_tables(bench, run):
     _, text, _ = run
-    section = _section(bench, text)
+    section = bench_section(bench, text)
     rows = _table(section, "### Table sizes")
     for row in rows:
         n_i, n_cols = (int(v) for v in row["shape"].split(bench.TIMES))
@@ -172,7 +160,7 @@ def test_size_tables(bench, run):
 @pytest.mark.gpu
 def test_targets_listed(bench, run):
     _, text, _ = run
-    rows = _table(_section(bench, text), "### Targets")
+    rows = _table(bench_section(bench, text), "### Targets")
     targets = [row["target"] for row in rows]
     assert any(t.startswith(f"F_{bench.ALPHA} bake on the GPU <= 250 ms") for t in targets)
     for step in bench.QUICK.steps_nm:
