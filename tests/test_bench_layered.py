@@ -58,7 +58,7 @@ def test_environment_sampling_matches_its_density(bench):
     1 / pdf estimates the sphere's area)."""
     rng = np.random.default_rng(0)
     direction, pdf = bench.sample_environment(rng, (200_000,))
-    np.testing.assert_allclose(np.linalg.norm(direction, axis=-1), 1.0, atol=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(direction, axis=-1), 1.0, atol=1e-6)  # float32
     assert np.mean(1.0 / pdf) == pytest.approx(4.0 * np.pi, rel=0.02)
     np.testing.assert_allclose(pdf, bench.environment_pdf(direction), rtol=1e-12)
 

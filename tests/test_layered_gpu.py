@@ -358,3 +358,13 @@ def test_landmark_colours_need_matched_hosts(structures):
     with pytest.raises(ValueError, match="host == n1"):
         structures["appendix-D"].brdf([0, 0, 1.0], [0, 0, 1.0], backend="gpu",
                                       colour_method="approx")
+
+
+def test_shared_wavelengths_with_leading_unit_axes():
+    """Wavelengths of shape (1, K) shared by every pair are uploaded once, as (K,) are."""
+    s = LayeredBragg([RoughBraggLayer(A, 0.1)], base_albedo=0.5)
+    wi = np.array([[0.3, 0.0, math.sqrt(0.91)]])
+    wo = np.array([[-0.2, 0.1, math.sqrt(0.95)]])
+    flat = s.brdf(wi[:, None], wo[:, None], WAVELENGTHS, backend="gpu")
+    nested = s.brdf(wi[:, None], wo[:, None], WAVELENGTHS[None], backend="gpu")
+    np.testing.assert_array_equal(nested, flat)

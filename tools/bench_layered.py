@@ -11,8 +11,10 @@ directions and look the environment up there:
   paths per pixel): the reference;
 - **SR sim.**: the simulation restricted to single-reflection paths (``spp`` paths);
 - **model**: :meth:`LayeredBragg.sample` of the spectral model on the GPU (eq 35, exact
-  Yeh reflectance, ``spp`` samples of four hero wavelengths, weight ``f cos / pdf``): the
-  simulation's own sampling budget, with the model's closed-form weight;
+  Yeh reflectance, weight ``f cos / pdf``) with ``colour_method="hero"``: four hero
+  wavelengths per sample, drawn and turned into colour in the kernel exactly as the
+  simulation does for a path: the simulation's own sampling budget, with the model's
+  closed-form weight;
 - **model-LUT**: the RGB model with the layers' colours tabulated over theta_d
   (``method="single-reflection-lut"``, factored RGB with "averaged" colours): no spectral
   sampling at all;
@@ -59,6 +61,7 @@ import _docs  # noqa: E402
 from _docs import human_ratio, human_time  # noqa: E402
 from _docs import markdown_table as _table  # noqa: E402
 
+from wgbragg.colorimetry import HERO_WAVELENGTHS  # noqa: E402
 from wgbragg.metrics import smape  # noqa: E402
 
 __all__ = [
@@ -83,7 +86,6 @@ BASE_IR = " + base IR"  # the same estimator with LayeredBragg(base_interreflect
 MODELS = ("model", "model-LUT", LUT_NEE)
 ESTIMATORS = ("GT", "SR sim.", *MODELS, *(m + BASE_IR for m in MODELS))
 LUT_COLOURS = "averaged"  # colour method of the layers' RGB tables
-HERO = 4
 TARGET_MODEL = 3.0  # model efficiency / SR simulation efficiency
 TARGET_LUT = 4.0
 PAPER_RATIOS = "2.1-5x (model), higher with the LUT (Table 2)"
@@ -130,20 +132,33 @@ def structure(d_nm: float, alpha: float, albedo):
 LAMPS = (((0.5, 0.3, 0.81), (12.0, 10.0, 8.0)), ((-0.7, 0.2, 0.3), (3.0, 5.0, 9.0)))
 LAMP_KAPPA = 250.0  # sharpness of a lamp: radiance ~ exp(kappa (d.axis - 1))
 SKY_PROBABILITY = 0.3  # share of environment samples drawn uniformly on the sphere
+SKY = (0.35, 0.5, 0.8)  # times 0.4 + 0.6 z above the horizon
+GROUND = (0.25, 0.18, 0.12)
+# The environment is evaluated in float32, as a renderer would: it is the same per-sample cost
+# for every estimator, and in float64 numpy it took longer than the model's GPU work.
+_F32 = np.float32
 
 
+@functools.cache
 def _lamp_axes() -> np.ndarray:
     axes = np.array([axis for axis, _ in LAMPS])
-    return axes / np.linalg.norm(axes, axis=-1, keepdims=True)
+    return (axes / np.linalg.norm(axes, axis=-1, keepdims=True)).astype(_F32)
+
+
+def _flat(direction: np.ndarray) -> np.ndarray:
+    return np.asarray(direction, _F32).reshape(-1, 3)
 
 
 def environment(direction: np.ndarray) -> np.ndarray:
     """Linear sRGB radiance of the procedural environment towards world ``direction`` (z up)."""
-    z = direction[..., 2:3]
-    sky = np.where(z > 0.0, np.array([0.35, 0.5, 0.8]) * (0.4 + 0.6 * z),
-                   np.array([0.25, 0.18, 0.12]))
-    glow = np.exp(LAMP_KAPPA * (direction @ _lamp_axes().T - 1.0))
-    return sky + glow @ np.array([colour for _, colour in LAMPS])
+    flat = _flat(direction)
+    glow = np.exp(_F32(LAMP_KAPPA) * (flat @ _lamp_axes().T - _F32(1.0)))
+    radiance = glow @ np.array([colour for _, colour in LAMPS], _F32)
+    z = flat[:, 2]
+    up = z > 0.0
+    radiance += np.where(up, _F32(0.4) + _F32(0.6) * z, _F32(0.0))[:, None] * np.array(SKY, _F32)
+    radiance[~up] += np.array(GROUND, _F32)
+    return radiance.reshape(np.shape(direction))
 
 
 @functools.cache
@@ -152,42 +167,48 @@ def _lamp_frames() -> np.ndarray:
     axes = _lamp_axes()
     tangent = np.cross(axes, [0.0, 0.0, 1.0])
     tangent /= np.linalg.norm(tangent, axis=-1, keepdims=True)
-    return np.stack([axes, tangent, np.cross(axes, tangent)])
+    return np.stack([axes, tangent, np.cross(axes, tangent)]).astype(_F32)
 
 
 def _lamp_density(cosine: np.ndarray) -> np.ndarray:
     """von Mises-Fisher density on the sphere (1/sr) of a lamp's lobe."""
     k = LAMP_KAPPA
-    return k / (2.0 * np.pi * (1.0 - np.exp(-2.0 * k))) * np.exp(k * (cosine - 1.0))
+    norm = _F32(k / (2.0 * np.pi * (1.0 - np.exp(-2.0 * k))))
+    return norm * np.exp(_F32(k) * (cosine - _F32(1.0)))
 
 
 def environment_pdf(direction: np.ndarray) -> np.ndarray:
     """Density (1/sr) of :func:`sample_environment`."""
-    lamps = _lamp_density(direction @ _lamp_axes().T).mean(axis=-1)
-    return SKY_PROBABILITY / (4.0 * np.pi) + (1.0 - SKY_PROBABILITY) * lamps
+    lamps = _lamp_density(_flat(direction) @ _lamp_axes().T).mean(axis=-1)
+    pdf = _F32(SKY_PROBABILITY / (4.0 * np.pi)) + _F32(1.0 - SKY_PROBABILITY) * lamps
+    return pdf.reshape(np.shape(direction)[:-1])
 
 
 def sample_environment(rng, shape) -> tuple[np.ndarray, np.ndarray]:
     """Directions drawn from the lamps' lobes (exactly) and uniformly on the sphere; with
     their density."""
-    u = rng.random((*shape, 3))
+    u = rng.random((int(np.prod(shape)), 3), dtype=_F32)
+    direction = np.empty_like(u)
+    sky = u[:, 0] < SKY_PROBABILITY
     # Uniform on the sphere.
-    z = 1.0 - 2.0 * u[..., 1]
+    z = 1.0 - 2.0 * u[sky, 1]
     r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
-    phi = 2.0 * np.pi * u[..., 2]
-    uniform = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
+    phi = _F32(2.0 * np.pi) * u[sky, 2]
+    direction[sky] = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
     # A lamp's lobe: the cosine to its axis by inverting the vMF CDF, then an azimuth.
+    lobe = u[~sky]
     k = LAMP_KAPPA
-    xi = (u[..., 0] - SKY_PROBABILITY) / (1.0 - SKY_PROBABILITY)
-    lamp = np.minimum((np.clip(xi, 0.0, 1.0) * len(LAMPS)).astype(int), len(LAMPS) - 1)
-    xi2 = np.clip(xi * len(LAMPS) - lamp, 1e-12, 1.0)
-    cosine = 1.0 + np.log(xi2 + (1.0 - xi2) * np.exp(-2.0 * k)) / k
+    xi = (lobe[:, 0] - _F32(SKY_PROBABILITY)) / _F32(1.0 - SKY_PROBABILITY) * len(LAMPS)
+    lamp = np.minimum(xi.astype(np.int32), len(LAMPS) - 1)
+    xi = np.clip(xi - lamp.astype(_F32), _F32(1e-12), _F32(1.0))
+    cosine = 1.0 + np.log(xi + (1.0 - xi) * _F32(np.exp(-2.0 * k))) / _F32(k)
     sine = np.sqrt(np.maximum(0.0, 1.0 - cosine * cosine))
     axis, tangent, bitangent = _lamp_frames()[:, lamp]
-    around = (np.cos(phi)[..., None] * tangent + np.sin(phi)[..., None] * bitangent)
-    lobe = cosine[..., None] * axis + sine[..., None] * around
-    direction = np.where((u[..., 0] < SKY_PROBABILITY)[..., None], uniform, lobe)
+    phi = _F32(2.0 * np.pi) * lobe[:, 2]
+    direction[~sky] = (cosine[:, None] * axis + (sine * np.cos(phi))[:, None] * tangent
+                       + (sine * np.sin(phi))[:, None] * bitangent)
     direction /= np.linalg.norm(direction, axis=-1, keepdims=True)
+    direction = direction.reshape(*shape, 3)
     return direction, environment_pdf(direction)
 
 
@@ -214,27 +235,12 @@ def sphere(size: int) -> Sphere:
     return Sphere(inside, view / np.linalg.norm(view, axis=-1, keepdims=True), frames)
 
 
-def _hero_wavelengths(rng, shape) -> np.ndarray:
-    offset = rng.random((*shape, 1))
-    return 360.0 + 470.0 * ((offset + np.arange(HERO) / HERO) % 1.0)
-
-
-def _spectral_to_rgb(weight: np.ndarray, wavelength: np.ndarray) -> np.ndarray:
-    """Colour of hero-wavelength samples: sum_k w_k xyz(lambda_k) * 470 / K, in sRGB."""
-    from wgbragg import colorimetry
-
-    xyz = np.sum(weight[..., None] * colorimetry.xyz_density(wavelength), axis=-2)
-    return colorimetry.xyz_to_linear_srgb(xyz * (470.0 / HERO))
-
-
 def _model_spectral(s, view, frames, rng, spp):
     """Colour of ``spp`` samples of the spectral model (exact Yeh), four hero wavelengths each,
     like a simulated path: :meth:`LayeredBragg.sample` alone."""
-    wavelength = _hero_wavelengths(rng, (view.shape[0], spp))
-    local, weight, _ = s.sample(view[:, None, None, :], rng.random((view.shape[0], spp, 1, 3)),
-                                wavelength, backend="gpu")
-    world = local[:, :, 0] @ frames
-    return _spectral_to_rgb(weight, wavelength) * environment(world)
+    local, weight, _ = s.sample(view[:, None, :], rng.random((view.shape[0], spp, 4)),
+                                backend="gpu", colour_method="hero")
+    return weight * environment(local @ frames)
 
 
 def _model_rgb(s, view, frames, rng, spp, next_event):
@@ -292,7 +298,7 @@ def _render(s, scene: Sphere, spp: int, chunk: int, estimator: str, seed: int) -
             colour = _model_spectral(s, view, frames, rng, spp)
         else:
             colour = _model_rgb(s, view, frames, rng, spp, next_event=estimator == LUT_NEE)
-        pixels[part] = np.mean(colour, axis=1)
+        pixels[part] = np.einsum("psc->pc", colour) / spp
     return pixels
 
 
@@ -374,7 +380,8 @@ def render_section(results: Results, command: str) -> str:
         f"- Python {env['python']}; "
         + ", ".join(f"{k} {v}" for k, v in env["versions"].items()),
         f"- Scene: a sphere, {cfg.size} x {cfg.size} pixels, under a procedural environment; "
-        f"{cfg.spp} paths or samples per pixel, GT {cfg.gt_spp}; {HERO} hero wavelengths each.",
+        f"{cfg.spp} paths or samples per pixel, GT {cfg.gt_spp}; {HERO_WAVELENGTHS} hero "
+        "wavelengths each.",
         "- Structures (Fig. 7): n1 = 1, n2 = 1.5, N = 10; A: d1 = d2 = 250 nm, "
         f"{ALPHA} = 0.1; B: d1 = d2 = 494 nm, {ALPHA} = 0.05; absorbing or Lambertian base.",
         *(["- Quick mode: tiny sizes for the tests; the numbers mean nothing.", ""]

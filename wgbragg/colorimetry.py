@@ -33,6 +33,8 @@ import numpy as np
 
 __all__ = [
     "CMFS_NAME",
+    "HERO_SEGMENTS",
+    "HERO_WAVELENGTHS",
     "ILLUMINANT_NAME",
     "WAVELENGTH_RANGE_NM",
     "WAVELENGTH_STEP_NM",
@@ -40,6 +42,8 @@ __all__ = [
     "cumulative_table",
     "cumulative_xyz",
     "delta_e_2000",
+    "hero_inverse_cdf",
+    "hero_wavelengths",
     "linear_srgb_to_xyz",
     "spectral_xyz",
     "xyz_density",
@@ -52,6 +56,12 @@ WAVELENGTH_RANGE_NM = (360.0, 830.0)
 
 WAVELENGTH_STEP_NM = 1.0
 """Spacing of the reference quadrature and of the tabulated density, nm."""
+
+HERO_WAVELENGTHS = 4
+"""Wavelengths of one hero sample (:func:`hero_wavelengths`): one vec4 on the GPU."""
+
+HERO_SEGMENTS = 512
+"""Segments of :func:`hero_inverse_cdf`."""
 
 CMFS_NAME = "CIE 1931 2 Degree Standard Observer"
 ILLUMINANT_NAME = "D65"
@@ -234,6 +244,77 @@ def cumulative_table() -> tuple[np.ndarray, np.ndarray]:
     """
     wavelength, _, cumulative = _tables()
     return wavelength, cumulative
+
+
+@functools.cache
+def hero_inverse_cdf() -> np.ndarray:
+    """Wavelengths at equal steps of the cumulative summed XYZ density, for hero sampling.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(HERO_SEGMENTS + 1,)`` float32, nm, read-only: 360 nm, then the wavelength
+        below which ``j / HERO_SEGMENTS`` of ``int (x + y + z)`` lies, ..., 830 nm. A
+        wavelength drawn uniformly within segment ``j`` has the constant density
+        ``1 / (HERO_SEGMENTS (node[j+1] - node[j]))`` per nm: samples land where the eye is
+        sensitive. The GPU kernels read this table (``wgsl/hero.wgsl``).
+    """
+    grid, cumulative = cumulative_table()
+    total = cumulative.sum(axis=1)
+    nodes = np.interp(np.linspace(0.0, total[-1], HERO_SEGMENTS + 1), total, grid)
+    nodes[0], nodes[-1] = grid[0], grid[-1]
+    nodes = nodes.astype(np.float32)
+    nodes.setflags(write=False)
+    return nodes
+
+
+def hero_wavelengths(offset) -> tuple[np.ndarray, np.ndarray]:
+    """Hero wavelengths (Wilkie et al. 2014) stratified in :func:`hero_inverse_cdf`.
+
+    Parameters
+    ----------
+    offset : array_like
+        Uniform numbers in [0, 1], any shape: one per sample.
+
+    Returns
+    -------
+    wavelength_nm : numpy.ndarray
+        Shape ``offset.shape + (HERO_WAVELENGTHS,)``: wavelength ``k`` at the cumulative
+        fraction ``(offset + k) / HERO_WAVELENGTHS``.
+    scale : numpy.ndarray
+        Same shape, nm: ``1 / (HERO_WAVELENGTHS pdf(wavelength))``, so that
+        ``xyz_to_linear_srgb(sum_k v_k scale_k xyz_density(wavelength_k))`` is an unbiased
+        estimate of the linear sRGB of a spectrum ``v`` (a spectrum of 1 gives about
+        ``(1, 1, 1)``, exactly in expectation). The float64 twin of ``hero_wavelengths`` in
+        ``wgsl/hero.wgsl``, which the layered simulation and the single-reflection sampler
+        use.
+
+    Raises
+    ------
+    ValueError
+        If ``offset`` is not real, finite and within [0, 1].
+
+    References
+    ----------
+    Wilkie, Nawaz, Droske, Weidlich & Hanika, "Hero Wavelength Spectral Sampling", Computer
+    Graphics Forum 33(4), 2014.
+
+    Examples
+    --------
+    >>> wavelength, scale = hero_wavelengths([0.5])
+    >>> wavelength.shape
+    (1, 4)
+    """
+    offset = _real_array("offset", offset)
+    if not np.all((offset >= 0.0) & (offset <= 1.0)):
+        raise ValueError("offset must be in [0, 1]")
+    nodes = hero_inverse_cdf().astype(np.float64)
+    position = ((offset[..., None] + np.arange(HERO_WAVELENGTHS)) / HERO_WAVELENGTHS
+                * HERO_SEGMENTS)
+    segment = np.minimum(position.astype(np.intp), HERO_SEGMENTS - 1)
+    lower, upper = nodes[segment], nodes[segment + 1]
+    wavelength = lower + (position - segment) * (upper - lower)
+    return wavelength, (HERO_SEGMENTS / HERO_WAVELENGTHS) * (upper - lower)
 
 
 # --------------------------------------------------------------------------- colour spaces

@@ -41,7 +41,7 @@ from .microfacet import _D, _G1_over_cos, ggx_sample_visible_normal
 from .optics.yeh import yeh_reflectance
 from .rough_layer import RoughBraggLayer
 
-__all__ = ["BRDF_METHODS", "INTEGRATED", "LayeredBragg", "coating_reflectance"]
+__all__ = ["BRDF_METHODS", "HERO", "INTEGRATED", "LayeredBragg", "coating_reflectance"]
 
 BRDF_METHODS = ("single-reflection", "single-reflection-lut")
 """``method=`` of :meth:`LayeredBragg.brdf`: the model with the mirrors' reflectance evaluated
@@ -53,6 +53,13 @@ LUT_RESOLUTION_DEG = 0.25
 INTEGRATED = "integrated"
 """``colour_method`` of an RGB result computed as the colour of the whole spectral BRDF
 (1 nm nodes, 360-830 nm): the exact colour of eq 34."""
+
+HERO = "hero"
+"""``colour_method`` of :meth:`LayeredBragg.sample` only: the colour of the spectral BRDF
+estimated, per sample, from four hero wavelengths (:func:`wgbragg.colorimetry.hero_wavelengths`)
+offset by the sample's fourth random number, as :meth:`LayeredBragg.simulate` colours a path.
+Unbiased for the ``"integrated"`` colour, at the cost of four spectral evaluations instead of
+471: a renderer's spectral path without its own wavelength bookkeeping."""
 
 _UNIT_TOLERANCE = 1e-5
 _INTEGRATION_CHUNK = 1024
@@ -540,6 +547,9 @@ class LayeredBragg:
             raise ValueError(f"method must be one of {BRDF_METHODS}, got {method!r}")
         wavelength = None if wavelength_nm is None else check_wavelength(wavelength_nm)
         colour_method = self._colour_method(colour_method, backend)
+        if colour_method == HERO:
+            raise ValueError("colour_method='hero' draws its wavelengths from a sample's random "
+                             "numbers: it is a colour_method of sample() only")
         if backend == "gpu":
             from . import layered_gpu
 
@@ -552,7 +562,7 @@ class LayeredBragg:
             return INTEGRATED
         from .colour_methods import COLOUR_METHODS
 
-        accepted = (INTEGRATED, *COLOUR_METHODS)
+        accepted = (INTEGRATED, HERO, *COLOUR_METHODS)
         if colour_method not in accepted:
             raise ValueError(f"colour_method must be one of {accepted}, got {colour_method!r}")
         return colour_method
@@ -637,13 +647,15 @@ class LayeredBragg:
         ----------
         wi : array_like, shape (..., 3)
             Unit direction towards the light (or viewer), in air, upper hemisphere.
-        u : array_like, shape (..., 3)
-            Uniform numbers in [0, 1): ``u[..., 0]`` picks the component, the others the
-            direction.
+        u : array_like, shape (..., 3), or (..., 4) with ``colour_method="hero"``
+            Uniform numbers in [0, 1): ``u[..., 0]`` picks the component, ``u[..., 1:3]`` the
+            direction, ``u[..., 3]`` offsets the hero wavelengths.
         wavelength_nm, method, backend, colour_method
             As for :meth:`brdf`: the weight is spectral or RGB. ``backend="gpu"``: the float32
             kernel draws the sample and computes its weight and pdf (same ``u``, same
-            ``wo`` up to float32 rounding).
+            ``wo`` up to float32 rounding). ``colour_method="hero"`` (RGB only, this method
+            only): the weight's colour estimated from four hero wavelengths (:data:`HERO`),
+            the Dirac reflection's weight staying exactly white.
 
         Returns
         -------
@@ -660,23 +672,30 @@ class LayeredBragg:
         """
         wi = _check_directions(wi, "wi")
         u = _as_float_array("u", u)
-        if u.ndim == 0 or u.shape[-1] != 3:
-            raise ValueError(f"u must have a trailing axis of length 3, got shape {u.shape}")
-        if not np.all((u >= 0.0) & (u <= 1.0)):
-            raise ValueError("u must be in [0, 1]")
         backend = check_backend(backend)
         if method not in BRDF_METHODS:
             raise ValueError(f"method must be one of {BRDF_METHODS}, got {method!r}")
-        if np.any(wi[..., 2] <= 0.0):
-            raise ValueError("wi must lie strictly above the horizon: wi[..., 2] in (0, 1]")
         wavelength = None if wavelength_nm is None else check_wavelength(wavelength_nm)
         colour_method = self._colour_method(colour_method, backend)
+        hero = colour_method == HERO and wavelength is None
+        if colour_method == HERO and not hero:
+            raise ValueError("colour_method='hero' is an RGB estimate: pass wavelength_nm=None")
+        width = 4 if hero else 3
+        if u.ndim == 0 or u.shape[-1] != width:
+            raise ValueError(f"u must have a trailing axis of length {width}"
+                             f"{' (colour_method=' + repr(HERO) + ')' if hero else ''}, got "
+                             f"shape {u.shape}")
+        # min/max: one pass each, and a NaN fails both.
+        if not (u.min(initial=0.0) >= 0.0 and u.max(initial=1.0) <= 1.0):
+            raise ValueError("u must be in [0, 1]")
+        if np.any(wi[..., 2] <= 0.0):
+            raise ValueError("wi must lie strictly above the horizon: wi[..., 2] in (0, 1]")
         if backend == "gpu":
             from . import layered_gpu
 
             return layered_gpu.sample(self, wi, u, wavelength, method, colour_method)
         shape = np.broadcast_shapes(wi.shape[:-1], u.shape[:-1])
-        wi, u = np.broadcast_to(wi, (*shape, 3)), np.broadcast_to(u, (*shape, 3))
+        wi, u = np.broadcast_to(wi, (*shape, 3)), np.broadcast_to(u, (*shape, width))
         n = self.host_index
 
         fresnel = coating_reflectance(wi[..., 2], n)
@@ -691,7 +710,7 @@ class LayeredBragg:
         for index, layer in enumerate(self.layers):
             chosen = component == index
             if np.any(chosen):
-                m = ggx_sample_visible_normal(i[chosen], u[chosen][:, 1:], layer.alpha)
+                m = ggx_sample_visible_normal(i[chosen], u[chosen][:, 1:3], layer.alpha)
                 o[chosen] = 2.0 * np.sum(i[chosen] * m, axis=-1, keepdims=True) * m - i[chosen]
         if not self._base.absorbing:
             chosen = component == len(self.layers)
@@ -706,8 +725,15 @@ class LayeredBragg:
         wo = np.where(dirac[..., None], wi * np.array([-1.0, -1.0, 1.0]), wo)
 
         pdf = np.where(valid, self._pdf(wi, wo, backend), 0.0)
-        f = self._evaluate(wi, wo, wavelength, method, backend, colour_method)
         cos_pdf = np.where(valid & (pdf > 0.0), wo[..., 2] / np.where(pdf > 0.0, pdf, 1.0), 0.0)
+        if hero:
+            hero_nm, scale = colorimetry.hero_wavelengths(u[..., 3])
+            f = self._evaluate(wi[..., None, :], wo[..., None, :], hero_nm, method, backend,
+                               INTEGRATED)
+            xyz = np.einsum("...k,...kc->...c", f * scale, colorimetry.xyz_density(hero_nm))
+            weight = colorimetry.xyz_to_linear_srgb(xyz) * cos_pdf[..., None]
+            return wo, weight + dirac[..., None] * 1.0, pdf
+        f = self._evaluate(wi, wo, wavelength, method, backend, colour_method)
         if wavelength is None:
             weight = f * cos_pdf[..., None] + dirac[..., None] * 1.0
         else:
@@ -750,7 +776,8 @@ class LayeredBragg:
         shape = theta.shape if wavelength is None else np.broadcast_shapes(theta.shape,
                                                                              wavelength.shape)
         theta = np.broadcast_to(theta, shape)
-        u = qmc.Sobol(3, scramble=True, seed=seed).random(int(samples))
+        dimensions = 4 if colour_method == HERO else 3
+        u = qmc.Sobol(dimensions, scramble=True, seed=seed).random(int(samples))
         wi = np.stack([np.sin(theta), np.zeros(shape), np.cos(theta)], axis=-1)
         wl = None if wavelength is None else np.broadcast_to(wavelength, shape)[..., None]
         _, weight, _ = self.sample(wi[..., None, :], u, wl, method, backend, colour_method)

@@ -27,11 +27,12 @@ outside 360-830 nm are refused. A trailing wavelength axis along which the direc
 vary is multiplexed: one invocation evaluates the directions once for all its wavelengths.
 
 RGB. ``colour_method="integrated"`` (the default) integrates the spectral model over the 471
-nodes in the kernel. Factored RGB multiplies the colours of eq 34's factors: with
-``"single-reflection"`` each layer's colour at theta_d is computed in the kernel, by a landmark
-method (``wgsl/colour_landmark.wgsl``: "averaged", "approx", "subdivided") or by the 1 nm sum
-("reference"); ``"single-reflection-lut"`` reads colours tabulated by :meth:`BraggMirror.rgb`
-with any method.
+nodes in the kernel; ``"hero"`` (sampling only) estimates that colour from four hero
+wavelengths offset by ``u[..., 3]`` (``wgsl/hero.wgsl``). Factored RGB multiplies the colours
+of eq 34's factors: with ``"single-reflection"`` each layer's colour at theta_d is computed in
+the kernel, by a landmark method (``wgsl/colour_landmark.wgsl``: "averaged", "approx",
+"subdivided") or by the 1 nm sum ("reference"); ``"single-reflection-lut"`` reads colours
+tabulated by :meth:`BraggMirror.rgb` with any method.
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ import numpy as np
 
 from . import colorimetry, gpu, kernels
 from .colour_landmarks_gpu import GPU_LANDMARK_METHODS, _check_mirror, _cmf_table
-from .layered import INTEGRATED
+from .layered import HERO, INTEGRATED
 
 __all__ = [
     "FACTORED_COLOUR_METHODS",
@@ -105,7 +106,8 @@ class _Variant:
 def _kind(operation: str, wavelength, colour_method: str) -> str:
     if operation == "pdf":
         return _DENSITY
-    return _SPECTRAL if wavelength is not None or colour_method == INTEGRATED else _FACTORED
+    spectral = wavelength is not None or colour_method in (INTEGRATED, HERO)
+    return _SPECTRAL if spectral else _FACTORED
 
 
 def _variant(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
@@ -115,13 +117,15 @@ def _variant(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
 
 
 def _header() -> list[np.ndarray]:
-    """The tables' fixed start: the CMF block, XYZ -> linear sRGB, the 1 nm XYZ weights."""
+    """The tables' fixed start: the CMF block, XYZ -> linear sRGB, the 1 nm XYZ weights, the
+    hero wavelengths' inverse CDF."""
     grid, weights = colorimetry.xyz_weights()
     if grid.size != _VISIBLE_NODES or grid[0] != WAVELENGTH_RANGE_NM[0]:
         raise RuntimeError("layered_brdf.wgsl assumes the 1 nm grid 360..830 nm")
     matrix = np.zeros((3, 4), np.float32)
     matrix[:, :3] = colorimetry.XYZ_TO_LINEAR_SRGB
-    return [_cmf_table().ravel(), matrix.ravel(), weights.astype(np.float32).ravel()]
+    return [_cmf_table().ravel(), matrix.ravel(), weights.astype(np.float32).ravel(),
+            colorimetry.hero_inverse_cdf()]
 
 
 def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
@@ -195,6 +199,7 @@ def _constants(variant: _Variant, kind: str, lut: bool, colour_method: str,
     constants["LUT"] = lut
     constants["WAVELENGTHS"] = wavelengths
     constants["INTEGRATED"] = kind == _SPECTRAL
+    constants["HERO"] = kind == _SPECTRAL and wavelengths == 0 and colour_method == HERO
     if kind == _FACTORED and not lut:
         constants["COLOUR_METHOD"] = FACTORED_COLOUR_METHODS[colour_method]
         if colour_method in GPU_LANDMARK_METHODS:
@@ -210,7 +215,7 @@ def _check_request(structure, wavelength, method: str, colour_method: str) -> No
                              "wavelength_nm must lie in that range (use backend='numpy' "
                              "outside it)")
         return
-    if colour_method == INTEGRATED or method == "single-reflection-lut":
+    if colour_method in (INTEGRATED, HERO) or method == "single-reflection-lut":
         return
     if colour_method not in FACTORED_COLOUR_METHODS:
         raise ValueError(
@@ -249,7 +254,7 @@ def _batch(direction_shape: tuple, wavelength) -> _Batch:
     wl_padded = (1,) * (len(shape) - wavelength.ndim) + wavelength.shape
     if multiplexed and all(n == 1 for n in wl_padded[:-1]):
         # The same wavelengths for every invocation: upload them once.
-        flat = np.ascontiguousarray(np.broadcast_to(wavelength, shape[-1:]), np.float32)
+        flat = np.ascontiguousarray(wavelength.reshape(-1), np.float32)
         stride = 0
     else:
         flat = np.ascontiguousarray(np.broadcast_to(wavelength, shape), np.float32).ravel()
@@ -259,9 +264,11 @@ def _batch(direction_shape: tuple, wavelength) -> _Batch:
 
 def _vec4(array, shape) -> np.ndarray:
     # Cast before broadcasting: a direction shared by many samples is converted once.
+    array = np.asarray(array, np.float32)
     out = np.empty((*shape, 4), np.float32)
-    out[..., :3] = np.asarray(array, np.float32)
-    out[..., 3] = 0.0
+    out[..., :array.shape[-1]] = array
+    if array.shape[-1] == 3:
+        out[..., 3] = 0.0
     return out.reshape(-1, 4)
 
 
@@ -339,7 +346,7 @@ def sample(structure, wi, u, wavelength, method: str, colour_method: str):
     structure : LayeredBragg
     wi : numpy.ndarray, shape (..., 3)
         Unit directions in air with ``z > 0``.
-    u : numpy.ndarray, shape (..., 3)
+    u : numpy.ndarray, shape (..., 3), or (..., 4) with ``colour_method="hero"``
         Uniform numbers in [0, 1].
     wavelength, method, colour_method
         As for :func:`brdf`.

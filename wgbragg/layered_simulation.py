@@ -84,7 +84,6 @@ Number Generation", HMC-CS-2014-0905, 2014.
 
 from __future__ import annotations
 
-import functools
 import numbers
 
 import numpy as np
@@ -111,7 +110,6 @@ PATH_WAVELENGTHS = 4
 _WORKGROUP_SIZE = 64
 _PATHS_PER_INVOCATION = 64   # next-event estimation: paths reduced per invocation
 _PARTICLES_PER_INVOCATION = 16
-_CDF_SEGMENTS = 512
 # Invocations of one dispatch; more queries go in several dispatches.
 _MAX_INVOCATIONS = 2**22
 
@@ -123,7 +121,7 @@ _LAYER_DTYPE = gpu.struct_dtype([
 _PARAMS_DTYPE = gpu.struct_dtype([
     ("queries", "u32"), ("first_query", "u32"), ("groups", "u32"), ("batches", "u32"),
     ("paths", "u32"), ("seed", "u32"),
-    ("host", "f32"), ("max_reflections", "u32"), ("columns", "u32"), ("segments", "u32"),
+    ("host", "f32"), ("max_reflections", "u32"), ("columns", "u32"), ("_pad", "u32"),
 ])
 
 
@@ -145,17 +143,6 @@ def _check_wavelengths(wavelength_nm) -> np.ndarray | None:
     if not np.all((wavelength >= low) & (wavelength <= high)):
         raise ValueError(f"wavelength_nm must be in [{low:g}, {high:g}] nm")
     return wavelength
-
-
-@functools.cache
-def _inverse_cdf() -> np.ndarray:
-    """Wavelengths (nm) at equal steps of the cumulative summed XYZ density: hero wavelengths
-    land where the eye sees; the density of the sampling is constant in each segment."""
-    grid, cumulative = colorimetry.cumulative_table()
-    total = cumulative.sum(axis=1)
-    nodes = np.interp(np.linspace(0.0, total[-1], _CDF_SEGMENTS + 1), total, grid)
-    nodes[0], nodes[-1] = grid[0], grid[-1]
-    return nodes.astype(np.float32)
 
 
 def _spectrum_rows(structure: LayeredBragg, wavelength: np.ndarray | None) -> np.ndarray:
@@ -339,9 +326,8 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
     params["seed"], params["host"] = seed, n
     params["max_reflections"] = max_bounces - 1 if next_event else max_bounces
     params["columns"] = colorimetry.xyz_weights()[0].size if lanes is None else lanes.size
-    params["segments"] = _CDF_SEGMENTS
     inputs = [None, records, tables, _spectrum_rows(structure, lanes),
-              _inverse_cdf() if lanes is None else np.zeros(1, np.float32)]
+              colorimetry.hero_inverse_cdf() if lanes is None else np.zeros(1, np.float32)]
 
     if next_event:
         per_query = groups * batches  # invocations, each writing a mean and an m2 (vec4)

@@ -92,7 +92,6 @@ from .exr import read_exr
 from .colour_methods import COLOUR_METHODS
 from .layered import _mallett_basis
 from .layered_gpu import _VISIBLE_NODES, FACTORED_COLOUR_METHODS, LAYER_DTYPE, _variant
-from .layered_simulation import _inverse_cdf
 from .meshes import load_mesh, plane_mesh, sphere_mesh, utah_teapot
 from .parameter_maps import pack_maps
 from .procedural_environment import ProceduralEnvironment
@@ -396,8 +395,8 @@ def _spectra() -> np.ndarray:
     _, basis = _mallett_basis()
     _, weights = colorimetry.xyz_weights()
     response = colorimetry.xyz_to_linear_srgb(weights / colorimetry.WAVELENGTH_STEP_NM)
-    inverse_cdf = np.zeros((_inverse_cdf().size, 4))
-    inverse_cdf[:, 0] = _inverse_cdf()
+    inverse_cdf = np.zeros((colorimetry.hero_inverse_cdf().size, 4))
+    inverse_cdf[:, 0] = colorimetry.hero_inverse_cdf()
     return np.concatenate([_vec4(basis), _vec4(response), inverse_cdf]).astype(np.float32)
 
 

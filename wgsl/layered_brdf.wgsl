@@ -23,6 +23,7 @@
 //     [3768, 3780)  XYZ -> linear sRGB: three rows, each a vec4 (xyz, 0).
 //     [3780, 5193)  the D65-weighted XYZ weights of the 1 nm nodes (471 x 3,
 //                   colorimetry.xyz_weights): the "reference" colour and INTEGRATED.
+//     [5193, 5706)  the hero wavelengths' inverse CDF (colorimetry.hero_inverse_cdf, 513 nm).
 //     At the offsets of a RoughLayer (each a row-major table, "rows" its filter's theta_i
 //     rows, uniform over [0, pi/2]; a wavelength axis has 471 nodes, 360..830 nm):
 //       transmissivity        rows x 471   f_t cos (eq 28)                   spectral
@@ -79,6 +80,7 @@ const BASE_LAMBERTIAN: u32 = 1u;
 const VISIBLE_NODES: u32 = 471u;
 const SRGB_MATRIX: u32 = 8u * VISIBLE_NODES;
 const XYZ_WEIGHTS: u32 = SRGB_MATRIX + 12u;
+const HERO_INVERSE_CDF: u32 = XYZ_WEIGHTS + 3u * VISIBLE_NODES;
 const COLOUR_REFERENCE: u32 = 3u;
 // s of "subdivided": the default of BraggMirror.rgb.
 const SUBDIVISIONS: i32 = 3;
@@ -270,8 +272,11 @@ fn layered_eval_spectral(s: LayeredStructure, p: LayeredPair, wavelength_nm: f32
         let layer = layers[s.first_layer + l];
         let shape = layer_lobe(p.ci, p.co, p.h, layer.alpha);
         total += shape * layer_reflectance(s, layer, p.theta_d, wavelength_nm, column) * through;
-        through *= table_bilinear(layer.transmissivity, filter_row(layer, p.theta_i), column)
-            * table_bilinear(layer.transmissivity, filter_row(layer, p.theta_o), column);
+        // Nothing lies below the last layer over an absorbing base.
+        if (l + 1u < LAYERS || BASE == BASE_LAMBERTIAN) {
+            through *= table_bilinear(layer.transmissivity, filter_row(layer, p.theta_i), column)
+                * table_bilinear(layer.transmissivity, filter_row(layer, p.theta_o), column);
+        }
     }
     if (BASE == BASE_LAMBERTIAN) {
         total += table_lerp(s.base_spectrum, column) / PI * through;
@@ -296,8 +301,10 @@ fn layered_eval_rgb(s: LayeredStructure, p: LayeredPair) -> vec3<f32> {
         let layer = layers[s.first_layer + l];
         let shape = layer_lobe(p.ci, p.co, p.h, layer.alpha);
         total += shape * layer_colour(s, layer, p.theta_d) * through;
-        through *= table_lerp_rgb(layer.transmissivity_rgb, filter_row(layer, p.theta_i))
-            * table_lerp_rgb(layer.transmissivity_rgb, filter_row(layer, p.theta_o));
+        if (l + 1u < LAYERS || BASE == BASE_LAMBERTIAN) {
+            through *= table_lerp_rgb(layer.transmissivity_rgb, filter_row(layer, p.theta_i))
+                * table_lerp_rgb(layer.transmissivity_rgb, filter_row(layer, p.theta_o));
+        }
     }
     if (BASE == BASE_LAMBERTIAN) {
         total += s.base_rgb / PI * through;

@@ -2,6 +2,7 @@
 // (wi, wo) or sample (wi, u), run by wgbragg/layered_gpu.py:
 //   evaluate:  f(wi, wo) at WAVELENGTHS wavelengths, or as linear sRGB  -> value
 //   sample:    eq 35 from (wi, u = operand.xyz) -> directions = (wo, pdf), value = weights
+//              (HERO: the colour from hero wavelengths offset by operand.w)
 //   density:   pdf(wi, wo)                                             -> value
 // value holds WAVELENGTHS floats per invocation (spectral) or 3 (RGB, WAVELENGTHS = 0).
 //! include "harness.wgsl"
@@ -14,9 +15,12 @@
 //! include "ggx.wgsl"
 //! include "layered.wgsl"
 //! include "layered_brdf.wgsl"
+//! include "hero.wgsl"
 
 // Wavelengths per invocation, sharing its directions (multiplexing); 0: RGB.
 override WAVELENGTHS: u32 = 0u;
+// sample in RGB: the colour from four hero wavelengths offset by u.w, not the 471 nodes.
+override HERO: bool = false;
 
 struct Params {
     structure: LayeredStructure,
@@ -41,6 +45,23 @@ fn store_rgb(index: u32, rgb: vec3<f32>) {
     value[3u * index] = rgb.x;
     value[3u * index + 1u] = rgb.y;
     value[3u * index + 2u] = rgb.z;
+}
+
+fn hero_cdf_node(j: u32) -> f32 {
+    return tables[HERO_INVERSE_CDF + j];
+}
+
+// The colour of the spectral f at four hero wavelengths: an unbiased estimate of
+// layered_eval_rgb's INTEGRATED colour.
+fn layered_eval_hero(s: LayeredStructure, pair: LayeredPair, offset: f32) -> vec3<f32> {
+    let hero = hero_wavelengths(offset);
+    var xyz = vec3<f32>(0.0);
+    for (var k = 0u; k < 4u; k++) {
+        let at = wavelength_lerp(hero.nm[k]);
+        let density = mix(node_weights(at.index), node_weights(at.index + 1u), at.fraction);
+        xyz += layered_eval_spectral(s, pair, hero.nm[k]) * hero.scale[k] * density;
+    }
+    return xyz_to_linear_srgb(xyz);
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -77,7 +98,9 @@ fn sample(@builtin(global_invocation_id) gid: vec3<u32>,
     let pair = layered_pair(s, wi, drawn.wo);
     if (WAVELENGTHS == 0u) {
         var weight = vec3<f32>(drawn.dirac);
-        if (continuous) {
+        if (continuous && HERO) {
+            weight += layered_eval_hero(s, pair, operand[index].w) * drawn.cos_over_pdf;
+        } else if (continuous) {
             weight += layered_eval_rgb(s, pair) * drawn.cos_over_pdf;
         }
         store_rgb(index, weight);

@@ -26,6 +26,7 @@
 //! include "environment_map.wgsl"
 //! include "parameter_map.wgsl"
 //! include "prefiltered_environment.wgsl"
+//! include "hero.wgsl"
 
 // Bounces after the camera ray; the path ends at a hit beyond them.
 override MAX_BOUNCES: u32 = 8u;
@@ -123,7 +124,6 @@ struct Params {
 // ----------------------------------------------------------------------------- spectra
 
 const SPECTRUM_NODES: u32 = 471u;
-const INVERSE_CDF_SEGMENTS: u32 = 512u;
 
 var<private> wavelengths: vec4<f32>;
 // 1 / (4 pdf) of each hero wavelength (per nm).
@@ -136,17 +136,14 @@ fn spectra_at(first_row: u32, wavelength_nm: f32) -> vec3<f32> {
                at - f32(lower)).xyz;
 }
 
+fn hero_cdf_node(j: u32) -> f32 {
+    return spectra[2u * SPECTRUM_NODES + j].x;
+}
+
 fn start_wavelengths(u: f32) {
-    let segments = f32(INVERSE_CDF_SEGMENTS);
-    let first = 2u * SPECTRUM_NODES;
-    for (var k = 0u; k < 4u; k++) {
-        let s = (u + f32(k)) * 0.25 * segments;
-        let j = min(u32(s), INVERSE_CDF_SEGMENTS - 1u);
-        let lower = spectra[first + j].x;
-        let upper = spectra[first + j + 1u].x;
-        wavelengths[k] = mix(lower, upper, s - f32(j));
-        lane_scale[k] = 0.25 * segments * (upper - lower);
-    }
+    let hero = hero_wavelengths(u);
+    wavelengths = hero.nm;
+    lane_scale = hero.scale;
 }
 
 // An RGB quantity as the path carries it.

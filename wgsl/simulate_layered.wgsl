@@ -18,6 +18,7 @@
 //! include "ggx.wgsl"
 //! include "layered.wgsl"
 //! include "layered_walk.wgsl"
+//! include "hero.wgsl"
 
 override LAYERS: u32 = 1u;
 override COATING: bool = false;
@@ -54,7 +55,7 @@ struct SimulationParams {
     host: f32,             // n1, the coating's index
     max_reflections: u32,  // reflections a walk may make before it stops
     columns: u32,          // wavelengths per table row: 471 (RGB, 1 nm) or 4 groups
-    segments: u32,         // of the inverse CDF (RGB)
+    _pad: u32,
 }
 
 // [query] wi in air, wi and wo refracted into n1.
@@ -64,7 +65,7 @@ struct SimulationParams {
 // RGB: [471] linear sRGB density per nm (xyz), base albedo (w) at 360, 361, ... nm.
 // Spectral: [4 groups] wavelength in nm (x), base albedo (w).
 @group(0) @binding(3) var<storage, read> spectrum: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read> inverse_cdf: array<f32>;  // [segments + 1] nm (RGB)
+@group(0) @binding(4) var<storage, read> inverse_cdf: array<f32>;  // [HERO_SEGMENTS + 1] nm (RGB)
 // NEXT_EVENT: [query][group][batch][mean, m2][4]; else [query][path][4] (one group).
 @group(0) @binding(5) var<storage, read_write> values: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read_write> directions: array<vec4<f32>>;  // [query][path]
@@ -134,16 +135,13 @@ fn start_path(query: u32, path: u32) {
                                spectrum[c + 3u].x);
         return;
     }
-    let u0 = pcg_uniform(&rng);
-    let segments = f32(params.segments);
-    for (var k = 0u; k < 4u; k++) {
-        let s = (u0 + f32(k)) * 0.25 * segments;
-        let j = min(u32(s), params.segments - 1u);
-        let lower = inverse_cdf[j];
-        let upper = inverse_cdf[j + 1u];
-        wavelength[k] = mix(lower, upper, s - f32(j));
-        lane_scale[k] = 0.25 * segments * (upper - lower);
-    }
+    let hero = hero_wavelengths(pcg_uniform(&rng));
+    wavelength = hero.nm;
+    lane_scale = hero.scale;
+}
+
+fn hero_cdf_node(j: u32) -> f32 {
+    return inverse_cdf[j];
 }
 
 // The path's result from per-wavelength values: as they are, or in RGB mode the hero
