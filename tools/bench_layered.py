@@ -437,9 +437,13 @@ def render_section(results: Results, command: str) -> str:
         "most of that bias over a Lambertian base (an absorbing base has none to remove).",
         f"2. Times: wall clock, the median of {cfg.repeats} runs taken round robin over the "
         "estimators (GT: one run); SMAPE: the mean over those runs. The GPU is lavapipe on "
-        "the same cores as the numpy environment lookups, which every estimator pays per "
-        "sample (twice with NEE): on lavapipe they cost about as much as the GPU work, so the "
-        "ratios measure the estimators with a renderer's per-sample cost included.",
+        "the same cores as the numpy environment lookups (float32), which every estimator "
+        "pays per sample (twice with NEE): on lavapipe they cost a third to a half as much as "
+        "the model's GPU work, so the ratios measure the estimators with a renderer's "
+        "per-sample cost included.",
+        "3. \"model\" is `LayeredBragg.sample` with `colour_method=\"hero\"`: four hero "
+        "wavelengths per sample, stratified in the CMFs' cumulative distribution and turned "
+        "into colour in the kernel, as the simulations do per path.",
         END_MARKER,
     ]
     return "\n".join(lines)
