@@ -3,6 +3,7 @@
 // An integrator sees the material only through
 //   layered_pair(s, wi, wo) -> LayeredPair          what eq 34 needs of (wi, wo), per pair
 //   layered_eval_spectral(s, pair, wavelength_nm)   f (1/sr) at one wavelength (eq 34)
+//   layered_eval_spectral4(s, pair, wavelengths)    the same at four (a path's hero wavelengths)
 //   layered_eval_rgb(s, pair)                       f as linear sRGB
 //   layered_pdf(s, wi, wo)                          density (1/sr) of layered_sample's lobes
 //   layered_sample(s, wi, u) -> LayeredSample       eq 35, then the chosen lobe
@@ -280,6 +281,47 @@ fn layered_eval_spectral(s: LayeredStructure, p: LayeredPair, wavelength_nm: f32
     }
     if (BASE == BASE_LAMBERTIAN) {
         total += table_lerp(s.base_spectrum, column) / PI * through;
+    }
+    return total * p.scale;
+}
+
+// layered_eval_spectral at the four wavelengths a path carries: the lobes and the tables' rows,
+// which do not depend on wavelength, are computed once.
+fn layered_eval_spectral4(s: LayeredStructure, p: LayeredPair, wavelength_nm: vec4<f32>)
+    -> vec4<f32> {
+    if (p.scale == 0.0) {
+        return vec4<f32>(0.0);
+    }
+    var columns: array<Lerp, 4>;
+    for (var k = 0u; k < 4u; k++) {
+        columns[k] = wavelength_lerp(wavelength_nm[k]);
+    }
+    var total = vec4<f32>(0.0);
+    var through = vec4<f32>(1.0);
+    for (var l = 0u; l < LAYERS; l++) {
+        let layer = layers[s.first_layer + l];
+        let shape = layer_lobe(p.ci, p.co, p.h, layer.alpha);
+        let below = l + 1u < LAYERS || BASE == BASE_LAMBERTIAN;
+        let row_i = filter_row(layer, p.theta_i);
+        let row_o = filter_row(layer, p.theta_o);
+        var reflectance: vec4<f32>;
+        var transmitted = vec4<f32>(1.0);
+        for (var k = 0u; k < 4u; k++) {
+            reflectance[k] = layer_reflectance(s, layer, p.theta_d, wavelength_nm[k], columns[k]);
+            if (below) {
+                transmitted[k] = table_bilinear(layer.transmissivity, row_i, columns[k])
+                    * table_bilinear(layer.transmissivity, row_o, columns[k]);
+            }
+        }
+        total += shape * reflectance * through;
+        through *= transmitted;
+    }
+    if (BASE == BASE_LAMBERTIAN) {
+        var albedo: vec4<f32>;
+        for (var k = 0u; k < 4u; k++) {
+            albedo[k] = table_lerp(s.base_spectrum, columns[k]);
+        }
+        total += albedo / PI * through;
     }
     return total * p.scale;
 }

@@ -292,10 +292,7 @@ fn layered_eval(s: LayeredStructure, p: LayeredPair) -> vec4<f32> {
     if (!SPECTRAL) {
         return vec4<f32>(layered_eval_rgb(s, p), 0.0);
     }
-    return vec4<f32>(layered_eval_spectral(s, p, wavelengths.x),
-                     layered_eval_spectral(s, p, wavelengths.y),
-                     layered_eval_spectral(s, p, wavelengths.z),
-                     layered_eval_spectral(s, p, wavelengths.w));
+    return layered_eval_spectral4(s, p, wavelengths);
 }
 
 // f (1/sr) for local directions, +z the shading normal.
