@@ -34,6 +34,14 @@ def _stratified_u(direction_u, count: int) -> np.ndarray:
     return u
 
 
+def _inside_segments(offset: np.ndarray) -> np.ndarray:
+    """Offsets whose hero wavelengths all lie 1e-3 of a segment or more from the ends of their
+    segment of the inverse CDF. The density is constant per segment: at a segment's end float32
+    may take the neighbour's (the same wavelength, another weight, unbiased either way)."""
+    position = (offset[:, None] + np.arange(4)) / 4 * colorimetry.HERO_SEGMENTS
+    return np.all(np.abs(position - np.round(position)) > 1e-3, axis=-1)
+
+
 # --------------------------------------------------------------------------- wavelengths
 
 
@@ -89,10 +97,7 @@ def test_gpu_hero_is_the_spectral_kernel_at_the_hero_wavelengths(name, method):
     dirac = np.all(spectral == 1.0, axis=-1, keepdims=True)
     xyz = np.einsum("sk,skc->sc", spectral * scale, colorimetry.xyz_density(wavelength))
     expected = np.where(dirac, 1.0, colorimetry.xyz_to_linear_srgb(xyz))
-    # The density is constant per segment of the inverse CDF: at a segment's end float32 may
-    # take the neighbour's (the same wavelength, another weight, unbiased either way).
-    position = (u[:, 3:] + np.arange(4)) / 4 * colorimetry.HERO_SEGMENTS
-    inside = np.all(np.abs(position - np.round(position)) > 1e-3, axis=-1)
+    inside = _inside_segments(u[:, 3])
     assert inside.mean() > 0.99
     np.testing.assert_allclose(weight[inside], expected[inside], rtol=1e-3,
                                atol=1e-4 * np.abs(expected).max())
@@ -101,9 +106,8 @@ def test_gpu_hero_is_the_spectral_kernel_at_the_hero_wavelengths(name, method):
 @pytest.mark.gpu
 @pytest.mark.parametrize("name", STRUCTURES)
 def test_gpu_matches_numpy(name):
-    """Against the float64 model the kernel differs by float32 and by its tables, linear
-    between 1 nm nodes, which hero wavelengths fall between: near a band edge the
-    transmissivity changes within a nanometre, so a few samples differ by more."""
+    """Against the float64 model: float32 and the kernel's tables, linear between 1 nm nodes
+    (measured: 2.5e-4 of the largest weight)."""
     s = STRUCTURES[name]
     u = np.random.default_rng(3).random((1024, 4))
     wi = unit_direction(35.0, 20.0)
@@ -112,12 +116,9 @@ def test_gpu_matches_numpy(name):
     # A u[0] at eq 35's boundary between the layer and the base may pick the other lobe in
     # float32 (tests/test_layered_gpu.py, PICK_MARGIN).
     same = np.all(np.abs(wo_g - wo_n) <= 1e-4, axis=-1)
-    assert same.mean() >= 0.995
-    scale = np.abs(w_n).max()
-    close = np.all(np.abs(w_g - w_n) <= 2e-3 * scale, axis=-1)
-    assert close[same].mean() >= 0.99
-    np.testing.assert_allclose(w_g[same].mean(axis=0), w_n[same].mean(axis=0),
-                               atol=1e-3 * scale)
+    compared = same & _inside_segments(u[:, 3])
+    assert compared.mean() >= 0.99
+    np.testing.assert_allclose(w_g[compared], w_n[compared], atol=2e-3 * np.abs(w_n).max())
 
 
 # (backend, strata, tolerance): the strata's quadrature error shrinks as 1 / count^2.
