@@ -128,22 +128,26 @@ def test_gpu_matches_numpy(name):
 def test_unbiased_for_the_integrated_colour(name, backend, count, tolerance):
     s = STRUCTURES[name]
     wi = unit_direction(30.0)
-    for direction_u in ([0.9, 0.3, 0.6], [0.2, 0.7, 0.1], [0.99, 0.5, 0.5]):
+    lit = 0
+    for direction_u in ([0.9, 0.3, 0.6], [0.2, 0.7, 0.1], [0.99, 0.5, 0.5], [0.5, 0.4, 0.9]):
         _, hero, _ = s.sample(wi, _stratified_u(direction_u, count), colour_method=HERO,
                               backend=backend)
         _, integrated, _ = s.sample(wi, np.array(direction_u), backend=backend)
+        lit += bool(np.any(integrated != 0.0))
         np.testing.assert_allclose(hero.mean(axis=0), integrated,
                                    atol=tolerance * max(1.0, np.abs(integrated).max()))
+    assert lit >= 3  # rejected directions (weight 0 both ways) are not what this checks
 
 
-def test_coating_reflection_stays_white():
+@pytest.mark.parametrize("backend", ["numpy", pytest.param("gpu", marks=pytest.mark.gpu)])
+def test_coating_reflection_stays_white(backend):
     s = STRUCTURES["coated"]
     wi = unit_direction(70.0)
     u = _stratified_u([0.0, 0.5, 0.5], 64)  # u[0] below the coating's Fresnel reflectance
-    wo, weight, pdf = s.sample(wi, u, colour_method=HERO)
+    wo, weight, pdf = s.sample(wi, u, colour_method=HERO, backend=backend)
     np.testing.assert_array_equal(weight, 1.0)
     np.testing.assert_array_equal(pdf, 0.0)
-    np.testing.assert_allclose(wo, np.broadcast_to(wi * [-1.0, -1.0, 1.0], wo.shape))
+    np.testing.assert_allclose(wo, np.broadcast_to(wi * [-1.0, -1.0, 1.0], wo.shape), atol=1e-6)
 
 
 @pytest.mark.gpu
@@ -167,5 +171,30 @@ def test_refusals_name_the_parameter():
         s.sample(wi, np.full(3, 0.5), colour_method=HERO)
     with pytest.raises(ValueError, match="length 3"):
         s.sample(wi, np.full(4, 0.5))
-    with pytest.raises(ValueError, match="u"):
+    with pytest.raises(ValueError, match="u contains NaN"):
         s.sample(wi, [0.5, 0.5, 0.5, np.nan], colour_method=HERO)
+    with pytest.raises(ValueError, match=r"u must be in \[0, 1\]"):
+        s.sample(wi, [0.5, 0.5, 0.5, 1.5], colour_method=HERO)
+
+
+@pytest.mark.gpu
+def test_benchmark_refuses_hero_outside_sampling():
+    from wgbragg import layered_gpu
+
+    s = STRUCTURES["absorbing"]
+    wi, wo = unit_direction(30.0), unit_direction(40.0, 180.0)
+    with pytest.raises(ValueError, match="hero"):
+        layered_gpu.benchmark(s, "brdf", wi, wo, colour_method=HERO)
+    with pytest.raises(ValueError, match="trailing length 4"):
+        layered_gpu.benchmark(s, "sample", wi, np.full(3, 0.5), colour_method=HERO)
+
+
+def test_kernel_segments_match_the_table():
+    """wgsl/hero.wgsl hard-codes the table's segment count."""
+    import re
+    from pathlib import Path
+
+    source = (Path(__file__).resolve().parents[1] / "wgsl" / "hero.wgsl").read_text()
+    segments = re.search(r"const HERO_SEGMENTS: u32 = (\d+)u;", source)
+    assert segments and int(segments.group(1)) == colorimetry.HERO_SEGMENTS
+    assert colorimetry.hero_inverse_cdf().shape == (colorimetry.HERO_SEGMENTS + 1,)

@@ -286,8 +286,8 @@ def hero_wavelengths(offset) -> tuple[np.ndarray, np.ndarray]:
         ``xyz_to_linear_srgb(sum_k v_k scale_k xyz_density(wavelength_k))`` is an unbiased
         estimate of the linear sRGB of a spectrum ``v`` (a spectrum of 1 gives about
         ``(1, 1, 1)``, exactly in expectation). The float64 twin of ``hero_wavelengths`` in
-        ``wgsl/hero.wgsl``, which the layered simulation and the single-reflection sampler
-        use.
+        ``wgsl/hero.wgsl``, which the layered simulation, the renderer's spectral mode and
+        the single-reflection sampler use.
 
     Raises
     ------

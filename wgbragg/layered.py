@@ -58,8 +58,9 @@ HERO = "hero"
 """``colour_method`` of :meth:`LayeredBragg.sample` only: the colour of the spectral BRDF
 estimated, per sample, from four hero wavelengths (:func:`wgbragg.colorimetry.hero_wavelengths`)
 offset by the sample's fourth random number, as :meth:`LayeredBragg.simulate` colours a path.
-Unbiased for the ``"integrated"`` colour, at the cost of four spectral evaluations instead of
-471: a renderer's spectral path without its own wavelength bookkeeping."""
+Unbiased for the colour integral (which ``"integrated"`` sums on 1 nm nodes), at the cost of
+four spectral evaluations instead of 471: a renderer's spectral path without its own wavelength
+bookkeeping."""
 
 _UNIT_TOLERANCE = 1e-5
 _INTEGRATION_CHUNK = 1024
@@ -648,7 +649,7 @@ class LayeredBragg:
         wi : array_like, shape (..., 3)
             Unit direction towards the light (or viewer), in air, upper hemisphere.
         u : array_like, shape (..., 3), or (..., 4) with ``colour_method="hero"``
-            Uniform numbers in [0, 1): ``u[..., 0]`` picks the component, ``u[..., 1:3]`` the
+            Uniform numbers in [0, 1]: ``u[..., 0]`` picks the component, ``u[..., 1:3]`` the
             direction, ``u[..., 3]`` offsets the hero wavelengths.
         wavelength_nm, method, backend, colour_method
             As for :meth:`brdf`: the weight is spectral or RGB. ``backend="gpu"``: the float32
@@ -663,7 +664,8 @@ class LayeredBragg:
             Unit outgoing directions.
         weight : numpy.ndarray
             ``f cos(theta_o) / pdf`` with ``f`` the whole :meth:`brdf` (a one-sample mixture
-            estimator), shaped like :meth:`brdf`'s result; 1 for the Dirac reflection; 0 where
+            estimator), shaped like :meth:`brdf`'s result (``(..., 3)`` with
+            ``colour_method="hero"``); 1 for the Dirac reflection; 0 where
             the sampled direction leaves below the horizon or is trapped by total internal
             reflection.
         pdf : numpy.ndarray
@@ -756,6 +758,9 @@ class LayeredBragg:
             Directions per angle (a power of 2 is best for Sobol points).
         seed : int
             Scrambling seed.
+        method, backend, colour_method
+            As for :meth:`sample`; ``colour_method="hero"`` draws 4-D Sobol points (the fourth
+            offsets the hero wavelengths).
 
         Returns
         -------

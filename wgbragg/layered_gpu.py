@@ -8,8 +8,8 @@ its buffers and runs one invocation per pair ``(wi, wo)`` or sample ``(wi, u)``:
 - ``layers``: one :data:`LAYER_DTYPE` record per rough layer (its mirror, ``alpha``, filter
   grid and the offsets of its tables);
 - ``tables``: float32, a fixed header (the colour-matching block of the landmark colour kernel,
-  XYZ -> linear sRGB, the 1 nm XYZ weights), then per layer the tables a variant reads: those
-  derived from the layer's 1 nm transmissivity table
+  XYZ -> linear sRGB, the 1 nm XYZ weights, the hero wavelengths' inverse CDF), then per layer
+  the tables a variant reads: those derived from the layer's 1 nm transmissivity table
   (:meth:`RoughBraggLayer.transmissivity_table`, computed on the GPU) and, for
   ``"single-reflection-lut"``, the structure's reflectance LUTs (computed on the GPU);
 - the structure's own values (host index, base albedo) in the uniform.
@@ -17,7 +17,8 @@ its buffers and runs one invocation per pair ``(wi, wo)`` or sample ``(wi, u)``:
 They are built once per structure and kind (spectral, factored RGB, density; LUT or not) and
 kept in the structure's table cache. Pipelines are specialised (override constants) on the
 number of layers, the coating, the base, the host (Appendix D), LUT or exact, integrated or
-factored RGB and its colour method, and the number of wavelengths per invocation.
+factored RGB and its colour method, hero-wavelength colour, and the number of wavelengths per
+invocation.
 
 Wavelengths. The transmissivity tables, the spectral LUTs and the base's spectrum are tabulated
 at 360, 361, ..., 830 nm and interpolated linearly in between, so spectral results agree with
@@ -87,6 +88,7 @@ PARAMS_DTYPE = gpu.struct_dtype([
 """``Params`` of layered_brdf_eval.wgsl: a ``LayeredStructure`` (48 bytes), then the batch."""
 
 _VISIBLE_NODES = 471
+_HERO_SEGMENTS = 512  # HERO_SEGMENTS of wgsl/hero.wgsl
 
 # What a kernel reads besides the transmission probabilities: the spectral tables (spectral
 # and integrated RGB results), the factored RGB tables, or nothing more (the density).
@@ -122,6 +124,8 @@ def _header() -> list[np.ndarray]:
     grid, weights = colorimetry.xyz_weights()
     if grid.size != _VISIBLE_NODES or grid[0] != WAVELENGTH_RANGE_NM[0]:
         raise RuntimeError("layered_brdf.wgsl assumes the 1 nm grid 360..830 nm")
+    if colorimetry.HERO_SEGMENTS != _HERO_SEGMENTS:
+        raise RuntimeError(f"wgsl/hero.wgsl assumes {_HERO_SEGMENTS} inverse-CDF segments")
     matrix = np.zeros((3, 4), np.float32)
     matrix[:, :3] = colorimetry.XYZ_TO_LINEAR_SRGB
     return [_cmf_table().ravel(), matrix.ravel(), weights.astype(np.float32).ravel(),
@@ -317,8 +321,8 @@ def brdf(structure, wi, wo, wavelength, method: str, colour_method: str) -> np.n
         Wavelengths in nm, in 360-830; ``None`` for linear sRGB.
     method : {"single-reflection", "single-reflection-lut"}
     colour_method : str
-        RGB: "integrated"; or factored, by a method of :data:`FACTORED_COLOUR_METHODS` (any
-        colour method with the LUT).
+        RGB: "integrated" (or "hero", :func:`sample` only); or factored, by a method of
+        :data:`FACTORED_COLOUR_METHODS` (any colour method with the LUT).
 
     Returns
     -------
@@ -384,7 +388,7 @@ def benchmark(structure, operation: str, wi, second, wavelength=None,
     wi : array_like, shape (..., 3)
         Unit directions in air.
     second : array_like, shape (..., 3)
-        ``wo`` (brdf, pdf) or ``u`` (sample).
+        ``wo`` (brdf, pdf) or ``u`` (sample; shape (..., 4) with ``colour_method="hero"``).
     wavelength : array_like, optional
         nm, in 360-830; ``None``: RGB.
     method, colour_method
@@ -402,6 +406,10 @@ def benchmark(structure, operation: str, wi, second, wavelength=None,
     wi, second = np.asarray(wi, np.float64), np.asarray(second, np.float64)
     wavelength = None if wavelength is None else np.asarray(wavelength, np.float64)
     _check_request(structure, wavelength, method, colour_method)
+    if colour_method == HERO and (operation != "sample" or second.shape[-1:] != (4,)):
+        raise ValueError("colour_method='hero' is timed for operation='sample' with u of "
+                         f"trailing length 4; got operation={operation!r}, u shape "
+                         f"{second.shape}")
     batch = _batch(np.broadcast_shapes(wi.shape[:-1], second.shape[:-1]),
                    None if operation == "pdf" else wavelength)
     kernel, inputs, outputs, params = _setup(structure, operation, wi, second, wavelength,

@@ -23,8 +23,10 @@
 //                   density at 360, 361, ..., 830 nm, then 471 of its cumulative integral.
 //     [3768, 3780)  XYZ -> linear sRGB: three rows, each a vec4 (xyz, 0).
 //     [3780, 5193)  the D65-weighted XYZ weights of the 1 nm nodes (471 x 3,
-//                   colorimetry.xyz_weights): the "reference" colour and INTEGRATED.
-//     [5193, 5706)  the hero wavelengths' inverse CDF (colorimetry.hero_inverse_cdf, 513 nm).
+//                   colorimetry.xyz_weights): the "reference" colour, INTEGRATED and the
+//                   hero colour of layered_brdf_eval.wgsl.
+//     [5193, 5706)  the hero wavelengths' inverse CDF (colorimetry.hero_inverse_cdf: 513
+//                   wavelengths, nm), read by an includer's hero_cdf_node at HERO_INVERSE_CDF.
 //     At the offsets of a RoughLayer (each a row-major table, "rows" its filter's theta_i
 //     rows, uniform over [0, pi/2]; a wavelength axis has 471 nodes, 360..830 nm):
 //       transmissivity        rows x 471   f_t cos (eq 28)                   spectral
