@@ -60,20 +60,17 @@ from collections.abc import Callable
 
 import numpy as np
 
-from . import colorimetry, optics
+from . import colorimetry
 from ._validation import _as_float_array
 from .materials import ThinFilm
 from .microfacet import check_alpha
 from .rough_thin_film import QUADRATURE_NODES, reflection_quadrature
 from .thin_film_colour import (
     DEFAULT_ORDER,
-    E_TO_D65_BRADFORD,
+    _fourier_xyz_flat,
     FOURIER_METHODS,
     PREFILTER_RANGE_NM,
-    airy_series,
     check_order,
-    evanescent_nodes,
-    fourier_windows,
 )
 
 __all__ = [
@@ -415,38 +412,12 @@ def _film_rgb(film: ThinFilm, theta: np.ndarray, sigma: np.ndarray, method: str,
     """Linear sRGB of the film's Fourier colour with one thickness spread per angle.
 
     :func:`wgbragg.thin_film_colour.fourier_xyz` with ``thickness_std_nm`` an array (it
-    takes one value per call); the same series, windows and evanescent fallback, checked
-    against it element by element in tests/test_ibl.py.
+    takes one value per call): the same code, checked against it element by element in
+    tests/test_ibl.py.
     """
     theta, sigma = np.broadcast_arrays(theta, sigma)
-    shape = theta.shape
-    flat, spread = theta.ravel(), sigma.ravel()
-    prefiltered = bool(np.any(spread > 0.0))
-    windows = fourier_windows(method, film.dispersive, prefiltered and method == "fourier-table")
-    propagating = film.host * np.sin(flat) < film.n_film
-    xyz = np.zeros((flat.size, 3))
-    theta_p, sigma_p = flat[propagating], spread[propagating]
-    for window in range(windows.count):
-        n_base = film.base_index(windows.wavelength_nm[window])
-        coefficients = [airy_series(film.host, film.n_film, n_base, theta_p, polarization)
-                        for polarization in ("s", "p")]
-        opd_per_nm = coefficients[0][2]
-        mean = sum(0.5 * (1.0 - t_star) for t_star, _, _ in coefficients)
-        total = mean[:, None] * windows.white[window]
-        for m in range(1, order + 1):
-            weight = sum(-0.5 * t_star * (-w) ** m for t_star, w, _ in coefficients)
-            F = windows.transform(window, m * opd_per_nm * film.d,
-                                  m * opd_per_nm * sigma_p if prefiltered else None)
-            total += 2.0 * np.real(weight[:, None] * F)
-        xyz[propagating] += total
-    if not propagating.all():
-        nodes, weights = evanescent_nodes(method)
-        R = optics.thin_film_reflectance(film.host, film.n_film, film.d, film.base_index(nodes),
-                                         nodes, flat[~propagating, None], "unpolarized")
-        xyz[~propagating] = R @ weights
-    if method == "fourier-gaussian":
-        xyz = xyz @ E_TO_D65_BRADFORD.T
-    return colorimetry.xyz_to_linear_srgb(xyz).reshape((*shape, 3))
+    xyz = _fourier_xyz_flat(film, theta.ravel(), sigma.ravel(), method, order)
+    return colorimetry.xyz_to_linear_srgb(xyz).reshape((*theta.shape, 3))
 
 
 def film_split_sum_reflectance(film, cos_v, order: int = DEFAULT_ORDER,

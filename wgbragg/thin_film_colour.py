@@ -381,6 +381,39 @@ def evanescent_nodes(method: str) -> tuple[np.ndarray, np.ndarray]:
 # --------------------------------------------------------------------------- colour
 
 
+def _fourier_xyz_flat(film, theta: np.ndarray, sigma: np.ndarray, method: str,
+                      order: int) -> np.ndarray:
+    """The body of :func:`fourier_xyz` on checked 1-D angles (radians) with one thickness
+    spread per angle (``sigma``, nm, >= 0, same shape): also wgbragg.ibl's, whose spread varies
+    with the angle. Shape ``theta.shape + (3,)``."""
+    prefiltered = bool(np.any(sigma > 0.0))
+    windows = fourier_windows(method, film.dispersive, prefiltered and method == "fourier-table")
+    propagating = film.host * np.sin(theta) < film.n_film
+    xyz = np.zeros((theta.size, 3))
+    theta_p, sigma_p = theta[propagating], sigma[propagating]
+    for window in range(windows.count):
+        n_base = film.base_index(windows.wavelength_nm[window])
+        coefficients = [airy_series(film.host, film.n_film, n_base, theta_p, pol)
+                        for pol in ("s", "p")]
+        opd_per_nm = coefficients[0][2]
+        mean = sum(0.5 * (1.0 - t_star) for t_star, _, _ in coefficients)
+        total = mean[:, None] * windows.white[window]
+        for m in range(1, order + 1):
+            weight = sum(-0.5 * t_star * (-w) ** m for t_star, w, _ in coefficients)
+            spread = m * opd_per_nm * sigma_p if prefiltered else None
+            F = windows.transform(window, m * opd_per_nm * film.d, spread)
+            total += 2.0 * np.real(weight[:, None] * F)
+        xyz[propagating] += total
+    if not propagating.all():
+        nodes, weights = evanescent_nodes(method)
+        R = optics.thin_film_reflectance(film.host, film.n_film, film.d, film.base_index(nodes),
+                                         nodes, theta[~propagating, None], "unpolarized")
+        xyz[~propagating] = R @ weights
+    if method == "fourier-gaussian":
+        xyz = xyz @ E_TO_D65_BRADFORD.T
+    return xyz
+
+
 def fourier_xyz(film, theta, method="fourier-table", order=DEFAULT_ORDER,
                 thickness_std_nm=0.0) -> np.ndarray:
     """XYZ (D65, perfect reflector ``Y = 1``) of a thin film by a Fourier method, float64.
@@ -414,30 +447,5 @@ def fourier_xyz(film, theta, method="fourier-table", order=DEFAULT_ORDER,
     sigma = check_thickness_std(thickness_std_nm)
     angle = check_angle(theta)
     flat = angle.ravel()
-    windows = fourier_windows(method, film.dispersive, sigma > 0.0 and method == "fourier-table")
-    s = film.host * np.sin(flat)
-    propagating = s < film.n_film
-    xyz = np.zeros((flat.size, 3))
-    theta_p = flat[propagating]
-    for window in range(windows.count):
-        n_base = film.base_index(windows.wavelength_nm[window])
-        coefficients = [airy_series(film.host, film.n_film, n_base, theta_p, pol)
-                        for pol in ("s", "p")]
-        opd_per_nm = coefficients[0][2]
-        mean = sum(0.5 * (1.0 - t_star) for t_star, _, _ in coefficients)
-        total = mean[:, None] * windows.white[window]
-        for m in range(1, order + 1):
-            weight = sum(-0.5 * t_star * (-w) ** m for t_star, w, _ in coefficients)
-            spread = m * opd_per_nm * sigma if sigma > 0.0 else None
-            F = windows.transform(window, m * opd_per_nm * film.d, spread)
-            total += 2.0 * np.real(weight[:, None] * F)
-        xyz[propagating] += total
-    if not propagating.all():
-        nodes, weights = evanescent_nodes(method)
-        theta_e = flat[~propagating, None]
-        R = optics.thin_film_reflectance(film.host, film.n_film, film.d, film.base_index(nodes),
-                                         nodes, theta_e, "unpolarized")
-        xyz[~propagating] = R @ weights
-    if method == "fourier-gaussian":
-        xyz = xyz @ E_TO_D65_BRADFORD.T
+    xyz = _fourier_xyz_flat(film, flat, np.full(flat.shape, sigma), method, order)
     return xyz.reshape((*angle.shape, 3))
