@@ -4,8 +4,8 @@ The issue's target: numpy and GPU versions of each method agree within CIE dE200
 grid n1 = 1, n2 = 1.5, Lambda in {244, 500, 988} nm, d1 / Lambda in {0.25, 0.5, 0.75},
 N in {3, 5, 10, 20, 100}, theta = 0, 7, ..., 84 degrees; plus an Appendix D mirror (host != n1,
 "averaged" only) and an evanescent-n2 mirror past its critical angle. Measured (lavapipe):
-mean dE 4e-5 (approx, subdivided), max 3e-4; "averaged" uses the numpy twin's Gauss nodes
-and weights, and agrees within 2e-3.
+mean dE 4e-5 (approx, subdivided), max 3e-4; "averaged" uses the numpy twin's zones, Gauss
+nodes and weights, and agrees within 3e-3 (0.013 on tools/bench_rgb.py's 1-degree grid).
 
 The numpy landmark search (60 bisection steps per landmark) dominates the run time, so the
 module caches ``find_landmarks`` (a pure function of a frozen mirror, angle and polarisation)

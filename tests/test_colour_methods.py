@@ -81,17 +81,38 @@ def test_angular_correction_matches_appendix_b():
         assert angular_correction(1.0, n2, math.pi / 2) == pytest.approx(1.0)
 
 
-def averaged_panels(mirror, theta, polarization):
-    return sum(_panel_count(mirror, lo, hi, pass_band)
-               for lo, hi, _, _, pass_band in zip(*_zones(mirror, theta, polarization),
-                                                  strict=True))
+def averaged_panels(mirror, theta):
+    return sum(_panel_count(mirror, lo, hi, share)
+               for lo, hi, _, _, share in zip(*_zones(mirror, theta), strict=True))
 
 
 def test_averaged_cost_does_not_depend_on_n():
-    counts = {averaged_panels(BraggMirror(1.0, 1.5, 125.0, 375.0, N), 0.4, "s")
+    counts = {averaged_panels(BraggMirror(1.0, 1.5, 125.0, 375.0, N), 0.4)
               for N in (AVERAGING_MIN_PERIODS, 100, 10**6, 2**31 - 1)}
     assert len(counts) == 1
-    assert counts.pop() <= 20  # three reflectances per panel
+    assert counts.pop() <= 20  # three nodes per panel, shared by both polarisations
+
+
+def count_minima(values):
+    inner = values[1:-1]
+    return int(np.sum((inner < values[:-2]) & (inner <= values[2:])))
+
+
+@pytest.mark.parametrize("theta", [0.0, 0.4, 1.2])
+def test_exact_spectra_get_two_panels_per_oscillation(theta):
+    """Below AVERAGING_MIN_PERIODS the zones' share of a pass band counts the oscillations
+    of the exact spectrum in each (N per pass band, of the faster polarisation), and each zone
+    gets two panels per oscillation: zones between s and p edges do not each take 2N."""
+    mirror = BraggMirror(1.0, 1.5, 125.0, 375.0, 10)
+    lo, hi, _, _, share = _zones(mirror, theta)
+    for omega_lo, omega_hi, zone_share in zip(lo, hi, share, strict=True):
+        wavelength = 2.0 * np.pi / np.linspace(omega_lo, omega_hi, 4001)
+        minima = max(count_minima(mirror.reflectance(wavelength, theta, polarization))
+                     for polarization in ("s", "p"))
+        assert abs(minima - mirror.N * zone_share) <= 1.0
+        assert _panel_count(mirror, omega_lo, omega_hi, zone_share) >= 2 * minima - 1
+    assert share.max() == pytest.approx(1.0, abs=1e-6)  # a whole pass band in view
+    assert averaged_panels(mirror, theta) <= 2 * mirror.N * share.sum() + lo.size
 
 
 def test_huge_n_colours_are_finite_and_saturated_in_gaps():

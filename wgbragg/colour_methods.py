@@ -5,14 +5,14 @@ registry of the thin-film methods (:mod:`wgbragg.thin_film_colour`).
   Barla 2024 (sec. 3.2.2, App. B), integrated with cumulative CMF tables (eq 15).
 - ``"averaged"`` (ours): outside band gaps the spectrum averaged over the phase of its N-fold
   oscillation (:func:`wgbragg.optics.yeh_reflectance` with ``method="phase-averaged"``), inside
-  them the exact finite-N reflectance (eq 9). The band edges split the visible range into
-  zones; each zone is integrated by three-point Gauss-Legendre panels (at most
-  :data:`PANEL_NM` wide) in a variable that clusters the nodes quadratically at band edges,
-  where the averaged spectrum has a square-root edge and would otherwise need graded pieces.
-  Modes, Airy and zero points are not needed: the integrand is smooth between edges. About 40
-  reflectance evaluations per polarisation, O(1) in N. Below :data:`AVERAGING_MIN_PERIODS`
-  the oscillations are too few to average, and the exact R is integrated with two panels per
-  oscillation.
+  them the exact finite-N reflectance (eq 9). The band edges of both polarisations split the
+  visible range into zones; each zone is integrated by three-point Gauss-Legendre panels (at
+  most :data:`PANEL_NM` wide) in a variable that clusters the nodes quadratically at band
+  edges, where the averaged spectrum has a square-root edge and would otherwise need graded
+  pieces. Both polarisations are smooth inside a zone and share its nodes. Modes, Airy and
+  zero points are not needed. About 40 to 60 nodes, O(1) in N. Below
+  :data:`AVERAGING_MIN_PERIODS` the oscillations are too few to average, and the exact R is
+  integrated with two panels per oscillation.
 """
 
 from __future__ import annotations
@@ -42,6 +42,12 @@ costs up to 6 dE2000 at N = 5 and under 0.25 from N = 20)."""
 
 PANEL_NM = 40.0
 """Widest Gauss panel (nm) of "averaged": the CMF x D65 density needs ~13 nm node spacing."""
+
+PANEL_MARGIN = 0.05
+"""Panels of an exact spectrum: ``ceil(2 x oscillations - PANEL_MARGIN)``."""
+
+PHASE_SNAP = 0.15
+"""Bloch phases (rad) this close to 0 or pi count as at a band edge (see :func:`_zones`)."""
 
 # Three-point Gauss-Legendre rule on [0, 1].
 _GAUSS_NODES = 0.5 + 0.5 * np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)])
@@ -142,50 +148,68 @@ def approx_xyz(mirror, theta, subdivisions=None):
 def _zone_map(u, lower_edge, upper_edge):
     """(s, ds/du) of the map u in [0, 1] -> s in [0, 1] that clusters nodes at band edges.
 
-    At a band edge the averaged spectrum goes like sqrt(distance): with a quadratic map,
-    ``s = sin^2(pi u / 2)`` at both ends or ``1 - cos(pi u / 2)`` at one, it is smooth in u.
-    The forms avoid ``1 - cos`` cancellation, as the float32 twin must.
+    At a band edge the averaged spectrum goes like sqrt(distance): with a map quadratic at
+    that end, ``s = u^2 (3 - 2u)`` at both ends, ``u^2`` or ``u (2 - u)`` at one, it is smooth
+    in u. Polynomials: the float32 twin pays no sine per node.
     """
-    quarter = 0.5 * np.pi * u
     if lower_edge and upper_edge:
-        return np.sin(quarter) ** 2, 0.5 * np.pi * np.sin(2.0 * quarter)
+        return u * u * (3.0 - 2.0 * u), 6.0 * u * (1.0 - u)
     if lower_edge:
-        return 2.0 * np.sin(0.5 * quarter) ** 2, 0.5 * np.pi * np.sin(quarter)
+        return u * u, 2.0 * u
     if upper_edge:
-        return np.sin(quarter), 0.5 * np.pi * np.cos(quarter)
+        return u * (2.0 - u), 2.0 - 2.0 * u
     return u, np.ones_like(u)
 
 
-def _zones(mirror, theta, polarization):
-    """Zones between band edges: (omega_lo, omega_hi, lower is an edge, upper is, pass band)."""
-    landmarks = find_landmarks(mirror, theta, polarization)
-    edges = landmarks.omega[landmarks.kind == "edge"]
+def _zones(mirror, theta):
+    """Zones between consecutive band edges of either polarisation: (omega_lo, omega_hi, lower
+    is an edge, upper is, share of a pass band). Both spectra are smooth inside each, so the
+    polarisations share its nodes.
+
+    The share of a pass band is the largest change of either Bloch phase ``K Lambda`` across
+    the zone over pi: 0 in a gap, 1 for a whole pass band, in which the exact spectrum
+    oscillates N times.
+    """
+    edges = np.sort(np.concatenate([
+        landmarks.omega[landmarks.kind == "edge"]
+        for landmarks in (find_landmarks(mirror, theta, "s"), find_landmarks(mirror, theta, "p"))
+    ]))
     bounds = np.concatenate([[VISIBLE_OMEGA[0]], edges, [VISIBLE_OMEGA[1]]])
     is_edge = np.concatenate([[False], np.ones(edges.size, bool), [False]])
     s = mirror.host * np.sin(theta)
-    _, _, _, sin2 = cell_coefficients(mirror.n1, mirror.n2, mirror.d1, mirror.d2,
-                                      4.0 * np.pi / (bounds[:-1] + bounds[1:]), s, polarization)
-    keep = np.diff(bounds) > 0.0  # coincident edges: a closed gap
-    return (bounds[:-1][keep], bounds[1:][keep], is_edge[:-1][keep], is_edge[1:][keep],
-            (sin2 > 0.0)[keep])
+    phase = np.empty((2, bounds.size))
+    for row, polarization in enumerate(("s", "p")):
+        _, _, x, sin2 = cell_coefficients(mirror.n1, mirror.n2, mirror.d1, mirror.d2,
+                                          2.0 * np.pi / bounds, s, polarization)
+        # From sin^2, accurate at band edges (arccos(x) is not, in the float32 twin).
+        phase[row] = np.arctan2(np.sqrt(np.maximum(sin2, 0.0)), x)
+    # At a band edge the phase is 0 or pi, but grows like the square root of the distance: the
+    # float32 twin's edges (4e-7 relative) put it up to 0.05 away, enough to change a panel
+    # count, so both twins snap it there.
+    phase = np.where(phase < PHASE_SNAP, 0.0, np.where(phase > np.pi - PHASE_SNAP, np.pi, phase))
+    share = np.abs(np.diff(phase, axis=1)).max(axis=0) / np.pi
+    keep = np.diff(bounds) > 0.0  # coincident edges: a closed gap, or s and p at normal incidence
+    return bounds[:-1][keep], bounds[1:][keep], is_edge[:-1][keep], is_edge[1:][keep], share[keep]
 
 
-def _panel_count(mirror, omega_lo, omega_hi, pass_band):
+def _panel_count(mirror, omega_lo, omega_hi, pass_band_share):
     width_nm = 2.0 * np.pi / omega_lo - 2.0 * np.pi / omega_hi
     count = max(1, int(np.ceil(width_nm / PANEL_NM)))
-    if pass_band and mirror.N < AVERAGING_MIN_PERIODS:
-        count = max(count, 2 * mirror.N)  # two panels per oscillation of the exact spectrum
+    if mirror.N < AVERAGING_MIN_PERIODS:
+        # Two panels per oscillation of the exact spectrum; the margin absorbs the float32
+        # twin's rounding of the phases (1e-4 of a pass band at its edges).
+        oscillations = mirror.N * pass_band_share
+        count = max(count, int(np.ceil(2.0 * oscillations - PANEL_MARGIN)))
     return count
 
 
-def _averaged_polarized(mirror, theta, polarization):
+def _averaged_unpolarized(mirror, theta):
     if _total_reflection(mirror, theta):
         return _white()
     method = "exact" if mirror.N < AVERAGING_MIN_PERIODS else "phase-averaged"
     total = np.zeros(3)
-    for lo, hi, lower_edge, upper_edge, pass_band in zip(*_zones(mirror, theta, polarization),
-                                                         strict=True):
-        panels = _panel_count(mirror, lo, hi, pass_band)
+    for lo, hi, lower_edge, upper_edge, share in zip(*_zones(mirror, theta), strict=True):
+        panels = _panel_count(mirror, lo, hi, share)
         u = ((np.arange(panels)[:, None] + _GAUSS_NODES[None, :]) / panels).ravel()
         s, ds = _zone_map(u, lower_edge, upper_edge)
         omega = lo + (hi - lo) * s
@@ -193,7 +217,7 @@ def _averaged_polarized(mirror, theta, polarization):
         # d lambda = 2 pi / omega^2 d omega.
         weight = np.tile(_GAUSS_WEIGHTS, panels) / panels * (hi - lo) * ds * wavelength / omega
         values = yeh_reflectance(mirror.n1, mirror.n2, mirror.d1, mirror.d2, mirror.N,
-                                 wavelength, theta, polarization, host=mirror.host,
+                                 wavelength, theta, "unpolarized", host=mirror.host,
                                  method=method)
         density = colorimetry.xyz_density(wavelength)
         # The zone's mean R times its exact box integral, plus the rule on R minus that mean:
@@ -218,8 +242,7 @@ def averaged_xyz(mirror, theta):
     theta = np.asarray(theta, dtype=np.float64)
     out = np.empty((*theta.shape, 3))
     for index, angle in np.ndenumerate(theta):
-        out[index] = 0.5 * (_averaged_polarized(mirror, angle, "s")
-                            + _averaged_polarized(mirror, angle, "p"))
+        out[index] = _averaged_unpolarized(mirror, angle)
     return out
 
 

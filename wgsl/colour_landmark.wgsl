@@ -4,20 +4,24 @@
 //   cmf_density(j)        XYZ density (per nm) at the 1 nm node 360 + j nm, j = 0..470,
 //   cmf_cumulative(j)     colorimetry.cumulative_xyz at that node,
 //
-// One call integrates one polarisation at one angle: the landmarks are visited in increasing
-// omega and each landmark interval is integrated as soon as both its ends are known, so
-// nothing is stored and the cost is O(1) in N. The pieces, nodes and weights are those of the
-// numpy twin; with host == n1 and a propagating n2 the cell terms at a node come from the
-// closed form in the mode coordinate (landmarks.wgsl, mode_terms): two reduced sin/cos pairs.
+// The landmarks are visited in increasing omega and each interval is integrated as soon as
+// both its ends are known, so nothing is stored and the cost is O(1) in N. The pieces, nodes
+// and weights are those of the numpy twin; with host == n1 and a propagating n2 the cell terms
+// at a node come from the closed form in the mode coordinate (landmarks.wgsl, mode_terms): two
+// reduced sin/cos pairs.
 //
-// "averaged" integrates each zone between band edges (or the range ends) with three-point
-// Gauss-Legendre panels in the variable u of colour_methods._zone_map, which clusters nodes
-// quadratically at band edges (the square-root edge of the averaged spectrum is then smooth
-// in u), against the piecewise-linear XYZ density (colorimetry.xyz_density): the nodes and
-// weights of the numpy twin.
+// "approx" and "subdivided" sweep one polarisation per call (landmark_colour). "averaged"
+// (averaged_colour) sweeps both at once: its zones lie between consecutive band edges of
+// either polarisation, so both spectra are smooth in each and share its nodes, and with them
+// the sin/cos pairs and table reads. Each zone is integrated with three-point Gauss-Legendre
+// panels in the variable u of colour_methods._zone_map, which clusters nodes quadratically at
+// band edges (the square-root edge of the averaged spectrum is then smooth in u), against the
+// piecewise-linear XYZ density (colorimetry.xyz_density).
 
-// colour_methods.PANEL_NM and AVERAGING_MIN_PERIODS.
+// colour_methods.PANEL_NM, PANEL_MARGIN, PHASE_SNAP and AVERAGING_MIN_PERIODS.
 const PANEL_NM: f32 = 40.0;
+const PANEL_MARGIN: f32 = 0.05;
+const PHASE_SNAP: f32 = 0.15;
 const AVERAGING_MIN_PERIODS: u32 = 16u;
 // Three-point Gauss-Legendre on [0, 1] (colour_methods._GAUSS_NODES, _GAUSS_WEIGHTS).
 const GAUSS_OFFSET: f32 = 0.38729833;   // sqrt(0.6) / 2
@@ -37,12 +41,12 @@ struct ColourSetup {
     mirror: BraggMirror,
     angle: CellGeometry,    // wavelength-independent fields only (see geometry_at)
     polarization: u32,
-    method: u32,
     subdivisions: i32,      // s of "subdivided"
     host_matched: bool,
     correction: f32,        // Appendix B: w~(theta1)
     subdivide: bool,        // "subdivided" with modes (propagating n2)
     frame: ModeFrame,       // propagating n2: the dispersion in the mode coordinate
+    frame_p: ModeFrame,     // "averaged": the p frame (frame is then the s one)
     fast: bool,             // host == n1, propagating n2, an n2 layer: cell terms from frame
 }
 
@@ -96,22 +100,57 @@ fn averaged_pass_band_reflectance(m: BraggMirror, g: CellGeometry, polarization:
     return phase_averaged_host(t, e1, root, fresnel_host_n1(m, g, polarization));
 }
 
-// R at one quadrature node of "averaged": exact below AVERAGING_MIN_PERIODS, else averaged.
+// R of one polarisation at a node of "averaged", from its frame and the node's mode_phases:
+// exact below AVERAGING_MIN_PERIODS, else averaged in pass bands.
+fn mode_node_reflectance(f: ModeFrame, phases: vec4<f32>, t: f32, periods: u32) -> f32 {
+    let terms = mode_terms_at(f, phases);
+    if (periods >= AVERAGING_MIN_PERIODS && terms.sin2 > 0.0) {
+        let w = min(abs(terms.W), MAX_AMPLITUDE);
+        return clamp(1.0 - sqrt(terms.sin2 / (w * w + terms.sin2)), 0.0, 1.0);
+    }
+    return matched_reflectance(terms, 0.5 * t, periods);  // delta1 + delta2 = pi t
+}
+
+fn geometry_node_reflectance(c: ColourSetup, g: CellGeometry, polarization: u32) -> f32 {
+    if (c.mirror.periods < AVERAGING_MIN_PERIODS) {
+        return yeh_polarized(c.mirror, g, polarization, c.host_matched);
+    }
+    return averaged_pass_band_reflectance(c.mirror, g, polarization, c.host_matched);
+}
+
+// Unpolarised R at one quadrature node of "averaged".
 fn node_reflectance(c: ColourSetup, omega: f32) -> f32 {
     if (c.fast) {
         let t = omega * c.frame.n_plus * (1.0 / PI);
-        let terms = mode_terms(c.frame, t);
-        if (c.mirror.periods >= AVERAGING_MIN_PERIODS && terms.sin2 > 0.0) {
-            let w = min(abs(terms.W), MAX_AMPLITUDE);
-            return clamp(1.0 - sqrt(terms.sin2 / (w * w + terms.sin2)), 0.0, 1.0);
-        }
-        return matched_reflectance(terms, 0.5 * t, c.mirror.periods);  // delta1 + delta2 = pi t
+        let phases = mode_phases(c.frame, t);
+        return 0.5 * (mode_node_reflectance(c.frame, phases, t, c.mirror.periods)
+            + mode_node_reflectance(c.frame_p, phases, t, c.mirror.periods));
     }
     let g = geometry_at(c.mirror, c.angle, TWO_PI / omega);
-    if (c.mirror.periods < AVERAGING_MIN_PERIODS) {
-        return yeh_polarized(c.mirror, g, c.polarization, c.host_matched);
+    return 0.5 * (geometry_node_reflectance(c, g, 0u) + geometry_node_reflectance(c, g, 1u));
+}
+
+// Bloch phases K Lambda in [0, pi] of s and p at omega (0 or pi inside band gaps), from
+// sin^2 K Lambda, which keeps its relative accuracy at band edges where acos(x) would not.
+fn bloch_phases(c: ColourSetup, omega: f32) -> vec2<f32> {
+    var s_terms: CellTerms;
+    var p_terms: CellTerms;
+    if (c.fast) {
+        let phases = mode_phases(c.frame, omega * c.frame.n_plus * (1.0 / PI));
+        s_terms = mode_terms_at(c.frame, phases);
+        p_terms = mode_terms_at(c.frame_p, phases);
+    } else {
+        let g = geometry_at(c.mirror, c.angle, TWO_PI / omega);
+        s_terms = cell_terms(c.mirror, g, 0u);
+        p_terms = cell_terms(c.mirror, g, 1u);
     }
-    return averaged_pass_band_reflectance(c.mirror, g, c.polarization, c.host_matched);
+    let sine = sqrt(max(vec2<f32>(s_terms.sin2, p_terms.sin2), vec2<f32>(0.0)));
+    let phase = atan2(sine, vec2<f32>(s_terms.x, p_terms.x));
+    // colour_methods._zones: snapped to the band edge's value within PHASE_SNAP.
+    let near_pi = phase > vec2<f32>(PI - PHASE_SNAP);
+    let snapped = select(phase, select(vec2<f32>(0.0), vec2<f32>(PI), near_pi),
+                         near_pi | (phase < vec2<f32>(PHASE_SNAP)));
+    return snapped;
 }
 
 // Eq 11: the envelope |C|^2 / (|C|^2 + sin^2 K Lambda), 1 inside band gaps.
@@ -165,30 +204,31 @@ fn approx_interval(c: ColourSetup, omega_lo: f32, omega_hi: f32, pass_band: bool
 // colour_methods._zone_map: (s, ds/du) clustering the nodes at the ends that are band edges.
 fn zone_map(u: f32, lower_edge: bool, upper_edge: bool) -> vec2<f32> {
     if (lower_edge && upper_edge) {
-        let q = sin_cos_cycles(0.25 * u);   // pi u / 2
-        return vec2<f32>(q.x * q.x, PI * q.x * q.y);
+        return vec2<f32>(u * u * (3.0 - 2.0 * u), 6.0 * u * (1.0 - u));
     }
     if (lower_edge) {
-        let h = sin_cos_cycles(0.125 * u);  // pi u / 4
-        return vec2<f32>(2.0 * h.x * h.x, PI * h.x * h.y);
+        return vec2<f32>(u * u, 2.0 * u);
     }
     if (upper_edge) {
-        let q = sin_cos_cycles(0.25 * u);
-        return vec2<f32>(q.x, HALF_PI * q.y);
+        return vec2<f32>(u * (2.0 - u), 2.0 - 2.0 * u);
     }
     return vec2<f32>(u, 1.0);
 }
 
-// "averaged" over the zone [lo, hi] (rad/nm) between band edges or range ends: the panels of
-// colour_methods._panel_count, three Gauss nodes each.
+// "averaged" over the zone [lo, hi] (rad/nm) between band edges or range ends, which holds
+// `share` of a pass band: the panels of colour_methods._panel_count, three Gauss nodes each.
 fn averaged_zone(c: ColourSetup, lo: f32, hi: f32, lower_edge: bool, upper_edge: bool,
-                 pass_band: bool) -> vec3<f32> {
-    if (!(hi > lo)) {
+                 share: f32) -> vec3<f32> {
+    // Empty, or narrower than float32 resolves in wavelength: s and p edges a few ulps apart.
+    let lambda_lo = TWO_PI / hi;
+    let lambda_hi = TWO_PI / lo;
+    if (!(lambda_hi > lambda_lo)) {
         return vec3<f32>(0.0);
     }
     var panels = u32(max(ceil((TWO_PI / lo - TWO_PI / hi) * (1.0 / PANEL_NM)), 1.0));
-    if (pass_band && c.mirror.periods < AVERAGING_MIN_PERIODS) {
-        panels = max(panels, 2u * c.mirror.periods);
+    if (c.mirror.periods < AVERAGING_MIN_PERIODS) {
+        let oscillations = f32(c.mirror.periods) * share;
+        panels = max(panels, u32(max(ceil(2.0 * oscillations - PANEL_MARGIN), 0.0)));
     }
     let span = hi - lo;
     let inv_panels = 1.0 / f32(panels);
@@ -212,57 +252,43 @@ fn averaged_zone(c: ColourSetup, lo: f32, hi: f32, lower_edge: bool, upper_edge:
         rule_r += r;
     }
     // As the numpy twin: the zone's mean R times its exact box, plus the rule on the rest.
-    let lambda_lo = TWO_PI / hi;
-    let lambda_hi = TWO_PI / lo;
     let mean = rule_r / (lambda_hi - lambda_lo);
     return rule + mean * (cumulative_xyz(lambda_hi) - cumulative_xyz(lambda_lo) - rule_white);
 }
 
-// ----------------------------------------------------------------------------- the sweep
+// ----------------------------------------------------------------------------- the sweeps
 
-// Landmarks visited in increasing omega. "approx" integrates the interval since the previous
-// landmark; "averaged" the zone since the previous band edge.
+// "approx" / "subdivided": landmarks visited in increasing omega, each integrating the
+// interval since the previous one.
 struct Sweep {
     xyz: vec3<f32>,
     omega_prev: f32,
     pass_band: bool,    // the interval since the previous landmark
     mode: i32,          // its mode number (subdivided)
-    zone_lo: f32,       // "averaged": the zone's start, a band edge iff zone_edge
-    zone_edge: bool,
-    zone_pass: bool,
 }
 
 fn sweep_start() -> Sweep {
-    return Sweep(vec3<f32>(0.0), OMEGA_LO, false, 0, OMEGA_LO, false, false);
+    return Sweep(vec3<f32>(0.0), OMEGA_LO, false, 0);
 }
 
 // The status of the range's start: what follows a landmark below the range.
 fn sweep_status(sweep: ptr<function, Sweep>, pass_after: bool, mode: i32) {
     (*sweep).pass_band = pass_after;
-    (*sweep).zone_pass = pass_after;
     (*sweep).mode = mode;
 }
 
-// A landmark at omega, followed by a zone of status pass_after.
-fn sweep_visit(c: ColourSetup, sweep: ptr<function, Sweep>, omega: f32, is_edge: bool,
-               pass_after: bool, mode: i32) {
+// A landmark at omega, followed by an interval of status pass_after.
+fn sweep_visit(c: ColourSetup, sweep: ptr<function, Sweep>, omega: f32, pass_after: bool,
+               mode: i32) {
     if (omega >= OMEGA_HI) {
-        return;  // beyond the range: the zone of the range's end is already known
+        return;  // beyond the range: the interval of the range's end is already known
     }
     if (omega <= OMEGA_LO) {
         sweep_status(sweep, pass_after, mode);
         return;
     }
-    if (c.method != METHOD_AVERAGED) {
-        (*sweep).xyz += approx_interval(c, (*sweep).omega_prev, omega, (*sweep).pass_band,
-                                        (*sweep).mode);
-    } else if (is_edge) {
-        (*sweep).xyz += averaged_zone(c, (*sweep).zone_lo, omega, (*sweep).zone_edge, true,
-                                      (*sweep).zone_pass);
-        (*sweep).zone_lo = omega;
-        (*sweep).zone_edge = true;
-        (*sweep).zone_pass = pass_after;
-    }
+    (*sweep).xyz += approx_interval(c, (*sweep).omega_prev, omega, (*sweep).pass_band,
+                                    (*sweep).mode);
     (*sweep).omega_prev = omega;
     (*sweep).pass_band = pass_after;
     (*sweep).mode = mode;
@@ -270,7 +296,7 @@ fn sweep_visit(c: ColourSetup, sweep: ptr<function, Sweep>, omega: f32, is_edge:
 
 // A landmark at mode coordinate t.
 fn sweep_visit_t(c: ColourSetup, f: ModeFrame, sweep: ptr<function, Sweep>, t: f32,
-                 is_edge: bool, pass_after: bool, mode: i32) {
+                 pass_after: bool, mode: i32) {
     if (t <= f.t_lo) {
         sweep_status(sweep, pass_after, mode);
         return;
@@ -278,37 +304,77 @@ fn sweep_visit_t(c: ColourSetup, f: ModeFrame, sweep: ptr<function, Sweep>, t: f
     if (t >= f.t_hi) {
         return;
     }
-    sweep_visit(c, sweep, PI * t / f.n_plus, is_edge, pass_after, mode);
+    sweep_visit(c, sweep, PI * t / f.n_plus, pass_after, mode);
 }
 
 fn sweep_finish(c: ColourSetup, sweep: ptr<function, Sweep>) {
-    if (c.method == METHOD_AVERAGED) {
-        (*sweep).xyz += averaged_zone(c, (*sweep).zone_lo, OMEGA_HI, (*sweep).zone_edge, false,
-                                      (*sweep).zone_pass);
-    } else {
-        (*sweep).xyz += approx_interval(c, (*sweep).omega_prev, OMEGA_HI, (*sweep).pass_band,
-                                        (*sweep).mode);
+    (*sweep).xyz += approx_interval(c, (*sweep).omega_prev, OMEGA_HI, (*sweep).pass_band,
+                                    (*sweep).mode);
+}
+
+// "averaged": the zone open since the last band edge (of either polarisation).
+struct Zones {
+    xyz: vec3<f32>,
+    lo: f32,              // the open zone's start, rad/nm
+    lo_edge: bool,        // whether that is a band edge (else the range's start)
+    lo_phases: vec2<f32>, // bloch_phases there, if the spectrum is exact (else 0)
+}
+
+fn zones_start(c: ColourSetup) -> Zones {
+    var zones = Zones(vec3<f32>(0.0), OMEGA_LO, false, vec2<f32>(0.0));
+    if (c.mirror.periods < AVERAGING_MIN_PERIODS) {
+        zones.lo_phases = bloch_phases(c, OMEGA_LO);
+    }
+    return zones;
+}
+
+// Integrates the open zone up to omega (a band edge iff is_edge) and opens the next there.
+fn zone_close(c: ColourSetup, zones: ptr<function, Zones>, omega: f32, is_edge: bool) {
+    // Only the panel count of an exact spectrum needs the share of a pass band (see
+    // colour_methods._zones).
+    var share = 0.0;
+    var phases = vec2<f32>(0.0);
+    if (c.mirror.periods < AVERAGING_MIN_PERIODS) {
+        phases = bloch_phases(c, omega);
+        let sweep = abs(phases - (*zones).lo_phases);
+        share = max(sweep.x, sweep.y) * (1.0 / PI);
+    }
+    (*zones).xyz += averaged_zone(c, (*zones).lo, omega, (*zones).lo_edge, is_edge, share);
+    (*zones).lo = omega;
+    (*zones).lo_edge = true;
+    (*zones).lo_phases = phases;
+}
+
+// A band edge at omega; those outside the range only bound zones outside it.
+fn zone_edge(c: ColourSetup, zones: ptr<function, Zones>, omega: f32) {
+    if (omega > OMEGA_LO && omega < OMEGA_HI) {
+        zone_close(c, zones, omega, true);
     }
 }
 
-// XYZ of one polarisation at one angle by `method`.
+// The fields of every method's setup: the angle's fields of cell_geometry (the wavelength only
+// sets the phases); false at grazing in n1, or beyond its critical angle (total reflection).
+// With host == n1, q1 = n1 cos(theta) decides: s = n1 sin(theta) rounds to n1 within 2e-4 rad
+// of grazing.
+fn colour_setup(c: ptr<function, ColourSetup>, m: BraggMirror, theta: f32,
+                host_matched: bool) -> bool {
+    (*c).mirror = m;
+    (*c).host_matched = host_matched;
+    (*c).angle = cell_geometry(m, 1.0, theta);
+    return (*c).angle.q1 > 0.0 && (host_matched || (*c).angle.s < m.n1);
+}
+
+// XYZ of one polarisation at one angle by "approx" or "subdivided".
 // matched_layers: the caller guarantees host == n1 <= n2 and an n2 layer, so every angle takes
 // the mode-coordinate path and the other paths are compiled out.
 fn landmark_colour(m: BraggMirror, theta: f32, polarization: u32, method: u32,
                    subdivisions: i32, host_matched: bool, matched_layers: bool) -> vec3<f32> {
     var c: ColourSetup;
-    c.mirror = m;
-    c.polarization = polarization;
-    c.method = method;
-    c.subdivisions = subdivisions;
-    c.host_matched = host_matched;
-    // The angle's fields of cell_geometry (the wavelength only sets the phases).
-    c.angle = cell_geometry(m, 1.0, theta);
-    // Grazing in n1, or beyond its critical angle: total reflection. With host == n1, q1 =
-    // n1 cos(theta) decides: s = n1 sin(theta) rounds to n1 within 2e-4 rad of grazing.
-    if (c.angle.q1 <= 0.0 || (!host_matched && c.angle.s >= m.n1)) {
+    if (!colour_setup(&c, m, theta, host_matched)) {
         return white_xyz();
     }
+    c.polarization = polarization;
+    c.subdivisions = subdivisions;
     c.correction = angular_correction(m, c.angle);
     var sweep = sweep_start();
     if (!matched_layers && m.bulk != 0u) {
@@ -324,9 +390,9 @@ fn landmark_colour(m: BraggMirror, theta: f32, polarization: u32, method: u32,
         for (var k = first; k < last; k++) {
             let iv = mode_interval(f, k);
             // In increasing t: mode, rising edge, [zero], Airy point, [zero], falling edge
-            // (j = 0..5; a closed gap's edges coincide with its mode: an empty zone for
-            // "averaged"). Picked by selects, not from a private array: lavapipe would keep a
-            // dynamically indexed array in memory, and the loop keeps one copy of the sweep.
+            // (j = 0..5; a closed gap's edges coincide with its mode). Picked by selects, not
+            // from a private array: lavapipe would keep a dynamically indexed array in memory,
+            // and the loop keeps one copy of the sweep.
             let zero_low = select(-1.0, iv.zero, iv.zero > 0.0 && iv.zero < iv.airy);
             let zero_high = select(-1.0, iv.zero, iv.zero > 0.0 && iv.zero >= iv.airy);
             for (var j = 0; j < 6; j++) {
@@ -340,7 +406,7 @@ fn landmark_colour(m: BraggMirror, theta: f32, polarization: u32, method: u32,
                     default: {}
                 }
                 if (t >= 0.0) {
-                    sweep_visit_t(c, f, &sweep, t, j == 1 || j == 5, j >= 1 && j <= 4, k);
+                    sweep_visit_t(c, f, &sweep, t, j >= 1 && j <= 4, k);
                 }
             }
         }
@@ -373,7 +439,7 @@ fn landmark_colour(m: BraggMirror, theta: f32, polarization: u32, method: u32,
                 // pass band (scan_edge's lo_negative).
                 let pass_after = !sweep.pass_band;
                 let edge = scan_edge(m, c.angle, polarization, lo, hi, pass_after);
-                sweep_visit(c, &sweep, edge, true, pass_after, 0);
+                sweep_visit(c, &sweep, edge, pass_after, 0);
             }
             if (next >= SCAN_POINTS) {
                 break;
@@ -382,4 +448,113 @@ fn landmark_colour(m: BraggMirror, theta: f32, polarization: u32, method: u32,
     }
     sweep_finish(c, &sweep);
     return sweep.xyz;
+}
+
+// Unpolarised XYZ at one angle by "averaged" (both polarisations in one sweep, see above).
+fn averaged_colour(m: BraggMirror, theta: f32, host_matched: bool,
+                   matched_layers: bool) -> vec3<f32> {
+    var c: ColourSetup;
+    if (!colour_setup(&c, m, theta, host_matched)) {
+        return white_xyz();
+    }
+    let bulk = !matched_layers && m.bulk != 0u;
+    let propagating = matched_layers || c.angle.q2sq > 0.0;
+    if (!bulk && propagating) {
+        // n_plus, delta and so the modes and t range are those of both polarisations.
+        c.frame = mode_frame(m, c.angle, 0u);
+        c.frame_p = mode_frame(m, c.angle, 1u);
+        c.fast = matched_layers || host_matched;
+    }
+    var zones = zones_start(c);
+    if (bulk) {
+        // No n2 layer: no band edges, one zone.
+    } else if (propagating) {
+        let f = c.frame;
+        let first = i32(floor(f.t_lo));
+        let last = i32(ceil(f.t_hi));
+        for (var k = first; k < last; k++) {
+            let s_interval = mode_interval(c.frame, k);
+            let p_interval = mode_interval(c.frame_p, k);
+            // The four edges of [k, k + 1] in increasing t: each polarisation's rising edge
+            // lies below its Airy point and falling edge, so the lower rising edge comes
+            // first and the higher falling edge last. Selects, as in landmark_colour.
+            let rising_lo = min(s_interval.rising, p_interval.rising);
+            let rising_hi = max(s_interval.rising, p_interval.rising);
+            let falling_lo = min(s_interval.falling, p_interval.falling);
+            let falling_hi = max(s_interval.falling, p_interval.falling);
+            for (var j = 0; j < 4; j++) {
+                var t = rising_lo;
+                switch j {
+                    case 1: { t = min(rising_hi, falling_lo); }
+                    case 2: { t = max(rising_hi, falling_lo); }
+                    case 3: { t = falling_hi; }
+                    default: {}
+                }
+                if (t > f.t_lo && t < f.t_hi) {
+                    zone_edge(c, &zones, PI * t / f.n_plus);
+                }
+            }
+        }
+    } else {
+        // Evanescent n2: as landmark_colour, sign changes of sin^2 K Lambda of either
+        // polarisation on the numpy grid, recorded per batch (grid index << 4, bits 0 / 1: s / p
+        // changes sign, bits 2 / 3: s / p is in a gap below the cell), then refined.
+        let s_frame = evanescent_frame(m, c.angle, 0u);
+        let p_frame = evanescent_frame(m, c.angle, 1u);
+        var s_passes = evanescent_pass(s_frame, OMEGA_LO);
+        var p_passes = evanescent_pass(p_frame, OMEGA_LO);
+        var next = 1u;
+        loop {
+            var cells: array<u32, EVANESCENT_BATCH>;
+            var count = 0u;
+            for (; next < SCAN_POINTS && count < EVANESCENT_BATCH; next++) {
+                let s_next = evanescent_pass(s_frame, scan_omega(next));
+                let p_next = evanescent_pass(p_frame, scan_omega(next));
+                let changes = select(0u, 1u, s_next != s_passes) | select(0u, 2u, p_next != p_passes);
+                if (changes != 0u) {
+                    cells[count] = (next << 4u) | changes | select(0u, 4u, !s_passes)
+                        | select(0u, 8u, !p_passes);
+                    count += 1u;
+                }
+                s_passes = s_next;
+                p_passes = p_next;
+            }
+            for (var k = 0u; k < count; k++) {
+                let cell = cells[k];
+                let lo = scan_omega((cell >> 4u) - 1u);
+                let hi = scan_omega(cell >> 4u);
+                var s_edge = hi;
+                var p_edge = hi;
+                if ((cell & 1u) != 0u) {
+                    s_edge = scan_edge(m, c.angle, 0u, lo, hi, (cell & 4u) != 0u);
+                }
+                if ((cell & 2u) != 0u) {
+                    p_edge = scan_edge(m, c.angle, 1u, lo, hi, (cell & 8u) != 0u);
+                }
+                // One edge: both hold it (the other's hi is not visited); two: in order.
+                let both = (cell & 3u) == 3u;
+                let single = select(p_edge, s_edge, (cell & 1u) != 0u);
+                for (var j = 0u; j < select(1u, 2u, both); j++) {
+                    let edge = select(single, select(min(s_edge, p_edge), max(s_edge, p_edge),
+                                                     j == 1u), both);
+                    zone_edge(c, &zones, edge);
+                }
+            }
+            if (next >= SCAN_POINTS) {
+                break;
+            }
+        }
+    }
+    zone_close(c, &zones, OMEGA_HI, false);
+    return zones.xyz;
+}
+
+// Unpolarised XYZ at one angle by `method` (approx, subdivided or averaged).
+fn landmark_colour_unpolarized(m: BraggMirror, theta: f32, method: u32, subdivisions: i32,
+                               host_matched: bool, matched_layers: bool) -> vec3<f32> {
+    if (method == METHOD_AVERAGED) {
+        return averaged_colour(m, theta, host_matched, matched_layers);
+    }
+    return 0.5 * (landmark_colour(m, theta, 0u, method, subdivisions, host_matched, matched_layers)
+        + landmark_colour(m, theta, 1u, method, subdivisions, host_matched, matched_layers));
 }

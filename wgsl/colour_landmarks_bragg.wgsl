@@ -54,8 +54,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
     let p = params;
     let m = BraggMirror(p.n1, p.n2, p.d1_nm, p.d2_nm, p.host, p.periods, p.bulk, 0u);
     let s = i32(min(p.subdivisions, 0x7fffffffu));
-    let angle = theta[i];
-    let colour = 0.5 * (landmark_colour(m, angle, 0u, METHOD, s, HOST_MATCHED, MATCHED_LAYERS)
-        + landmark_colour(m, angle, 1u, METHOD, s, HOST_MATCHED, MATCHED_LAYERS));
+    let colour = landmark_colour_unpolarized(m, theta[i], METHOD, s, HOST_MATCHED, MATCHED_LAYERS);
     xyz[i] = vec4<f32>(colour, 0.0);
 }

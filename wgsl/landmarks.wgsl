@@ -115,14 +115,20 @@ fn edge_factor_value(f: ModeFrame, t: f32, cos_type: bool, sigma: f32) -> vec2<f
     return vec2<f32>(p * u1 + q * u2, HALF_PI * (p * du1 + q * f.delta * du2));
 }
 
-// The cell terms of cell_terms (yeh.wgsl) at mode coordinate t, from the frame: two reduced
-// sin/cos pairs per wavelength instead of a full cell geometry. delta1 = pi t / 2 - pi t delta / 2,
+// The two reduced (sin, cos) pairs of mode_terms at mode coordinate t, (e1, e2) with
+// e1 = (sin, cos)(pi t / 2) and e2 = (sin, cos)(pi t delta / 2): they do not depend on the
+// polarisation (n_plus and delta do not), so both polarisations share them.
+fn mode_phases(f: ModeFrame, t: f32) -> vec4<f32> {
+    return vec4<f32>(sin_cos_cycles(0.25 * t), sin_cos_cycles(0.25 * t * f.delta));
+}
+
+// The cell terms of cell_terms (yeh.wgsl) from mode_phases: delta1 = pi t / 2 - pi t delta / 2,
 // delta2 = pi t / 2 + pi t delta / 2; the four edge factors g (see above) give
 // sin^2 K Lambda = g1 g2 g3 g4 / (4 r^2) with their relative accuracy at band edges.
-fn mode_terms(f: ModeFrame, t: f32) -> CellTerms {
+fn mode_terms_at(f: ModeFrame, phases: vec4<f32>) -> CellTerms {
     var terms: CellTerms;
-    let e1 = sin_cos_cycles(0.25 * t);
-    let e2 = sin_cos_cycles(0.25 * t * f.delta);
+    let e1 = phases.xy;
+    let e2 = phases.zw;
     let p = 1.0 + f.r;
     let q = 1.0 - f.r;
     let sin_d2 = e1.x * e2.y + e1.y * e2.x;
@@ -134,6 +140,12 @@ fn mode_terms(f: ModeFrame, t: f32) -> CellTerms {
     let g34 = (p * e1.y + q * e2.y) * (p * e1.y - q * e2.y);
     terms.sin2 = (g12 * g34) * f.sin2_factor;
     return terms;
+}
+
+// The cell terms at mode coordinate t, from the frame: two reduced sin/cos pairs per
+// wavelength instead of a full cell geometry.
+fn mode_terms(f: ModeFrame, t: f32) -> CellTerms {
+    return mode_terms_at(f, mode_phases(f, t));
 }
 
 // Root of the dispersion (kind 0) or of an edge factor (kind 1) in [lo, hi], whose value at lo

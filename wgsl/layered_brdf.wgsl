@@ -66,7 +66,7 @@ override INTEGRATED: bool = true;
 // METHOD_SUBDIVIDED, METHOD_AVERAGED, or COLOUR_REFERENCE (the 1 nm sum).
 override COLOUR_METHOD: u32 = 2u;
 // Landmark colours: every layer has host == n1 <= n2 and an n2 layer, so only the
-// mode-coordinate path of landmark_colour is compiled.
+// mode-coordinate path of the landmark colours is compiled.
 override MATCHED_LAYERS: bool = false;
 
 // Every layer's period and d1 / period vary over the surface (the renderer's period and delta
@@ -257,11 +257,8 @@ fn layer_colour(s: LayeredStructure, layer: RoughLayer, theta_d: f32) -> vec3<f3
         }
         return xyz_to_linear_srgb(xyz);
     }
-    let xyz = landmark_colour(layer_mirror(layer), theta_d, 0u, COLOUR_METHOD, SUBDIVISIONS,
-                              HOST_MATCHED, MATCHED_LAYERS)
-        + landmark_colour(layer_mirror(layer), theta_d, 1u, COLOUR_METHOD, SUBDIVISIONS, HOST_MATCHED,
-                          MATCHED_LAYERS);
-    return xyz_to_linear_srgb(0.5 * xyz);
+    return xyz_to_linear_srgb(landmark_colour_unpolarized(
+        layer_mirror(layer), theta_d, COLOUR_METHOD, SUBDIVISIONS, HOST_MATCHED, MATCHED_LAYERS));
 }
 
 fn layered_eval_spectral(s: LayeredStructure, p: LayeredPair, wavelength_nm: f32) -> f32 {
