@@ -196,8 +196,8 @@ def _panel_count(mirror, omega_lo, omega_hi, pass_band_share):
     width_nm = 2.0 * np.pi / omega_lo - 2.0 * np.pi / omega_hi
     count = max(1, int(np.ceil(width_nm / PANEL_NM)))
     if mirror.N < AVERAGING_MIN_PERIODS:
-        # Two panels per oscillation of the exact spectrum; the margin absorbs the float32
-        # twin's rounding of the phases (1e-4 of a pass band at its edges).
+        # Two panels per oscillation of the exact spectrum; the margin keeps a whole pass band
+        # (share 1 up to rounding: phases snapped to 0 and pi) at 2N panels in both twins.
         oscillations = mirror.N * pass_band_share
         count = max(count, int(np.ceil(2.0 * oscillations - PANEL_MARGIN)))
     return count
