@@ -12,6 +12,8 @@ from wgbragg.colorimetry import delta_e_2000
 from wgbragg.colour_methods import (
     AVERAGING_MIN_PERIODS,
     COLOUR_METHODS,
+    PANEL_NM,
+    PANELS_PER_OSCILLATION,
     _panel_count,
     _zones,
     angular_correction,
@@ -99,10 +101,11 @@ def count_minima(values):
 
 
 @pytest.mark.parametrize("theta", [0.0, 0.4, 1.2])
-def test_exact_spectra_get_two_panels_per_oscillation(theta):
+def test_exact_spectra_get_panels_per_oscillation(theta):
     """Below AVERAGING_MIN_PERIODS the zones' share of a pass band counts the oscillations
     of the exact spectrum in each (N per pass band, of the faster polarisation), and each zone
-    gets two panels per oscillation: zones between s and p edges do not each take 2N."""
+    gets PANELS_PER_OSCILLATION panels per oscillation: zones between s and p edges do not each
+    take the whole pass band's."""
     mirror = BraggMirror(1.0, 1.5, 125.0, 375.0, 10)
     lo, hi, _, _, share = _zones(mirror, theta)
     for omega_lo, omega_hi, zone_share in zip(lo, hi, share, strict=True):
@@ -110,9 +113,12 @@ def test_exact_spectra_get_two_panels_per_oscillation(theta):
         minima = max(count_minima(mirror.reflectance(wavelength, theta, polarization))
                      for polarization in ("s", "p"))
         assert abs(minima - mirror.N * zone_share) <= 1.0
-        assert _panel_count(mirror, omega_lo, omega_hi, zone_share) >= 2 * minima - 1
+        panels = _panel_count(mirror, omega_lo, omega_hi, zone_share)
+        assert panels >= PANELS_PER_OSCILLATION * (minima - 1)
     assert share.max() == pytest.approx(1.0, abs=1e-6)  # a whole pass band in view
-    assert averaged_panels(mirror, theta) <= 2 * mirror.N * share.sum() + lo.size
+    width_panels = np.maximum(1, np.ceil((2 * np.pi / lo - 2 * np.pi / hi) / PANEL_NM))
+    assert averaged_panels(mirror, theta) <= np.sum(
+        np.maximum(width_panels, PANELS_PER_OSCILLATION * mirror.N * share + 1))
 
 
 def test_huge_n_colours_are_finite_and_saturated_in_gaps():

@@ -5,6 +5,7 @@ GPU twins of :func:`wgbragg.colour_methods.approx_xyz` ("approx", "subdivided") 
 One invocation per angle finds the landmarks of each polarisation (Newton on the closed-form
 dispersion in the mode coordinate, ``wgsl/landmarks.wgsl``) and integrates each landmark
 interval as it is reached (``wgsl/colour_landmark.wgsl``): O(1) in N, no per-angle storage.
+"averaged" sweeps both polarisations at once, over the zones between their band edges.
 Pipelines are specialised on the method and on ``host == n1``; ``s`` of "subdivided" is a
 uniform, so any ``s`` reuses one pipeline.
 
@@ -14,9 +15,9 @@ between as there) and its cumulative integral (:func:`colorimetry.cumulative_tab
 exact in-cell quadratic they give :func:`colorimetry.cumulative_xyz`, the boxes of eq 15).
 
 Speed and accuracy against the "reference" kernel: ``tools/bench_rgb.py``
-(docs/benchmarks.md). "averaged" evaluates R at three Gauss nodes per panel, about 40 per
-polarisation for N >= 16 (two panels per oscillation below); "approx" one envelope value per
-landmark interval.
+(docs/benchmarks.md). "averaged" evaluates R of both polarisations at three Gauss nodes per
+panel, 40 to 60 nodes for N >= 16 (``colour_methods.PANELS_PER_OSCILLATION`` panels per
+oscillation of the exact spectrum below); "approx" one envelope value per landmark interval.
 """
 
 from __future__ import annotations

@@ -12,7 +12,7 @@ registry of the thin-film methods (:mod:`wgbragg.thin_film_colour`).
   pieces. Both polarisations are smooth inside a zone and share its nodes. Modes, Airy and
   zero points are not needed. About 40 to 60 nodes, O(1) in N. Below
   :data:`AVERAGING_MIN_PERIODS` the oscillations are too few to average, and the exact R is
-  integrated with two panels per oscillation.
+  integrated with :data:`PANELS_PER_OSCILLATION` panels per oscillation.
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ __all__ = [
     "AVERAGING_MIN_PERIODS",
     "COLOUR_METHODS",
     "GPU_COLOUR_METHODS",
+    "PANELS_PER_OSCILLATION",
     "PANEL_NM",
     "THIN_FILM_COLOUR_METHODS",
     "angular_correction",
@@ -43,8 +44,13 @@ costs up to 6 dE2000 at N = 5 and under 0.25 from N = 20)."""
 PANEL_NM = 40.0
 """Widest Gauss panel (nm) of "averaged": the CMF x D65 density needs ~13 nm node spacing."""
 
+PANELS_PER_OSCILLATION = 3.0
+"""Gauss panels per oscillation of an exact spectrum (below :data:`AVERAGING_MIN_PERIODS`): the
+edge-clustering map stretches panels up to 2x away from the edges it serves, and two per
+oscillation cost up to 3 dE2000 at grazing angles (N = 10), three 1.4."""
+
 PANEL_MARGIN = 0.05
-"""Panels of an exact spectrum: ``ceil(2 x oscillations - PANEL_MARGIN)``."""
+"""Panels of an exact spectrum: ``ceil(PANELS_PER_OSCILLATION x oscillations - PANEL_MARGIN)``."""
 
 PHASE_SNAP = 0.15
 """Bloch phases (rad) this close to 0 or pi count as at a band edge (see :func:`_zones`)."""
@@ -196,10 +202,10 @@ def _panel_count(mirror, omega_lo, omega_hi, pass_band_share):
     width_nm = 2.0 * np.pi / omega_lo - 2.0 * np.pi / omega_hi
     count = max(1, int(np.ceil(width_nm / PANEL_NM)))
     if mirror.N < AVERAGING_MIN_PERIODS:
-        # Two panels per oscillation of the exact spectrum; the margin keeps a whole pass band
-        # (share 1 up to rounding: phases snapped to 0 and pi) at 2N panels in both twins.
+        # The margin keeps a whole pass band (share 1 up to rounding: phases snapped to 0 and
+        # pi) at the same count in both twins.
         oscillations = mirror.N * pass_band_share
-        count = max(count, int(np.ceil(2.0 * oscillations - PANEL_MARGIN)))
+        count = max(count, int(np.ceil(PANELS_PER_OSCILLATION * oscillations - PANEL_MARGIN)))
     return count
 
 

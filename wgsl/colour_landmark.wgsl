@@ -18,8 +18,10 @@
 // band edges (the square-root edge of the averaged spectrum is then smooth in u), against the
 // piecewise-linear XYZ density (colorimetry.xyz_density).
 
-// colour_methods.PANEL_NM, PANEL_MARGIN, PHASE_SNAP and AVERAGING_MIN_PERIODS.
+// colour_methods.PANEL_NM, PANELS_PER_OSCILLATION, PANEL_MARGIN, PHASE_SNAP and
+// AVERAGING_MIN_PERIODS.
 const PANEL_NM: f32 = 40.0;
+const PANELS_PER_OSCILLATION: f32 = 3.0;
 const PANEL_MARGIN: f32 = 0.05;
 const PHASE_SNAP: f32 = 0.15;
 const AVERAGING_MIN_PERIODS: u32 = 16u;
@@ -36,7 +38,8 @@ const METHOD_APPROX: u32 = 0u;
 const METHOD_SUBDIVIDED: u32 = 1u;
 const METHOD_AVERAGED: u32 = 2u;
 
-// What every landmark interval of one (angle, polarisation) needs.
+// What the landmark intervals of one angle need: of one polarisation ("approx", "subdivided"),
+// or of both ("averaged": frame is the s frame, frame_p the p one; polarization is unused).
 struct ColourSetup {
     mirror: BraggMirror,
     angle: CellGeometry,    // wavelength-independent fields only (see geometry_at)
@@ -228,7 +231,8 @@ fn averaged_zone(c: ColourSetup, lo: f32, hi: f32, lower_edge: bool, upper_edge:
     var panels = u32(max(ceil((TWO_PI / lo - TWO_PI / hi) * (1.0 / PANEL_NM)), 1.0));
     if (c.mirror.periods < AVERAGING_MIN_PERIODS) {
         let oscillations = f32(c.mirror.periods) * share;
-        panels = max(panels, u32(max(ceil(2.0 * oscillations - PANEL_MARGIN), 0.0)));
+        panels = max(panels, u32(max(ceil(PANELS_PER_OSCILLATION * oscillations - PANEL_MARGIN),
+                                         0.0)));
     }
     let span = hi - lo;
     let inv_panels = 1.0 / f32(panels);

@@ -24,7 +24,7 @@
 // 512-point omega grid, refined by bisection.
 
 // The visible range 360..830 nm as angular wavenumbers (rad/nm): landmarks.VISIBLE_OMEGA.
-const OMEGA_LO: f32 = 0.0075700220;   // 2 pi / 830
+const OMEGA_LO: f32 = 0.0075701028;   // 2 pi / 830
 const OMEGA_HI: f32 = 0.0174532925;   // 2 pi / 360
 const LAMBDA_LO_NM: f32 = 360.0;
 const LAMBDA_HI_NM: f32 = 830.0;
