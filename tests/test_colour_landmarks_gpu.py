@@ -143,9 +143,10 @@ def test_landmarks_match_numpy(mirror, pol):
     (GRID[18], 1.1),   # Lambda 500, N = 100
     (GRID[6], 0.0),    # Lambda 244, N = 5: exact R, two panels per oscillation
     (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), 1.5707),  # near grazing: zones of 1e-4 nm
-    # N = 10 at 73 degrees: a zone's 2 N share lies 0.003 above 7, so the float32 kernel's
-    # phase at its band edge (off by 5e-4 rad) took 7 panels where numpy took 8, dE 0.17,
-    # until both snapped edge phases (PHASE_SNAP).
+    # N = 10 at 73 degrees: at two panels per oscillation a zone's 2 N share lay 0.003 above
+    # 7, and the float32 kernel's phase at its band edge (off by 5e-4 rad) took 7 panels where
+    # numpy took 8, dE 0.17, until both snapped edge phases (PHASE_SNAP; the snap itself is
+    # tested in test_colour_methods.py).
     (BraggMirror(1.0, 1.5, 375.0, 125.0, 10), 1.2740904),
 ])
 def test_averaged_zones_match_numpy_in_xyz(mirror, theta):

@@ -171,3 +171,31 @@ def test_averaged_matches_the_converged_integral(mirror, degrees):
     spectrum = mirror.reflectance(wavelength, theta)[:, None] * colorimetry.xyz_density(wavelength)
     converged = colorimetry.xyz_to_linear_srgb(np.trapezoid(spectrum, wavelength, axis=0))
     assert delta_e_2000(mirror.rgb(theta, method="averaged"), converged) <= 0.15
+
+
+@pytest.mark.parametrize("snap", [True, False])
+def test_edge_phases_are_snapped_against_float32_edges(monkeypatch, snap):
+    """A band edge found in float32 (4e-7 relative) puts the Bloch phase there up to 0.05 rad
+    off 0 or pi (it grows like the square root of the distance). PHASE_SNAP keeps the zones'
+    shares, hence the twins' panel counts, those of the exact edges; without it they move."""
+    import dataclasses
+
+    from wgbragg import colour_methods
+
+    mirror = BraggMirror(1.0, 1.5, 375.0, 125.0, 10)
+    theta = 1.2740904
+    if not snap:
+        monkeypatch.setattr(colour_methods, "PHASE_SNAP", 0.0)
+    exact = _zones(mirror, theta)[4]
+    find = colour_methods.find_landmarks
+
+    def float32_edges(*args, **kwargs):
+        found = find(*args, **kwargs)
+        return dataclasses.replace(found, omega=found.omega * (1.0 + 4e-7))
+
+    monkeypatch.setattr(colour_methods, "find_landmarks", float32_edges)
+    moved = np.abs(_zones(mirror, theta)[4] - exact).max()
+    if snap:
+        assert moved < 1e-6
+    else:
+        assert moved > 1e-4  # the check can see what the snap prevents
