@@ -42,15 +42,22 @@ def test_section_written_once(bench, run):
 def test_every_estimator_is_timed_and_scored(bench, run):
     text, _ = run
     rows = _rows(text, "### Time, SMAPE")
-    assert [(r[0], r[1]) for r in rows] == [
-        (label, "GT (all paths)" if e == "GT" else e)
-        for label, *_, albedo in bench.QUICK.structures for e in bench.estimators(albedo)]
+    cfg = bench.QUICK
+    expected = []
+    for label, *_, albedo in cfg.structures:
+        expected.append((label, "GT (all paths)", str(cfg.gt_spp)))
+        expected += [(label, e, str(spp)) for spp, _ in cfg.points
+                     for e in bench.estimators(albedo)[1:]]
+    assert [(r[0], r[1], r[2]) for r in rows] == expected
     assert {r[1] for r in rows} == {"GT (all paths)", *bench.ESTIMATORS[1:]}
     for row in rows:
         if row[1] != "GT (all paths)":
             assert 0.0 <= float(row[4]) < 1.0
+            assert float(row[5].replace(",", "")) >= 0.0
     targets = _rows(text, "### Targets")
-    assert len(targets) == 4 and all(r[2] in ("yes", "no") for r in targets)
+    assert len(targets) == 4 * len(cfg.points)
+    assert [r[1] for r in targets] == [str(spp) for _ in range(4) for spp, _ in cfg.points]
+    assert all(r[3] in ("yes", "no") for r in targets)
 
 
 def test_environment_sampling_matches_its_density(bench):
