@@ -49,3 +49,44 @@ def test_map_writes_a_png_atomically(tmp_path, capsys):
         assert image.format == "PNG" and image.size[0] > 400
     assert [p.name for p in target.parent.iterdir()] == ["map.png"]  # no temp file left
 
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["render", "{tmp}/absent.toml"], "No such file"),
+        (["render", "{tmp}"], "Is a directory"),
+        (["render", "--scene", "furnace", "-o", "{tmp}"], "--output is a folder"),
+        (["render", "--scene", "furnace", "-o", "{tmp}/image.jpg"], "--output must end in .png"),
+        (["render", "--scene", "furnace", "-o", "{tmp}/ok.png", "--exr", "{tmp}/ok.png"],
+         "--exr must end in .exr"),
+        (["render", "--scene", "furnace", "-o", "{tmp}/file.txt/ok.png"],
+         "is not a writable folder"),
+        (["map", "-o", ""], "--output must be a file path ending in .png"),
+        (["map", "-o", "{tmp}/mapnosuffix"], "--output must end in .png"),
+        (["scatterogram", "-o", "{tmp}"], "--output is a folder"),
+        (["bake", "--cache", "{tmp}/file.txt", "--alpha", "0.3"], "--cache is a file"),
+        (["bake", "--cache", "{tmp}/file.txt/cache", "--alpha", "0.3"],
+         "is not a writable folder"),
+    ],
+)
+def test_file_mistakes_are_clear_errors_before_any_work(argv, message, tmp_path, capsys,
+                                                        monkeypatch):
+    """A path that cannot be read or written: exit status 2 and one line, no traceback, no
+    file left behind, and no render or bake started (they would fail the test)."""
+    (tmp_path / "file.txt").write_text("in the way")
+    from wgbragg import luts, maps, render, scatterogram
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("the work started before the output path was checked")
+
+    monkeypatch.setattr(render.Renderer, "render", forbidden)
+    monkeypatch.setattr(maps, "reflectance_map", forbidden)
+    monkeypatch.setattr(scatterogram, "scatterogram", forbidden)
+    monkeypatch.setattr(luts, "bake_transmission_filter", forbidden, raising=False)
+    before = sorted(tmp_path.rglob("*"))
+    assert main([a.replace("{tmp}", str(tmp_path)) for a in argv]) == 2
+    error = capsys.readouterr().err
+    assert error.startswith("wgbragg: error:") and message in error, error
+    assert error.count("\n") == 1
+    assert sorted(tmp_path.rglob("*")) == before

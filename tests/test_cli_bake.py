@@ -92,7 +92,7 @@ def test_cache_option_and_progress_bar(cache, fake_filter, tmp_path, capsys):
         (["--alpha", "0.1", "-1"], "alpha must be a real number in [0.01, 1]"),
         (["--alpha", "0.1", "2"], "alpha"),
         (["--alpha", "0.1", "nan"], "alpha"),
-        (["--resolution-deg", "0"], "resolution_deg must be a real number in (0, 90]"),
+        (["--resolution-deg", "0"], "resolution_deg must be a real number in [0.05, 90]"),
         (["--resolution-deg", "95"], "resolution_deg"),
         (["--psi-samples", "0"], "psi_samples must be an integer"),
         (["--alpha", "--no-colour-tables"], "nothing to bake"),

@@ -7,16 +7,18 @@ import math
 import numpy as np
 import pytest
 
-from wgbragg import BraggMirror
+from wgbragg import BraggMirror, ThinFilm
 from wgbragg.colorimetry import delta_e_2000
 from wgbragg.colour_methods import (
     AVERAGING_MIN_PERIODS,
     COLOUR_METHODS,
     PANEL_NM,
     PANELS_PER_OSCILLATION,
+    THIN_FILM_COLOUR_METHODS,
     _panel_count,
     _zones,
     angular_correction,
+    option_names,
 )
 
 THETA = np.radians(np.arange(0.0, 90.0, 15.0))
@@ -146,6 +148,8 @@ def test_paper_methods_refuse_another_host():
 
 
 @pytest.mark.parametrize(("kwargs", "name"), [({"method": "fast"}, "method"),
+                                              ({"method": ["reference"]}, "method"),
+                                              ({"method": None}, "method"),
                                               ({"backend": "cuda"}, "backend"),
                                               ({"theta": 2.0}, "theta"),
                                               ({"method": "subdivided", "s": 0}, "s"),
@@ -154,6 +158,33 @@ def test_bad_input(kwargs, name):
     arguments = {"theta": 0.3} | kwargs
     with pytest.raises(ValueError, match=name):
         BraggMirror(1.0, 1.5, 125.0, 375.0, 20).xyz(**arguments)
+
+
+@pytest.mark.parametrize(("material", "method", "option", "accepted"), [
+    (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), "reference", "samples", "none"),
+    (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), "approx", "s", "none"),
+    (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), "averaged", "order", "none"),
+    (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), "subdivided", "samples", "s"),
+    (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), "spectral", "s", "samples, seed"),
+    (ThinFilm(1.33, 400.0), "reference", "order", "none"),
+    (ThinFilm(1.33, 400.0), "fourier-table", "samples", "order, thickness_std_nm"),
+])
+@pytest.mark.parametrize("backend", ["numpy", "gpu"])
+def test_an_option_the_method_does_not_take_is_refused(material, method, option, accepted,
+                                                       backend):
+    """Before any work, on either backend: the message names the option and lists the
+    method's own."""
+    with pytest.raises(ValueError, match=rf"method '{method}' takes no option '{option}'; "
+                                         rf"its options: {accepted}$"):
+        material.rgb(0.3, method, backend, **{option: 3})
+
+
+def test_option_names_follow_the_signatures():
+    assert {name: option_names(m) for name, m in COLOUR_METHODS.items()} == {
+        "reference": (), "spectral": ("samples", "seed"), "approx": (),
+        "subdivided": ("s",), "averaged": ()}
+    for name in ("fourier-table", "fourier-gaussian"):
+        assert option_names(THIN_FILM_COLOUR_METHODS[name]) == ("order", "thickness_std_nm")
 
 
 @pytest.mark.parametrize(("mirror", "degrees"), [

@@ -175,12 +175,18 @@ def test_integrate_xyz_rejects_mismatched_nodes():
 # --------------------------------------------------------------------------- spectral (numpy)
 
 
-@pytest.mark.parametrize("samples", [0, -3, 2.5, True, "16", None, math.nan])
+@pytest.mark.parametrize("samples", [0, -3, 2.5, True, "16", None, math.nan, 100_001, 10**9])
 def test_spectral_rejects_bad_sample_counts(samples):
     with pytest.raises(ValueError, match=names("samples")):
         spectral_xyz_stratified(MIRRORS[0], 0.1, samples=samples)
     with pytest.raises(ValueError, match=names("samples")):
         stratified_nodes(samples)
+
+
+@pytest.mark.parametrize("seed", ["x", 1.5, -1, True, [1, 2]])
+def test_spectral_rejects_bad_seeds(seed):
+    with pytest.raises(ValueError, match=names("seed")):
+        spectral_xyz_stratified(MIRRORS[0], 0.1, samples=4, seed=seed)
 
 
 @pytest.mark.parametrize("samples", [1, 4, 17, 471, 1000])

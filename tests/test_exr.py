@@ -96,6 +96,25 @@ def test_refuses_a_file_that_is_not_exr(tmp_path):
         read_exr(path)
 
 
+def test_refuses_a_truncated_file_naming_it(tmp_path):
+    whole = tmp_path / "whole.exr"
+    write_exr(whole, np.ones((8, 8, 3)))
+    cut = tmp_path / "cut.exr"
+    cut.write_bytes(whole.read_bytes()[:40])
+    with pytest.raises(ValueError, match=r"cut\.exr: not a readable OpenEXR file"):
+        read_exr(cut)
+
+
+def test_write_refuses_other_suffixes_and_folders(tmp_path):
+    with pytest.raises(ValueError, match=r"path must end in \.exr"):
+        write_exr(tmp_path / "image.png", np.ones((2, 2, 3)))
+    folder = tmp_path / "folder.exr"
+    folder.mkdir()
+    with pytest.raises(ValueError, match="path is a folder"):
+        write_exr(folder, np.ones((2, 2, 3)))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["folder.exr"]
+
+
 @pytest.mark.parametrize(
     ("channels", "match"),
     [

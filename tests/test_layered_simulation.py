@@ -330,3 +330,18 @@ def test_bad_arguments_raise(structures, arguments, name):
     call = {"wi": direction(20.0), "wo": direction(30.0, 180.0), **arguments}
     with pytest.raises(ValueError, match=name):
         structures["A, base None"].simulate(**call)
+
+
+@pytest.mark.parametrize("wavelength_nm", [None, [450.0, 550.0, 650.0]])
+def test_no_queries_give_empty_results(structures, wavelength_nm):
+    """As brdf and sample do: shapes of the same call with an empty leading axis."""
+    s = structures["A, base None"]
+    channels = 3
+    directions, weights = s.simulate(np.zeros((0, 3)), paths=5, wavelength_nm=wavelength_nm)
+    assert directions.shape == (0, 5, 3) and weights.shape == (0, 5, channels)
+    estimate = s.simulate(np.zeros((2, 0, 3)), np.zeros((2, 0, 3)), paths=4,
+                          wavelength_nm=wavelength_nm)
+    assert estimate.shape == (2, 0, channels)
+    estimate, error = s.simulate(np.zeros((0, 3)), np.zeros((0, 3)), paths=4,
+                                 wavelength_nm=wavelength_nm, return_error=True)
+    assert estimate.shape == error.shape == (0, channels)

@@ -174,6 +174,19 @@ def test_cached_rebakes_damaged_file_with_a_warning(cache, damage):
     assert sorted(p.name for p in cache.iterdir()) == [path.name]  # no temporary left
 
 
+def test_load_refuses_a_header_that_is_no_literal(tmp_path):
+    """An unclosed bracket in a table's .npy header: numpy's Python 2 header filter tokenizes
+    it and raises TokenError, not a ValueError. (The table is large enough for the header to be
+    read before zip's CRC check at the member's end.)"""
+    path = luts.save_lut(tmp_path / "big.npz", KIND, PARAMETERS, {"x": np.zeros((100, 100))})
+    raw = path.read_bytes()
+    start = raw.rindex(b"'shape': (")  # the table's header (the first is the metadata's)
+    end = raw.index(b")", start)
+    path.write_bytes(raw[:end] + b" " + raw[end + 1:])
+    with pytest.raises(luts.LutError, match="unreadable header of array 'x'"):
+        luts.load_lut(path, KIND, PARAMETERS)
+
+
 def test_pickle_is_never_run(saved):
     """The object array is refused from its header: np.load never reaches the pickle."""
     _pickled_object_array(saved)
@@ -387,6 +400,7 @@ def fake_filter_module() -> types.ModuleType:
     module = types.ModuleType("wgbragg.transmission_filter")
     module.bakes = []
     module.FILTER_ALPHA_MIN = 0.01
+    module.MIN_RESOLUTION_DEG = 0.05
 
     @dataclasses.dataclass(frozen=True)
     class TransmissionFilter:
@@ -478,7 +492,8 @@ def test_transmission_filter_parameters_are_normalised():
         ({"alpha": float("inf")}, "alpha"),
         ({"alpha": "0.1"}, "alpha"),
         ({"alpha": True}, "alpha"),
-        ({"resolution_deg": 0.0}, r"resolution_deg must be a real number in \(0, 90\]"),
+        ({"resolution_deg": 0.0}, r"resolution_deg must be a real number in \[0.05, 90\]"),
+        ({"resolution_deg": 1e-9}, r"resolution_deg must be a real number in \[0.05, 90\]"),
         ({"resolution_deg": 91.0}, "resolution_deg"),
         ({"psi_samples": 0}, "psi_samples must be an integer"),
         ({"psi_samples": 2.5}, "psi_samples"),

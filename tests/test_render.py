@@ -220,7 +220,10 @@ def test_an_exr_environment_file_must_be_readable(tmp_path):
 
 
 @pytest.mark.parametrize(("argument", "value"),
-                         [("size", (0, 4)), ("seed", -1), ("mode", "hyperspectral")])
+                         [("size", (0, 4)), ("size", 5), ("size", (1, 2, 3)),
+                          ("size", (True, True)), ("size", (4.0, 4)),
+                          ("size", (16384, 16384)),  # 4 GiB of accumulation: over wgpu's 2 GiB
+                          ("seed", -1), ("mode", "hyperspectral")])
 def test_bad_arguments_name_the_parameter(argument, value):
     with pytest.raises(ValueError, match=argument):
         Renderer(load_preset("furnace"), **{argument: value})
@@ -237,6 +240,20 @@ def test_display_transform():
     assert display_transform(image, 1.0)[0, 2].tolist() == [156, 156, 156]
     with pytest.raises(ValueError, match="image"):
         display_transform(np.zeros((2, 2)))
+    for exposure in (1100.0, -65.0, float("nan"), None, "1", True):
+        with pytest.raises(ValueError, match=r"exposure must be a number of EV stops in \[-64"):
+            display_transform(image, exposure)
+    with pytest.raises(ValueError, match="image"):
+        display_transform(np.array([[["a", "b", "c"]]]))
+
+
+def test_png_paths_are_checked_before_writing(tmp_path):
+    image = np.full((2, 2, 3), 0.5)
+    for path, message in ((tmp_path / "image.jpg", r"path must end in \.png"),
+                          (tmp_path, "path is a folder"), ("", "path must be a file path")):
+        with pytest.raises(ValueError, match=message):
+            save_png(image, path)
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_png_is_written_atomically(tmp_path, monkeypatch):

@@ -319,9 +319,11 @@ def test_wrong_types_are_refused(tmp_path, old, new, key, accepted):
 
 
 @pytest.mark.parametrize(("old", "new", "key", "accepted"), [
-    ("n2 = 1.5", "n2 = 0.0", "materials.blue.layers[0].n2", "refractive index > 0"),
+    ("n2 = 1.5", "n2 = 0.0", "materials.blue.layers[0].n2", "refractive index in (0, 100]"),
+    ("n2 = 1.5", "n2 = 1e20", "materials.blue.layers[0].n2", "refractive index in (0, 100]"),
     ("n1 = 1.0", "n1 = 0.9", "materials.blue.layers[0].n1", "must be >= 1"),
-    ("d1_nm = 250.0", "d1_nm = -1.0", "materials.blue.layers[0].d1_nm", "thickness in nm >= 0"),
+    ("d1_nm = 250.0", "d1_nm = -1.0", "materials.blue.layers[0].d1_nm",
+     "thickness in [0, 1e+06] nm"),
     ("N = 10", "N = 0", "materials.blue.layers[0].N", "integer in [1, 2147483647]"),
     ("alpha = 0.1", "alpha = 0.005", "materials.blue.layers[0].alpha", "in [0.01, 1]"),
     ("alpha = 0.1", "alpha = 1.5", "materials.blue.layers[0].alpha", "in [0.01, 1]"),
@@ -334,7 +336,17 @@ def test_wrong_types_are_refused(tmp_path, old, new, key, accepted):
      "materials.blue.layers[0].delta", "in [0, 1]"),
     ("d2_nm = 250.0", "period_nm = 500.0", "materials.blue.layers[0]",
      "d1_nm and d2_nm, or as period_nm and delta"),
-    ('material = "white"', 'material = "white"\nscale = 0.0', "objects[1].scale", "in (0, inf)"),
+    ('material = "white"', 'material = "white"\nscale = 0.0', "objects[1].scale",
+     "in [1e-06, 1e+06]"),
+    ('material = "white"', 'material = "white"\nscale = 1e300', "objects[1].scale",
+     "in [1e-06, 1e+06]"),
+    ("[camera]", "[settings]\nexposure = 1100.0\n[camera]", "settings.exposure",
+     "in [-64, 64]"),
+    ("[camera]", "[settings]\nsize = [16384, 16384]\n[camera]", "settings.size",
+     "at most 134217728 pixels"),
+    ("[camera]", '[environment]\ntype = "sky"\nintensity = 1e37\n[camera]',
+     "environment.intensity", "in [0, 1e+09]"),
+    ("[camera]", "[camera]\nup = [0.0, 1e300, 0.0]", "camera.up[1]", "in [-1e+09, 1e+09]"),
     ("[camera]", "[settings]\nspp = 0\n[camera]", "settings.spp", "an integer >= 1"),
     ("alpha = 0.1", 'alpha = 0.1\n[materials.blue.period_map]\nprocedural = "stripes"\n'
      "range = [300.0, 200.0]", "materials.blue.period_map.range", "lo <= hi"),

@@ -15,8 +15,8 @@ from wgbragg.optics import transfer_matrix_reflectance
 MAX_INT32 = 2**31 - 1
 GOOD_MIRROR = {"n1": 1.0, "n2": 1.5, "d1": 125.0, "d2": 375.0, "N": 20, "host": 1.0}
 GOOD_FILM = {"n_film": 1.3, "d": 290.0, "n_base": 1.0, "k_base": 0.0, "host": 1.0}
-BAD_INDICES = [0.0, -1.5, math.nan, math.inf, -math.inf, "1.5", 1.5 + 0j, True]
-BAD_THICKNESSES = [-1e-9, -100.0, math.nan, math.inf, "10", None]
+BAD_INDICES = [0.0, -1.5, 100.5, 1e20, math.nan, math.inf, -math.inf, "1.5", 1.5 + 0j, True]
+BAD_THICKNESSES = [-1e-9, -100.0, 1.0000001e6, 1e300, math.nan, math.inf, "10", None]
 BAD_COUNTS = [0, -3, 2.5, True, False, np.True_, 2**31, 2**40, math.nan, math.inf, "20", None]
 
 
@@ -60,11 +60,13 @@ def test_mirror_accepts_integral_period_counts(value):
     assert type(mirror.N) is int
 
 
+@pytest.mark.gpu
 def test_mirror_accepts_the_edges_of_its_domain():
-    mirror = BraggMirror(n1=1e-3, n2=50.0, d1=0.0, d2=0.0, N=MAX_INT32)
+    mirror = BraggMirror(n1=1e-3, n2=100.0, d1=0.0, d2=1e6, N=MAX_INT32)
     assert mirror.host == mirror.n1  # host defaults to n1
-    R = mirror.reflectance([1e-3, 1e6], [0.0, math.pi / 2])
-    assert np.all((R >= 0) & (R <= 1))
+    for backend in ("numpy", "gpu"):
+        R = mirror.reflectance([1.0, 1e6], [0.0, math.pi / 2], backend=backend)
+        assert np.all((R >= 0) & (R <= 1))
 
 
 @pytest.mark.parametrize("value", [*BAD_INDICES, None])
@@ -74,7 +76,7 @@ def test_film_rejects_bad_indices(name, value):
         ThinFilm(**with_value(GOOD_FILM, name, value))
 
 
-@pytest.mark.parametrize("value", [-1e-12, -2.0, math.nan, math.inf, "0", None])
+@pytest.mark.parametrize("value", [-1e-12, -2.0, 1.00001e4, 1e10, math.nan, math.inf, "0", None])
 def test_film_rejects_bad_extinction(value):
     with pytest.raises(ValueError, match=names("k_base")):
         ThinFilm(**with_value(GOOD_FILM, "k_base", value))
@@ -102,6 +104,9 @@ THINGS = [BraggMirror(**GOOD_MIRROR), BraggMirror(1.59, 1.67, 81.6, 78.4, 8),
 BAD_CALLS = [
     # (wavelength_nm, theta, polarization, backend, parameter named in the message)
     (0.0, 0.1, "s", "numpy", "wavelength_nm"),
+    (0.999, 0.1, "s", "numpy", "wavelength_nm"),
+    (1e-300, 0.1, "s", "gpu", "wavelength_nm"),
+    (1.0000001e6, 0.1, "s", "numpy", "wavelength_nm"),
     (-500.0, 0.1, "s", "numpy", "wavelength_nm"),
     (math.inf, 0.1, "s", "numpy", "wavelength_nm"),
     (math.nan, 0.1, "s", "numpy", "wavelength_nm"),
@@ -162,11 +167,14 @@ def test_gpu_backend_rejects_bad_arguments_on_a_real_device():
         assert np.isfinite(thing.reflectance([500.0, 600.0], 0.1, backend="gpu")).all()
 
 
+@pytest.mark.gpu
 def test_reflectance_accepts_the_edges_of_its_domain():
     for thing in THINGS:
-        R = thing.reflectance([1e-6, 1e9], [[0.0], [math.pi / 2]], polarization="p")
-        assert R.shape == (2, 2)
-        assert np.all((R >= 0) & (R <= 1))
+        for backend in ("numpy", "gpu"):
+            R = thing.reflectance([1.0, 1e6], [[0.0], [math.pi / 2]], polarization="p",
+                                  backend=backend)
+            assert R.shape == (2, 2)
+            assert np.all((R >= 0) & (R <= 1))
 
 
 # --------------------------------------------------------------------------- transfer matrices

@@ -8,7 +8,7 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
-__all__ = ["atomic_path", "write_text_atomic"]
+__all__ = ["atomic_path", "check_output_folder", "check_output_path", "write_text_atomic"]
 
 
 def _umask() -> int:
@@ -38,6 +38,51 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(temporary)
+
+
+def check_output_path(path, name: str, suffix: str) -> Path:
+    """``path`` as a :class:`~pathlib.Path` if a ``suffix`` file can be written there, checked
+    before any work is done for it.
+
+    Raises
+    ------
+    ValueError
+        Naming ``name``: an empty path, another suffix (the format follows it), an existing
+        directory, or a folder that cannot be created or written (a file in the way, no
+        permission).
+    """
+    try:
+        text = os.fspath(path)
+    except TypeError:
+        raise ValueError(f"{name} must be a file path, got {path!r}") from None
+    target = Path(text)
+    if not text or not target.name:
+        raise ValueError(f"{name} must be a file path ending in {suffix}, got {text!r}")
+    if target.is_dir():
+        raise ValueError(f"{name} is a folder, not a file: {text!r}")
+    if target.suffix.lower() != suffix:
+        raise ValueError(f"{name} must end in {suffix} (the format follows it), got {text!r}")
+    _check_creatable(target.absolute().parent, name, text)
+    return target
+
+
+def check_output_folder(path, name: str) -> Path:
+    """``path`` as a :class:`~pathlib.Path` if it is, or can be created as, a writable folder
+    (raises ValueError naming ``name`` otherwise)."""
+    target = Path(path)
+    if target.exists() and not target.is_dir():
+        raise ValueError(f"{name} is a file, not a folder: {os.fspath(path)!r}")
+    _check_creatable(target.absolute(), name, os.fspath(path))
+    return target
+
+
+def _check_creatable(folder: Path, name: str, text: str) -> None:
+    # The nearest folder that exists must be one we can create the rest in and write to.
+    while not folder.exists():
+        folder = folder.parent
+    if not folder.is_dir() or not os.access(folder, os.W_OK | os.X_OK):
+        raise ValueError(f"{name} cannot be written: {folder} is not a writable folder "
+                         f"(for {text!r})")
 
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> None:

@@ -13,7 +13,11 @@ import numpy as np
 
 __all__ = [
     "BACKENDS",
+    "MAX_EXTINCTION",
+    "MAX_INDEX",
+    "MAX_THICKNESS_NM",
     "POLARIZATIONS",
+    "WAVELENGTH_RANGE_NM",
     "check_angle",
     "check_backend",
     "check_count",
@@ -52,27 +56,40 @@ def _as_float(name: str, value) -> float:
     return value
 
 
+# Bounds that keep every float32 kernel finite: squares and fourth powers of indices (Fresnel
+# and admittance products) stay far below float32's 3e38, and a layer's phase in cycles
+# (n d / lambda) keeps a resolution of 1e-2 cycle. Visible-range optics needs n < 10, k < 15
+# (metals) and layers far thinner than a millimetre; k up to 1e4 models a perfect conductor
+# (R = 1 - 4e-8 against air).
+MAX_INDEX = 100.0
+MAX_EXTINCTION = 1e4
+MAX_THICKNESS_NM = 1e6
+WAVELENGTH_RANGE_NM = (1.0, 1e6)
+
+
 def check_index(name: str, value) -> float:
-    """A real refractive index: finite and > 0."""
+    """A real refractive index in (0, :data:`MAX_INDEX`]."""
     value = _as_float(name, value)
-    if not (0.0 < value < math.inf):
-        raise ValueError(f"{name} must be a finite refractive index > 0, got {value}")
+    if not (0.0 < value <= MAX_INDEX):
+        raise ValueError(f"{name} must be a refractive index in (0, {MAX_INDEX:g}], got {value}")
     return value
 
 
 def check_extinction(name: str, value) -> float:
-    """An extinction coefficient (imaginary part of an index): finite and >= 0."""
+    """An extinction coefficient (imaginary part of an index) in [0, :data:`MAX_EXTINCTION`]."""
     value = _as_float(name, value)
-    if not (0.0 <= value < math.inf):
-        raise ValueError(f"{name} must be a finite extinction coefficient >= 0, got {value}")
+    if not (0.0 <= value <= MAX_EXTINCTION):
+        raise ValueError(f"{name} must be an extinction coefficient in [0, {MAX_EXTINCTION:g}], "
+                         f"got {value}")
     return value
 
 
 def check_thickness(name: str, value) -> float:
-    """A layer thickness in nm: finite and >= 0."""
+    """A layer thickness in nm, in [0, :data:`MAX_THICKNESS_NM`]."""
     value = _as_float(name, value)
-    if not (0.0 <= value < math.inf):
-        raise ValueError(f"{name} must be a finite thickness in nm >= 0, got {value}")
+    if not (0.0 <= value <= MAX_THICKNESS_NM):
+        raise ValueError(f"{name} must be a thickness in [0, {MAX_THICKNESS_NM:g}] nm, "
+                         f"got {value}")
     return value
 
 
@@ -95,10 +112,11 @@ def check_count(name: str, value) -> int:
 
 
 def check_wavelength(value, name: str = "wavelength_nm") -> np.ndarray:
-    """Wavelengths in nm: finite and > 0."""
+    """Wavelengths in nm, in :data:`WAVELENGTH_RANGE_NM`."""
     array = _as_float_array(name, value)
-    if not np.all((array > 0.0) & np.isfinite(array)):
-        raise ValueError(f"{name} must be finite and > 0 (nm)")
+    low, high = WAVELENGTH_RANGE_NM
+    if not np.all((array >= low) & (array <= high)):
+        raise ValueError(f"{name} must be in [{low:g}, {high:g}] nm")
     return array
 
 

@@ -17,6 +17,8 @@ import warnings
 
 import numpy as np
 
+from ._io import check_output_folder, check_output_path
+
 __all__ = ["main"]
 
 DEFAULT_ALPHAS = (0.05, 0.1, 0.2, 0.4)
@@ -70,6 +72,7 @@ def _reflectance(args) -> int:
 def _map(args) -> int:
     from .maps import reflectance_map, save_reflectance_map
 
+    check_output_path(args.output, "--output", ".png")
     mirror = _mirror(args)
     start = time.perf_counter()
     result = reflectance_map(mirror, polarization=args.polarization, backend=args.backend)
@@ -97,6 +100,8 @@ def _bake(args) -> int:
     # does not surface only after minutes of baking the others.
     for alpha in args.alpha:
         luts.transmission_filter_parameters(alpha, args.resolution_deg, args.psi_samples)
+    if args.cache is not None:
+        check_output_folder(args.cache, "--cache")
     jobs = [
         # shared=False: baking means checking every file, even one read before.
         functools.partial(luts.transmission_filter, alpha, args.resolution_deg,
@@ -119,6 +124,7 @@ def _scatterogram(args) -> int:
     from . import BraggMirror, LayeredBragg, RoughBraggLayer
     from .scatterogram import jewel_beetle, save_scatterogram, scatterogram
 
+    check_output_path(args.output, "--output", ".png")
     if args.preset is not None:
         structure = jewel_beetle(args.preset)
         label = f"jewel beetle, {args.preset} area (Table 3)"
@@ -156,6 +162,10 @@ def _render(args) -> int:
         raise ValueError("give either a scene file or --scene NAME, not both or neither")
     if args.spp is not None and args.seconds is not None:
         raise ValueError("give either --spp or --seconds, not both")
+    # Before the render: a bad output path must not cost its minutes.
+    check_output_path(args.output, "--output", ".png")
+    if args.exr is not None:
+        check_output_path(args.exr, "--exr", ".exr")
     scene = load_preset(args.scene) if args.scene else load_scene(args.scene_file)
     renderer = Renderer(scene, size=args.size, mode=args.mode, ibl=args.ibl)
     start = time.perf_counter()
@@ -196,7 +206,7 @@ def build_parser() -> argparse.ArgumentParser:
     bake.add_argument("--alpha", type=float, nargs="*", default=list(DEFAULT_ALPHAS),
                       help="GGX roughnesses of the transmission filters (none: skip them)")
     bake.add_argument("--resolution-deg", type=float, default=0.25,
-                      help="angular step of the filter tables, degrees in (0, 90]")
+                      help="angular step of the filter tables, degrees in [0.05, 90]")
     bake.add_argument("--psi-samples", type=int, default=1000,
                       help="azimuth samples per filter entry, >= 1")
     bake.add_argument("--backend", choices=("gpu", "numpy"), default="gpu",
@@ -262,7 +272,8 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.run(args)
-    except (ValueError, RuntimeError) as error:
+    except (ValueError, RuntimeError, OSError) as error:
+        # OSError: a file that cannot be read or written (missing, a folder, no permission).
         print(f"wgbragg: error: {error}", file=sys.stderr)
         return 2
 

@@ -17,6 +17,8 @@ registry of the thin-film methods (:mod:`wgbragg.thin_film_colour`).
 
 from __future__ import annotations
 
+import inspect
+
 import numpy as np
 
 from . import colorimetry
@@ -35,6 +37,7 @@ __all__ = [
     "approx_xyz",
     "averaged_xyz",
     "envelope",
+    "option_names",
 ]
 
 AVERAGING_MIN_PERIODS = 16
@@ -252,6 +255,15 @@ def averaged_xyz(mirror, theta):
     return out
 
 
+def option_names(method) -> tuple[str, ...]:
+    """The keyword options a colour method of :data:`COLOUR_METHODS` or
+    :data:`THIN_FILM_COLOUR_METHODS` takes (beyond material, theta and backend)."""
+    declared = getattr(method, "options", None)
+    if declared is not None:
+        return declared
+    return tuple(inspect.signature(method).parameters)[3:]
+
+
 def _landmark_method(function, gpu_twin, **fixed):
     def method(material, theta, backend, **options):
         if backend == "gpu":
@@ -266,6 +278,8 @@ def _landmark_method(function, gpu_twin, **fixed):
             )
         return function(material, theta, **fixed, **options)
 
+    method.options = tuple(name for name in tuple(inspect.signature(function).parameters)[2:]
+                           if name not in fixed)
     return method
 
 

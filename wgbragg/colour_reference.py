@@ -14,12 +14,15 @@ float32 WGSL invocation per angle over the same nodes (:mod:`wgbragg.colour_gpu`
 
 from __future__ import annotations
 
+import numbers
+
 import numpy as np
 
 from . import colorimetry
 from ._validation import check_angle, check_backend, check_count
 
 __all__ = [
+    "MAX_SAMPLES",
     "STRATA_RANGE_NM",
     "integrate_xyz",
     "reference_xyz",
@@ -31,6 +34,10 @@ STRATA_RANGE_NM = (
     colorimetry.WAVELENGTH_RANGE_NM[0] - 0.5 * colorimetry.WAVELENGTH_STEP_NM,
     colorimetry.WAVELENGTH_RANGE_NM[1] + 0.5 * colorimetry.WAVELENGTH_STEP_NM,
 )
+
+MAX_SAMPLES = 100_000
+"""Most strata of "spectral": far past convergence (strata of 0.005 nm), and the nodes of one
+call stay in memory."""
 """Interval split into strata, nm: 359.5-830.5, the union of the reference's 1 nm cells."""
 
 # Reflectances evaluated per numpy block: bounds memory for large angle arrays.
@@ -144,7 +151,7 @@ def stratified_nodes(samples: int, seed=None) -> tuple[np.ndarray, np.ndarray]:
     Parameters
     ----------
     samples : int
-        Number of strata K >= 1.
+        Number of strata K in [1, :data:`MAX_SAMPLES`].
     seed : None, int or numpy.random.Generator
         None: each node at the centre of its stratum (deterministic midpoint rule). Otherwise
         one uniform jitter per stratum from ``numpy.random.default_rng(seed)``.
@@ -159,7 +166,8 @@ def stratified_nodes(samples: int, seed=None) -> tuple[np.ndarray, np.ndarray]:
     Raises
     ------
     ValueError
-        If ``samples`` is not an integer >= 1.
+        If ``samples`` is not an integer in [1, MAX_SAMPLES], or ``seed`` is none of the
+        above.
 
     Notes
     -----
@@ -181,11 +189,17 @@ def stratified_nodes(samples: int, seed=None) -> tuple[np.ndarray, np.ndarray]:
     [418.375, 536.125, 653.875, 771.625]
     """
     count = check_count("samples", samples)
+    if count > MAX_SAMPLES:
+        raise ValueError(f"samples must be an integer in [1, {MAX_SAMPLES}], got {count}")
     start, end = STRATA_RANGE_NM
     width = (end - start) / count
     if seed is None:
         offset = np.full(count, 0.5)
     else:
+        if not isinstance(seed, np.random.Generator) and (
+                isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0):
+            raise ValueError(f"seed must be None, an integer >= 0 or a numpy.random.Generator, "
+                             f"got {seed!r}")
         offset = np.random.default_rng(seed).random(count)
     # float32-representable nodes: the GPU kernel then samples exactly the numpy wavelengths.
     wavelength = (start + (np.arange(count) + offset) * width).astype(np.float32).astype(float)
@@ -202,7 +216,8 @@ def spectral_xyz_stratified(material, theta, samples=16, backend="numpy", seed=N
     theta : array_like
         Angles of incidence in radians in ``[0, pi/2]``, any shape.
     samples : int
-        Number of strata K >= 1 (cost: K reflectance evaluations per angle).
+        Number of strata K in [1, :data:`MAX_SAMPLES`] (cost: K reflectance evaluations per
+        angle).
     backend : {"numpy", "gpu"}
     seed : None, int or numpy.random.Generator
         None: deterministic centred nodes. Otherwise jittered nodes, shared by all angles of
@@ -216,7 +231,7 @@ def spectral_xyz_stratified(material, theta, samples=16, backend="numpy", seed=N
     Raises
     ------
     ValueError
-        For ``samples`` not an integer >= 1, or as :func:`reference_xyz`.
+        As :func:`stratified_nodes`, or as :func:`reference_xyz`.
 
     Notes
     -----

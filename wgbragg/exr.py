@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import OpenEXR
 
-from ._io import atomic_path
+from ._io import atomic_path, check_output_path
 
 __all__ = ["read_exr", "write_exr"]
 
@@ -53,7 +53,8 @@ def read_exr(path: str | os.PathLike) -> np.ndarray:
     try:
         with OpenEXR.File(str(path), separate_channels=True) as exr:
             channels = {name: channel.pixels for name, channel in exr.channels().items()}
-    except RuntimeError as error:
+    except (RuntimeError, ValueError) as error:
+        # A truncated file opens with no parts: the binding's ValueError names no file.
         raise ValueError(f"{path}: not a readable OpenEXR file ({error})") from None
     found = set(channels)
     if found.issuperset(_RGB):
@@ -82,8 +83,8 @@ def write_exr(path: str | os.PathLike, image) -> None:
     Parameters
     ----------
     path : str or os.PathLike
-        Destination; parent folders are created. Until the write succeeds an existing file
-        stays as it was, and no partial file is ever visible under ``path``.
+        Destination, suffix ``.exr``; parent folders are created. Until the write succeeds an
+        existing file stays as it was, and no partial file is ever visible under ``path``.
     image : array_like, shape (H, W, 3)
         Linear RGB, row 0 at the top, finite in float32; stored as float32 (ZIP compressed,
         lossless), so :func:`read_exr` returns ``image.astype(np.float32)`` exactly.
@@ -92,8 +93,9 @@ def write_exr(path: str | os.PathLike, image) -> None:
     ------
     ValueError
         If ``image`` is not a real ``(H, W, 3)`` array with ``H, W >= 1``, or is not finite
-        in float32.
+        in float32; if ``path`` cannot take the file (see :func:`wgbragg._io.check_output_path`).
     """
+    check_output_path(path, "path", ".exr")
     array = np.asarray(image)
     if array.dtype.kind not in "biuf":
         raise ValueError(f"image must hold real numbers, got dtype {array.dtype}")

@@ -293,6 +293,11 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
             raise ValueError(f"wavelength_nm: with wo=None a path carries at most "
                              f"{PATH_WAVELENGTHS} wavelengths, got {channels} (call again "
                              "with the same seed for more: the paths share random numbers)")
+    if 0 in shape:  # no query: what the same call on one more query would give, empty
+        if not next_event:
+            return np.zeros((*shape, paths, 3)), np.zeros((*shape, paths, channels))
+        empty = np.zeros((*shape, channels))
+        return (empty, empty.copy()) if return_error else empty
     groups = 1 if lanes is None else lanes.size // PATH_WAVELENGTHS
     n = structure.host_index
     records, tables = _layers(structure, lanes, ballistic)

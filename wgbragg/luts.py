@@ -35,6 +35,7 @@ import numbers
 import os
 import re
 import sys
+import tokenize
 import warnings
 import zipfile
 import zlib
@@ -83,9 +84,11 @@ _NUMERIC_KINDS = "biuf"
 _HASH_CHARS = 16  # 64 bits of the parameter hash in file names: collisions are not a concern
 # What reading damaged bytes can raise: zipfile and numpy's header parser report corruption
 # with all of these (a flipped compression-method byte gives NotImplementedError, a flipped
-# encryption flag RuntimeError; the former is a kind of the latter).
+# encryption flag RuntimeError; the former is a kind of the latter). A damaged .npy header
+# that is no Python literal sends numpy to its Python 2 header filter, whose tokenizer raises
+# TokenError (an unclosed bracket) or SyntaxError.
 _READ_ERRORS = (OSError, EOFError, ValueError, KeyError, RuntimeError, zipfile.BadZipFile,
-                zlib.error)
+                zlib.error, tokenize.TokenError, SyntaxError)
 _HEADER_READERS = {(1, 0): np.lib.format.read_array_header_1_0,
                    (2, 0): np.lib.format.read_array_header_2_0}
 
@@ -599,17 +602,19 @@ def transmission_filter_parameters(alpha, resolution_deg=0.25, psi_samples=1000)
     ValueError
         Naming the parameter out of range: ``alpha`` must be in
         [:data:`~wgbragg.transmission_filter.FILTER_ALPHA_MIN`,
-        :data:`~wgbragg.microfacet.ALPHA_MAX`] (0.01 to 1), ``resolution_deg`` in (0, 90],
+        :data:`~wgbragg.microfacet.ALPHA_MAX`] (0.01 to 1), ``resolution_deg`` in
+        [:data:`~wgbragg.transmission_filter.MIN_RESOLUTION_DEG`, 90] (0.05 to 90),
         ``psi_samples`` an integer >= 1.
     """
     # The filter's own bounds, checked here too so that ``wgbragg bake`` refuses a bad alpha
     # before baking the others.
     from .microfacet import ALPHA_MAX
-    from .transmission_filter import FILTER_ALPHA_MIN
+    from .transmission_filter import FILTER_ALPHA_MIN, MIN_RESOLUTION_DEG
 
     return {
         "alpha": _real("alpha", alpha, FILTER_ALPHA_MIN, ALPHA_MAX, include_low=True),
-        "resolution_deg": _real("resolution_deg", resolution_deg, 0.0, 90.0, include_low=False),
+        "resolution_deg": _real("resolution_deg", resolution_deg, MIN_RESOLUTION_DEG, 90.0,
+                                include_low=True),
         "psi_samples": check_count("psi_samples", psi_samples),
         "wgbragg": __version__,
     }
@@ -625,7 +630,7 @@ def transmission_filter(alpha, resolution_deg=0.25, psi_samples=1000, backend="g
     alpha : float
         GGX roughness, in [0.01, 1].
     resolution_deg : float
-        Angular step of the table in degrees, in (0, 90].
+        Angular step of the table in degrees, in [0.05, 90].
     psi_samples : int
         Azimuth samples per table entry, >= 1.
     backend : {"gpu", "numpy"}

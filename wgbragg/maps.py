@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._io import atomic_path
+from ._io import atomic_path, check_output_path
 
 __all__ = ["ReflectanceMap", "reflectance_map", "save_reflectance_map"]
 
@@ -47,7 +47,9 @@ def reflectance_map(material, *, wavelength_nm=None, theta=None, polarization="u
 
 
 def save_reflectance_map(result: ReflectanceMap, path: str | os.PathLike, title: str | None = None):
-    """Write the map as a PNG heat map (atomically) and return the path."""
+    """Write the map as a PNG heat map (atomically; ``path`` ends in ``.png``) and return
+    the path."""
+    check_output_path(path, "path", ".png")
     import matplotlib
 
     matplotlib.use("Agg")
@@ -61,6 +63,6 @@ def save_reflectance_map(result: ReflectanceMap, path: str | os.PathLike, title:
     axes.set_ylabel("angle of incidence (degrees)")
     axes.set_title(title or repr(result.material), fontsize=9)
     with atomic_path(path) as temporary:
-        figure.savefig(temporary)
+        figure.savefig(temporary, format="png")
     plt.close(figure)
     return path

@@ -29,11 +29,19 @@ __all__ = ["BraggMirror", "ThinFilm"]
 
 
 def _colour_xyz(material, theta, method, backend, methods, options):
+    from .colour_methods import option_names
+
     check_backend(backend)
-    if method not in methods:
+    if not isinstance(method, str) or method not in methods:
         raise ValueError(f"method must be one of {tuple(methods)}, got {method!r}")
+    function = methods[method]
+    accepted = option_names(function)
+    unknown = sorted(set(options) - set(accepted))
+    if unknown:
+        raise ValueError(f"method {method!r} takes no option {unknown[0]!r}; its options: "
+                         f"{', '.join(accepted) if accepted else 'none'}")
     angle = check_angle(theta)
-    return methods[method](material, angle, backend, **options)
+    return function(material, angle, backend, **options)
 
 
 def _linear_srgb(xyz):

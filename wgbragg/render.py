@@ -85,7 +85,8 @@ from PIL import Image
 from tqdm import tqdm
 
 from . import colorimetry, gpu
-from ._io import atomic_path
+from ._io import atomic_path, check_output_path
+from ._validation import _as_float_array
 from .bvh import build_bvh
 from .environment_map import EnvironmentMap
 from .exr import read_exr
@@ -97,6 +98,9 @@ from .parameter_maps import pack_maps
 from .procedural_environment import ProceduralEnvironment
 from .scene import (
     IBL_MODES,
+    MAX_EXPOSURE,
+    MAX_IMAGE_PIXELS,
+    MAX_IMAGE_SIDE,
     MODES,
     AreaLight,
     LambertianMaterial,
@@ -500,12 +504,10 @@ class Renderer:
     def __init__(self, scene: Scene, size: tuple[int, int] | None = None, seed: int = 0,
                  mode: str | None = None, max_bounces: int = MAX_BOUNCES,
                  colour_method: str = "averaged", ibl: str | None = None):
-        width, height = scene.settings.size if size is None else size
+        width, height = _check_size(scene.settings.size if size is None else size)
         mode = scene.settings.mode if mode is None else mode
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
-        if not all(isinstance(n, int) and 1 <= n <= 16384 for n in (width, height)):
-            raise ValueError(f"size must be two integers in [1, 16384], got {size!r}")
         if not isinstance(seed, int) or not 0 <= seed < 2**32:
             raise ValueError(f"seed must be an integer in [0, 2**32), got {seed!r}")
         if isinstance(max_bounces, bool) or not isinstance(max_bounces, int) or not (
@@ -909,23 +911,38 @@ def display_transform(image: np.ndarray, exposure: float = 0.0) -> np.ndarray:
     image : array_like, shape (H, W, 3)
         Linear sRGB radiance, >= 0.
     exposure : float
-        EV stops, finite.
+        EV stops, in [-64, 64] (:data:`wgbragg.scene.MAX_EXPOSURE`).
 
     Returns
     -------
     numpy.ndarray, shape (H, W, 3), uint8
     """
-    image = np.asarray(image, np.float64)
+    image = _as_float_array("image", image)
     if image.ndim != 3 or image.shape[2] != 3:
         raise ValueError(f"image must have shape (H, W, 3), got {image.shape}")
-    if not math.isfinite(exposure):
-        raise ValueError(f"exposure must be finite, got {exposure}")
+    if isinstance(exposure, bool) or not isinstance(exposure, numbers.Real) or not (
+            -MAX_EXPOSURE <= exposure <= MAX_EXPOSURE):
+        raise ValueError(f"exposure must be a number of EV stops in [{-MAX_EXPOSURE:g}, "
+                         f"{MAX_EXPOSURE:g}], got {exposure!r}")
     scaled = np.nan_to_num(image, nan=0.0, posinf=0.0, neginf=0.0).clip(0.0) * 2.0**exposure
     luminance = scaled @ np.array([0.2126, 0.7152, 0.0722])
     mapped = (scaled / (1.0 + luminance)[..., None]).clip(0.0, 1.0)
     encoded = np.where(mapped <= 0.0031308, 12.92 * mapped,
                        1.055 * np.power(mapped, 1.0 / 2.4) - 0.055)
     return np.round(encoded * 255.0).astype(np.uint8)
+
+
+def _check_size(size) -> tuple[int, int]:
+    """(width, height): two integers in [1, MAX_IMAGE_SIDE], at most MAX_IMAGE_PIXELS."""
+    accepted = (f"size must be (width, height), two integers in [1, {MAX_IMAGE_SIDE}] with "
+                f"width x height <= {MAX_IMAGE_PIXELS}")
+    if not isinstance(size, (tuple, list)) or len(size) != 2 or not all(
+            isinstance(n, int) and not isinstance(n, bool) and 1 <= n <= MAX_IMAGE_SIDE
+            for n in size):
+        raise ValueError(f"{accepted}, got {size!r}")
+    if size[0] * size[1] > MAX_IMAGE_PIXELS:
+        raise ValueError(f"{accepted}, got {size[0]} x {size[1]}")
+    return int(size[0]), int(size[1])
 
 
 def save_png(image: np.ndarray, path, exposure: float = 0.0) -> None:
@@ -936,10 +953,11 @@ def save_png(image: np.ndarray, path, exposure: float = 0.0) -> None:
     image : array_like, shape (H, W, 3)
         Linear sRGB radiance.
     path : str or os.PathLike
-        The PNG file; its folder is created.
+        The PNG file (suffix ``.png``); its folder is created.
     exposure : float
         EV stops.
     """
+    path = check_output_path(path, "path", ".png")
     pixels = display_transform(image, exposure)
     with atomic_path(path) as temporary:
         Image.fromarray(pixels, "RGB").save(temporary, format="PNG")

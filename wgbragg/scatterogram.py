@@ -20,7 +20,7 @@ import os
 
 import numpy as np
 
-from ._io import atomic_path
+from ._io import atomic_path, check_output_path
 from ._validation import check_angle
 
 __all__ = [
@@ -151,10 +151,12 @@ def save_scatterogram(result: Scatterogram, path: str | os.PathLike, title: str 
     ----------
     result : Scatterogram
     path : path-like
+        The PNG (suffix ``.png``); its folder is created.
     title : str, optional
     exposure : float, optional
         Radiance scale before clipping; default: 1 / the largest channel value of the image.
     """
+    check_output_path(path, "path", ".png")
     import matplotlib
 
     matplotlib.use("Agg")

@@ -140,6 +140,25 @@ reflectance (for Bragg layers, its analogue)."""
 MAX_IMAGE_SIDE = 16384
 """Largest image width or height in pixels (the largest 2D texture a wgpu device must offer)."""
 
+MAX_IMAGE_PIXELS = 2**27
+"""Largest width x height: the renderer's float32 RGBA accumulation buffer (16 bytes a pixel)
+must stay below wgpu's 2 GiB buffer limit (11585 x 11585 at most when square)."""
+
+MAX_RADIANCE = 1e9
+"""Largest radiance, intensity or environment intensity (relative units): float32 sums over
+paths and samples stay finite far beyond any image's needs."""
+
+MAX_COORDINATE = 1e9
+"""Positions, translations, directions and angles in a scene lie in [-1e9, 1e9] (float32
+products of them stay finite)."""
+
+MAX_OBJECT_SCALE = 1e6
+"""An object's ``scale`` lies in [1 / MAX_OBJECT_SCALE, MAX_OBJECT_SCALE] per axis: float32
+positions keep resolving its triangles (and the BVH its boxes)."""
+
+MAX_EXPOSURE = 64.0
+"""``settings.exposure`` lies in [-MAX_EXPOSURE, MAX_EXPOSURE] EV."""
+
 _MATERIAL_TYPES = ("layered-bragg", "lambertian", "thin-film")
 _LIGHT_TYPES = ("point", "area")
 
@@ -774,7 +793,7 @@ def _objects(ctx: _Context, value, materials: dict) -> tuple[SceneObject, ...]:
             else None,
             material=material,
             translate=_vector(ctx, table.get("translate", [0.0, 0.0, 0.0]), f"{key}.translate"),
-            scale=_triple(ctx, scale, f"{key}.scale", 0.0, math.inf, closed=(False, False)),
+            scale=_triple(ctx, scale, f"{key}.scale", 1.0 / MAX_OBJECT_SCALE, MAX_OBJECT_SCALE),
             rotate_deg=_vector(ctx, table.get("rotate_deg", [0.0, 0.0, 0.0]),
                                f"{key}.rotate_deg"),
         ))
@@ -814,7 +833,7 @@ def _environment(ctx: _Context, value) -> Environment:
     return Environment(
         kind,
         intensity=_real(ctx, table.get("intensity", 1.0), "environment.intensity", 0.0,
-                        math.inf, closed=(True, False)),
+                        MAX_RADIANCE),
         path=_file(ctx, table["path"], "environment.path", (".exr",)) if kind == "exr"
         else None,
     )
@@ -826,13 +845,17 @@ def _settings(ctx: _Context, value) -> Settings:
     size = _array(ctx, table.get("size", [512, 512]), "settings.size")
     if len(size) != 2:
         raise ctx.error("settings.size", f"must be [width, height], got {len(size)} values")
+    size = tuple(_integer(ctx, s, f"settings.size[{i}]", 1, MAX_IMAGE_SIDE)
+                 for i, s in enumerate(size))
+    if size[0] * size[1] > MAX_IMAGE_PIXELS:
+        raise ctx.error("settings.size", f"must hold at most {MAX_IMAGE_PIXELS} pixels "
+                                         f"(width x height), got {size[0]} x {size[1]}")
     return Settings(
-        size=tuple(_integer(ctx, s, f"settings.size[{i}]", 1, MAX_IMAGE_SIDE)
-                   for i, s in enumerate(size)),
+        size=size,
         spp=_integer(ctx, table.get("spp", 64), "settings.spp", 1, None),
         mode=_choice(ctx, table.get("mode", "rgb"), "settings.mode", MODES),
-        exposure=_real(ctx, table.get("exposure", 0.0), "settings.exposure", -math.inf,
-                       math.inf, closed=(False, False)),
+        exposure=_real(ctx, table.get("exposure", 0.0), "settings.exposure", -MAX_EXPOSURE,
+                       MAX_EXPOSURE),
         ibl=_choice(ctx, table.get("ibl", "monte-carlo"), "settings.ibl", IBL_MODES),
     )
 
@@ -930,7 +953,7 @@ def _vector(ctx: _Context, value, key: str) -> tuple[float, float, float]:
     items = _array(ctx, value, key)
     if len(items) != 3:
         raise ctx.error(key, f"must be [x, y, z], got {len(items)} values")
-    return tuple(_real(ctx, v, f"{key}[{i}]", -math.inf, math.inf, closed=(False, False))
+    return tuple(_real(ctx, v, f"{key}[{i}]", -MAX_COORDINATE, MAX_COORDINATE)
                  for i, v in enumerate(items))
 
 
@@ -955,7 +978,7 @@ def _albedo(ctx: _Context, value, key: str) -> float | tuple[float, float, float
 
 
 def _radiometric(ctx: _Context, value, key: str) -> tuple[float, float, float]:
-    return _triple(ctx, value, key, 0.0, math.inf, closed=(True, False))
+    return _triple(ctx, value, key, 0.0, MAX_RADIANCE)
 
 
 def _library(ctx: _Context, value, key: str, check: Callable):

@@ -35,6 +35,7 @@ from .microfacet import _D, _G1_over_cos, check_alpha
 __all__ = [
     "BAKE_PARAMS_DTYPE",
     "FILTER_ALPHA_MIN",
+    "MIN_RESOLUTION_DEG",
     "F_alpha",
     "TransmissionFilter",
     "ballistic_transmission_reference",
@@ -67,11 +68,16 @@ def check_filter_alpha(value) -> float:
     return float(check_alpha(value, low=FILTER_ALPHA_MIN))
 
 
+MIN_RESOLUTION_DEG = 0.05
+"""Finest filter grid step: 1801 x 1801 angle pairs (13 MB in float32) per table."""
+
+
 def _check_resolution(value) -> float:
     if isinstance(value, bool) or not isinstance(value, numbers.Real) or not (
-        0.0 < float(value) <= 90.0
+        MIN_RESOLUTION_DEG <= float(value) <= 90.0
     ):
-        raise ValueError(f"resolution_deg must be a real number in (0, 90], got {value!r}")
+        raise ValueError(f"resolution_deg must be a real number in [{MIN_RESOLUTION_DEG}, 90], "
+                         f"got {value!r}")
     return float(value)
 
 
@@ -105,7 +111,7 @@ def difference_angle_grid(alpha, resolution_deg=0.25) -> tuple[np.ndarray, np.nd
     alpha : float
         GGX roughness in [0.01, 1].
     resolution_deg : float
-        Largest mean node spacing in degrees, in (0, 90].
+        Largest mean node spacing in degrees, in [0.05, 90].
 
     Returns
     -------
@@ -118,7 +124,7 @@ def difference_angle_grid(alpha, resolution_deg=0.25) -> tuple[np.ndarray, np.nd
     Raises
     ------
     ValueError
-        If ``alpha`` is outside [0.01, 1] or ``resolution_deg`` outside (0, 90].
+        If ``alpha`` is outside [0.01, 1] or ``resolution_deg`` outside [0.05, 90].
 
     Notes
     -----
@@ -347,7 +353,7 @@ class TransmissionFilter:
         alpha : float
             GGX roughness in [0.01, 1].
         resolution_deg : float
-            Step of ``theta_i`` in degrees, in (0, 90].
+            Step of ``theta_i`` in degrees, in [0.05, 90].
         psi_samples : int
             Midpoint samples of the azimuthal integral per entry (>= 1).
         backend : {"gpu", "numpy"}

@@ -17,6 +17,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._validation import (
+    check_angle,
+    check_count,
+    check_index,
+    check_polarization,
+    check_thickness,
+    check_wavelength,
+)
 from ._series import sinc, sinhc
 from .fresnel import fresnel_r, normal_component
 
@@ -240,12 +248,23 @@ def yeh_reflectance(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization=
     numpy.ndarray
         Reflectance in [0, 1].
 
+    Raises
+    ------
+    ValueError
+        Naming the parameter, for values outside the ranges of :class:`wgbragg.BraggMirror`
+        and :meth:`~wgbragg.BraggMirror.reflectance`.
+
     References
     ----------
     Yeh, *Optical Waves in Layered Media*, 1988, ch. 6; Fourneau, Pacanowski & Barla 2024,
     eqs 2, 8, 9, 10 and Appendix D.
     """
-    host = n1 if host is None else host
+    n1, n2 = check_index("n1", n1), check_index("n2", n2)
+    host = n1 if host is None else check_index("host", host)
+    d1_nm, d2_nm = check_thickness("d1_nm", d1_nm), check_thickness("d2_nm", d2_nm)
+    N = check_count("N", N)
+    wavelength_nm, theta = check_wavelength(wavelength_nm), check_angle(theta)
+    check_polarization(polarization)
     if method not in YEH_METHODS:
         raise ValueError(f"method must be one of {YEH_METHODS}, got {method!r}")
     averaged = method == "phase-averaged"
