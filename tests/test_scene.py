@@ -318,6 +318,14 @@ def test_wrong_types_are_refused(tmp_path, old, new, key, accepted):
     assert accepted in message
 
 
+def test_a_byte_order_mark_is_read_and_deep_nesting_refused(tmp_path):
+    path = tmp_path / "bom.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + MINIMAL.encode("utf-8"))
+    assert load_scene(path).camera == load_scene(write(tmp_path, MINIMAL)).camera
+    message = refused(tmp_path, MINIMAL + "deep = " + "[" * 5000 + "]" * 5000 + "\n")
+    assert "invalid TOML" in message
+
+
 @pytest.mark.parametrize(("old", "new", "key", "accepted"), [
     ("n2 = 1.5", "n2 = 0.0", "materials.blue.layers[0].n2", "refractive index in (0, 100]"),
     ("n2 = 1.5", "n2 = 1e20", "materials.blue.layers[0].n2", "refractive index in (0, 100]"),

@@ -329,7 +329,7 @@ def test_bad_order(method, order):
         ThinFilm(1.5, 300.0).xyz(0.2, method, order=order)
 
 
-@pytest.mark.parametrize("value", [-1.0, math.nan, math.inf, "5", True])
+@pytest.mark.parametrize("value", [-1.0, 1.0000001e6, 1e300, math.nan, math.inf, "5", True])
 def test_bad_thickness_std(value):
     with pytest.raises(ValueError, match=names("thickness_std_nm")):
         ThinFilm(1.5, 300.0).xyz(0.2, "fourier-table", thickness_std_nm=value)

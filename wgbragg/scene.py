@@ -77,7 +77,13 @@ from collections.abc import Callable, Mapping
 from importlib import resources
 from pathlib import Path
 
-from ._validation import check_count, check_extinction, check_index, check_thickness
+from ._validation import (
+    MAX_THICKNESS_NM,
+    check_count,
+    check_extinction,
+    check_index,
+    check_thickness,
+)
 from .layered import LayeredBragg
 from .materials import BraggMirror, ThinFilm
 from .metals import METALS
@@ -577,11 +583,14 @@ class _Context:
 
 def _parse(data: bytes, origin: str, folder: Path) -> Scene:
     try:
-        document = tomllib.loads(data.decode("utf-8"))
+        # utf-8-sig: editors that save "UTF-8 with BOM" put U+FEFF first, which TOML refuses.
+        document = tomllib.loads(data.decode("utf-8-sig"))
     except UnicodeDecodeError as error:
         raise ValueError(f"{origin}: not UTF-8 text (TOML is UTF-8): {error}") from None
     except tomllib.TOMLDecodeError as error:
         raise ValueError(f"{origin}: invalid TOML: {error}") from None
+    except RecursionError:
+        raise ValueError(f"{origin}: invalid TOML: nested too deeply") from None
     ctx = _Context(origin, folder)
     _keys(ctx, document, "", ("camera", "materials", "objects"),
           ("lights", "environment", "settings"))
@@ -653,7 +662,7 @@ def _layered(ctx: _Context, table: dict, key: str) -> LayeredBraggMaterial:
     material = LayeredBraggMaterial(
         layers=layers,
         base_albedo=None if base is None else _albedo(ctx, base, f"{key}.base_albedo"),
-        period_map=_map(ctx, table, f"{key}.period_map", "period_map", math.inf),
+        period_map=_map(ctx, table, f"{key}.period_map", "period_map", MAX_THICKNESS_NM),
         delta_map=_map(ctx, table, f"{key}.delta_map", "delta_map", 1.0),
         base_interreflection=_flag(ctx, table.get("base_interreflection", False),
                                    f"{key}.base_interreflection"),
@@ -676,7 +685,7 @@ def _thin_film(ctx: _Context, table: dict, key: str) -> ThinFilmMaterial:
     if "base" in table and {"n_base", "k_base"} & table.keys():
         raise ctx.error(f"{key}.base", "a metal base replaces n_base and k_base: give one or "
                                        "the other")
-    thickness_map = _map(ctx, table, f"{key}.thickness_map", "thickness_map", math.inf)
+    thickness_map = _map(ctx, table, f"{key}.thickness_map", "thickness_map", MAX_THICKNESS_NM)
     return ThinFilmMaterial(
         n_film=_library(ctx, table["n_film"], f"{key}.n_film", check_index),
         thickness_nm=(thickness_map.range[0] if thickness_map is not None else
