@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -218,3 +219,35 @@ def test_transfer_matrix_accepts_its_domain():
     assert R.shape == (2, 2)
     assert np.all((R >= 0) & (R <= 1))
     assert wgbragg.optics.transfer_matrix_reflectance is transfer_matrix_reflectance
+
+
+# --------------------------------------------------------------------------- broadcasting
+
+
+def _broadcast_calls():
+    from wgbragg import LayeredBragg, RoughBraggLayer, RoughThinFilm, microfacet
+
+    layered = LayeredBragg([RoughBraggLayer(BraggMirror(1.0, 1.5, 250.0, 250.0, 10), 0.1)])
+    film = RoughThinFilm(ThinFilm(**GOOD_FILM), 0.3)
+    wi, wo = np.tile([0.0, 0.0, 1.0], (3, 1)), np.tile([0.0, 0.6, 0.8], (2, 1))
+    return [
+        (lambda: layered.brdf(wi, wo), "wi (3,) and wo (2,)"),
+        (lambda: layered.pdf(wi, wo), "wi (3,) and wo (2,)"),
+        (lambda: layered.sample(wi, np.zeros((2, 3))), "wi (3,) and u (2,)"),
+        (lambda: layered.albedo(np.zeros(3), np.full(2, 500.0)),
+         "theta_i (3,) and wavelength_nm (2,)"),
+        (lambda: layered.layers[0].transmissivity(np.zeros(3), np.full(2, 500.0)),
+         "theta_i (3,) and wavelength_nm (2,)"),
+        (lambda: film.brdf(wi, wo, 550.0), "wi (3,) and wo (2,)"),
+        (lambda: film.pdf(wi, wo), "wi (3,) and wo (2,)"),
+        (lambda: film.sample(wi, np.zeros((2, 2)), 550.0), "wi (3,) and u (2,)"),
+        (lambda: microfacet.ggx_D(np.ones(3), np.full(2, 0.3)), "cos_theta_m (3,) and alpha"),
+        (lambda: microfacet.ggx_G1(np.ones(3), np.full(2, 0.3)), "cos_theta (3,) and alpha"),
+    ]
+
+
+@pytest.mark.parametrize("index", range(10))
+def test_shapes_that_do_not_broadcast_are_named(index):
+    call, named = _broadcast_calls()[index]
+    with pytest.raises(ValueError, match=re.escape(named) + ".* do not broadcast"):
+        call()

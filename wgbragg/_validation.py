@@ -20,6 +20,7 @@ __all__ = [
     "WAVELENGTH_RANGE_NM",
     "check_angle",
     "check_backend",
+    "check_broadcast",
     "check_count",
     "check_extinction",
     "check_index",
@@ -126,6 +127,15 @@ def check_angle(value, name: str = "theta") -> np.ndarray:
     if not np.all((array >= 0.0) & (array <= np.pi / 2)):
         raise ValueError(f"{name} must be in [0, pi/2] radians")
     return array
+
+
+def check_broadcast(**shapes: tuple[int, ...]) -> tuple[int, ...]:
+    """The broadcast of the named shapes, or a ValueError naming them with their shapes."""
+    try:
+        return np.broadcast_shapes(*shapes.values())
+    except ValueError:
+        named = " and ".join(f"{name} {shape}" for name, shape in shapes.items())
+        raise ValueError(f"{named} do not broadcast against each other") from None
 
 
 def check_polarization(value) -> str:

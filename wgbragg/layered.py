@@ -36,7 +36,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from . import colorimetry
-from ._validation import _as_float_array, check_backend, check_wavelength
+from ._validation import _as_float_array, check_backend, check_broadcast, check_wavelength
 from .microfacet import _D, _G1_over_cos, ggx_sample_visible_normal
 from .optics.yeh import yeh_reflectance
 from .rough_layer import RoughBraggLayer
@@ -547,6 +547,8 @@ class LayeredBragg:
         if method not in BRDF_METHODS:
             raise ValueError(f"method must be one of {BRDF_METHODS}, got {method!r}")
         wavelength = None if wavelength_nm is None else check_wavelength(wavelength_nm)
+        check_broadcast(**{"wi": wi.shape[:-1], "wo": wo.shape[:-1],
+                           "wavelength_nm": () if wavelength is None else wavelength.shape})
         colour_method = self._colour_method(colour_method, backend)
         if colour_method == HERO:
             raise ValueError("colour_method='hero' draws its wavelengths from a sample's random "
@@ -629,6 +631,7 @@ class LayeredBragg:
         """
         wi = _check_directions(wi, "wi")
         wo = _check_directions(wo, "wo")
+        check_broadcast(wi=wi.shape[:-1], wo=wo.shape[:-1])
         if check_backend(backend) == "gpu":
             from . import layered_gpu
 
@@ -692,6 +695,7 @@ class LayeredBragg:
             raise ValueError("u must be in [0, 1]")
         if np.any(wi[..., 2] <= 0.0):
             raise ValueError("wi must lie strictly above the horizon: wi[..., 2] in (0, 1]")
+        check_broadcast(wi=wi.shape[:-1], u=u.shape[:-1])
         if backend == "gpu":
             from . import layered_gpu
 
@@ -778,8 +782,8 @@ class LayeredBragg:
         if isinstance(samples, bool) or not isinstance(samples, numbers.Integral) or samples < 1:
             raise ValueError(f"samples must be an integer >= 1, got {samples!r}")
         wavelength = None if wavelength_nm is None else check_wavelength(wavelength_nm)
-        shape = theta.shape if wavelength is None else np.broadcast_shapes(theta.shape,
-                                                                             wavelength.shape)
+        shape = theta.shape if wavelength is None else check_broadcast(
+            theta_i=theta.shape, wavelength_nm=wavelength.shape)
         theta = np.broadcast_to(theta, shape)
         dimensions = 4 if colour_method == HERO else 3
         u = qmc.Sobol(dimensions, scramble=True, seed=seed).random(int(samples))

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validation import _as_float_array
+from ._validation import _as_float_array, check_broadcast
 
 __all__ = [
     "ALPHA_MAX",
@@ -118,7 +118,9 @@ def ggx_D(cos_theta_m, alpha) -> np.ndarray:
     1.0
     """
     cos = _check_cosine(cos_theta_m, "cos_theta_m")
-    return _D(cos, check_alpha(alpha))
+    alpha = check_alpha(alpha)
+    check_broadcast(cos_theta_m=cos.shape, alpha=alpha.shape)
+    return _D(cos, alpha)
 
 
 def ggx_G1(cos_theta, alpha) -> np.ndarray:
@@ -155,6 +157,7 @@ def ggx_G1(cos_theta, alpha) -> np.ndarray:
     """
     cos = _check_cosine(cos_theta, "cos_theta")
     alpha = check_alpha(alpha)
+    check_broadcast(cos_theta=cos.shape, alpha=alpha.shape)
     return np.where(cos > 0.0, cos * _G1_over_cos(np.maximum(cos, 0.0), alpha), 0.0)
 
 
@@ -199,7 +202,7 @@ def ggx_sample_visible_normal(wi, u, alpha) -> np.ndarray:
     if not np.all((u >= 0.0) & (u <= 1.0)):
         raise ValueError("u must be in [0, 1]")
     alpha = check_alpha(alpha)
-    shape = np.broadcast_shapes(wi.shape[:-1], u.shape[:-1], alpha.shape)
+    shape = check_broadcast(wi=wi.shape[:-1], u=u.shape[:-1], alpha=alpha.shape)
     wx, wy, wz = (np.broadcast_to(wi[..., k], shape) for k in range(3))
     u1, u2 = np.broadcast_to(u[..., 0], shape), np.broadcast_to(u[..., 1], shape)
     alpha = np.broadcast_to(alpha, shape)

@@ -22,7 +22,7 @@ import weakref
 import numpy as np
 
 from . import colorimetry, gpu, kernels
-from ._validation import check_angle, check_backend, check_wavelength
+from ._validation import check_angle, check_backend, check_broadcast, check_wavelength
 from .materials import BraggMirror
 from .microfacet import ggx_G1
 from .optics.yeh import yeh_reflectance
@@ -231,6 +231,7 @@ class RoughBraggLayer:
         """
         theta = check_angle(theta_i, "theta_i")
         wavelength = check_wavelength(wavelength_nm)
+        check_broadcast(theta_i=theta.shape, wavelength_nm=wavelength.shape)
         theta, wavelength = np.broadcast_arrays(theta, wavelength)
         if check_backend(backend) == "numpy":
             rows = self.filter.interpolate(theta)

@@ -36,7 +36,7 @@ import numbers
 
 import numpy as np
 
-from ._validation import _as_float_array, check_angle, check_wavelength
+from ._validation import _as_float_array, check_angle, check_broadcast, check_wavelength
 from .materials import ThinFilm
 from .microfacet import (
     _D,
@@ -336,7 +336,7 @@ class RoughThinFilm:
         wi = _check_directions(wi, "wi", upper=False)
         wo = _check_directions(wo, "wo", upper=False)
         wavelength, method = self._options(wavelength_nm, method, order)
-        shape = np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1])
+        shape = check_broadcast(wi=wi.shape[:-1], wo=wo.shape[:-1])
         wi, wo = np.broadcast_to(wi, (*shape, 3)), np.broadcast_to(wo, (*shape, 3))
         up = (wi[..., 2] > 0.0) & (wo[..., 2] > 0.0)
         # Below the horizon the value is 0: evaluate a harmless pair there instead.
@@ -373,7 +373,7 @@ class RoughThinFilm:
         """
         wi = _check_directions(wi, "wi", upper=False)
         wo = _check_directions(wo, "wo", upper=False)
-        shape = np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1])
+        shape = check_broadcast(wi=wi.shape[:-1], wo=wo.shape[:-1])
         wi, wo = np.broadcast_to(wi, (*shape, 3)), np.broadcast_to(wo, (*shape, 3))
         up = (wi[..., 2] > 0.0) & (wo[..., 2] > 0.0)
         safe = np.array([0.0, 0.0, 1.0])
