@@ -321,6 +321,7 @@ def test_exact_radiance_of_a_grey_material_is_its_albedo():
     (lambda: microfacet_albedo_table(2.0), "alpha"),
     (lambda: microfacet_albedo_table("0.3"), "alpha"),
     (lambda: microfacet_albedo_table(0.3, nodes=1), "nodes"),
+    (lambda: moment_statistics([0.0, 0.0, 5.0], [0.0, 0.0, 1.0], np.eye(3)), "v must hold unit"),
     (lambda: moment_statistics([0.0, 0.0, 1.0], [0.0, 1.0], np.eye(3)), "m1"),
     (lambda: moment_statistics([0.0, 0.0, 1.0], [0.0, 0.0, 1.0], np.zeros(5)), "m2"),
     (lambda: film_kneiphof_reflectance(FIG7, 1.2, 0.1), r"mu_x must be in \[-1, 1\]"),

@@ -63,7 +63,7 @@ import numpy as np
 from . import colorimetry
 from ._validation import _as_float_array
 from .materials import ThinFilm
-from .microfacet import check_alpha
+from .microfacet import _check_directions, check_alpha
 from .rough_thin_film import QUADRATURE_NODES, reflection_quadrature
 from .thin_film_colour import (
     DEFAULT_ORDER,
@@ -244,15 +244,13 @@ def moment_statistics(v, m1, m2) -> tuple[np.ndarray, np.ndarray]:
     Raises
     ------
     ValueError
-        For arrays of the wrong trailing shape or with NaN.
+        For arrays of the wrong trailing shape or with NaN, or a ``v`` that is not unit.
     """
-    v = _as_float_array("v", v)
+    v = _check_directions(v, "v", upper=False)
     m1 = _as_float_array("m1", m1)
     m2 = _as_float_array("m2", m2)
-    for name, array in (("v", v), ("m1", m1)):
-        if array.ndim == 0 or array.shape[-1] != 3:
-            raise ValueError(f"{name} must have a trailing axis of length 3, got shape "
-                             f"{array.shape}")
+    if m1.ndim == 0 or m1.shape[-1] != 3:
+        raise ValueError(f"m1 must have a trailing axis of length 3, got shape {m1.shape}")
     if m2.ndim >= 2 and m2.shape[-2:] == (3, 3):
         second = np.einsum("...i,...ij,...j->...", v, m2, v)
     elif m2.ndim >= 1 and m2.shape[-1] == 6:
