@@ -83,7 +83,8 @@ def test_file_mistakes_are_clear_errors_before_any_work(argv, message, tmp_path,
     monkeypatch.setattr(render.Renderer, "render", forbidden)
     monkeypatch.setattr(maps, "reflectance_map", forbidden)
     monkeypatch.setattr(scatterogram, "scatterogram", forbidden)
-    monkeypatch.setattr(luts, "bake_transmission_filter", forbidden, raising=False)
+    monkeypatch.setattr(luts, "transmission_filter", forbidden)
+    monkeypatch.setattr(luts, "colour_tables", forbidden)
     before = sorted(tmp_path.rglob("*"))
     assert main([a.replace("{tmp}", str(tmp_path)) for a in argv]) == 2
     error = capsys.readouterr().err

@@ -245,6 +245,11 @@ def test_display_transform():
             display_transform(image, exposure)
     with pytest.raises(ValueError, match="image"):
         display_transform(np.array([[["a", "b", "c"]]]))
+    # A bad pixel displays black instead of stopping the output.
+    spoiled = image.copy()
+    spoiled[0, 2] = [np.nan, np.inf, -np.inf]
+    assert display_transform(spoiled)[0, 2].tolist() == [0, 0, 0]
+    assert display_transform(spoiled)[0, :2].tolist() == display_transform(image)[0, :2].tolist()
 
 
 def test_png_paths_are_checked_before_writing(tmp_path):

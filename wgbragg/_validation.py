@@ -59,9 +59,10 @@ def _as_float(name: str, value) -> float:
 
 # Bounds that keep every float32 kernel finite: squares and fourth powers of indices (Fresnel
 # and admittance products) stay far below float32's 3e38, and a layer's phase in cycles
-# (n d / lambda) keeps a resolution of 1e-2 cycle. Visible-range optics needs n < 10, k < 15
-# (metals) and layers far thinner than a millimetre; k up to 1e4 models a perfect conductor
-# (R = 1 - 4e-8 against air).
+# (n d / lambda, at most 1e8) stays finite. They do not promise a resolved phase at their
+# corners: a 1 mm layer at 1 nm is incoherent anyway, and visible-range optics needs n < 10,
+# k < 15 (metals) and layers far thinner than a millimetre; k up to 1e4 models a perfect
+# conductor (R = 1 - 4e-8 against air).
 MAX_INDEX = 100.0
 MAX_EXTINCTION = 1e4
 MAX_THICKNESS_NM = 1e6

@@ -35,10 +35,11 @@ STRATA_RANGE_NM = (
     colorimetry.WAVELENGTH_RANGE_NM[1] + 0.5 * colorimetry.WAVELENGTH_STEP_NM,
 )
 
+"""Interval split into strata, nm: 359.5-830.5, the union of the reference's 1 nm cells."""
+
 MAX_SAMPLES = 100_000
 """Most strata of "spectral": far past convergence (strata of 0.005 nm), and the nodes of one
 call stay in memory."""
-"""Interval split into strata, nm: 359.5-830.5, the union of the reference's 1 nm cells."""
 
 # Reflectances evaluated per numpy block: bounds memory for large angle arrays.
 _BLOCK = 1 << 20
@@ -196,10 +197,11 @@ def stratified_nodes(samples: int, seed=None) -> tuple[np.ndarray, np.ndarray]:
     if seed is None:
         offset = np.full(count, 0.5)
     else:
-        if not isinstance(seed, np.random.Generator) and (
+        if not isinstance(seed, (np.random.Generator, np.random.BitGenerator,
+                                 np.random.SeedSequence)) and (
                 isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0):
-            raise ValueError(f"seed must be None, an integer >= 0 or a numpy.random.Generator, "
-                             f"got {seed!r}")
+            raise ValueError(f"seed must be None, an integer >= 0 or a numpy.random Generator, "
+                             f"BitGenerator or SeedSequence, got {seed!r}")
         offset = np.random.default_rng(seed).random(count)
     # float32-representable nodes: the GPU kernel then samples exactly the numpy wavelengths.
     wavelength = (start + (np.arange(count) + offset) * width).astype(np.float32).astype(float)

@@ -71,9 +71,9 @@ class BraggMirror:
     Parameters
     ----------
     n1, n2 : float
-        Real refractive indices of the two layers of a cell (> 0).
+        Real refractive indices of the two layers of a cell, in (0, 100].
     d1, d2 : float
-        Their thicknesses in nm (>= 0).
+        Their thicknesses in nm, in [0, 1e6].
     N : int
         Number of cells, 1 to 2**31 - 1.
     host : float, optional
@@ -120,7 +120,7 @@ class BraggMirror:
         Parameters
         ----------
         wavelength_nm : array_like
-            Vacuum wavelength in nm (> 0).
+            Vacuum wavelength in nm, in [1, 1e6].
         theta : array_like
             Angle of incidence in the host, radians in ``[0, pi/2]``.
         polarization : {"unpolarized", "s", "p"}
@@ -205,14 +205,14 @@ class ThinFilm:
     Parameters
     ----------
     n_film : float
-        Real index of the film (> 0).
+        Real index of the film, in (0, 100].
     d : float
-        Film thickness in nm (>= 0).
+        Film thickness in nm, in [0, 1e6].
     n_base, k_base : float
-        Real part (> 0) and extinction coefficient (>= 0) of a base of constant index: a
-        dielectric when ``k_base = 0``, a conductor otherwise.
+        Real part, in (0, 100], and extinction coefficient, in [0, 1e4], of a base of
+        constant index: a dielectric when ``k_base = 0``, a conductor otherwise.
     host : float
-        Real index of the incident medium (> 0).
+        Real index of the incident medium, in (0, 100].
     base : str or SpectralIndex, optional
         A dispersive base instead of ``n_base, k_base`` (leave those at their defaults): the
         name of a bundled metal (``"Ag"``, ``"Al"``, ``"Au"``, ``"Cu"``, see

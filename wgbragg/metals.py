@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validation import check_wavelength
+from ._validation import MAX_EXTINCTION, MAX_INDEX, check_wavelength
 
 __all__ = ["METALS", "SpectralIndex", "metal"]
 
@@ -152,8 +152,8 @@ class SpectralIndex:
             raise ValueError("wavelength_nm, n and k must have the same length >= 2")
         if not np.all(np.isfinite(wavelength)) or np.any(np.diff(wavelength) <= 0):
             raise ValueError("wavelength_nm must be finite and strictly increasing")
-        if not (np.all(n > 0) and np.all(k >= 0) and np.all(np.isfinite(n + k))):
-            raise ValueError("n must be > 0 and k >= 0, finite")
+        if not (np.all((n > 0) & (n <= MAX_INDEX)) and np.all((k >= 0) & (k <= MAX_EXTINCTION))):
+            raise ValueError(f"n must be in (0, {MAX_INDEX:g}] and k in [0, {MAX_EXTINCTION:g}]")
         for name, array in zip(("wavelength_nm", "n", "k"), arrays, strict=True):
             array.setflags(write=False)
             object.__setattr__(self, name, array)

@@ -86,7 +86,6 @@ from tqdm import tqdm
 
 from . import colorimetry, gpu
 from ._io import atomic_path, check_output_path
-from ._validation import _as_float_array
 from .bvh import build_bvh
 from .environment_map import EnvironmentMap
 from .exr import read_exr
@@ -917,7 +916,11 @@ def display_transform(image: np.ndarray, exposure: float = 0.0) -> np.ndarray:
     -------
     numpy.ndarray, shape (H, W, 3), uint8
     """
-    image = _as_float_array("image", image)
+    image = np.asarray(image)
+    if image.dtype.kind not in "biuf":
+        raise ValueError(f"image must hold real numbers, got dtype {image.dtype}")
+    # NaN and infinite pixels display black below, rather than stopping a render's output.
+    image = image.astype(np.float64)
     if image.ndim != 3 or image.shape[2] != 3:
         raise ValueError(f"image must have shape (H, W, 3), got {image.shape}")
     if isinstance(exposure, bool) or not isinstance(exposure, numbers.Real) or not (

@@ -232,10 +232,10 @@ class BraggLayerSpec:
     Parameters
     ----------
     n1, n2 : float
-        Indices of a cell's two layers; ``n1`` is also the host around the layers (>= 1: the
-        structure sits under air, with a smooth coating when ``n1 > 1``).
+        Indices of a cell's two layers, at most 100; ``n1`` is also the host around the
+        layers (>= 1: the structure sits under air, with a smooth coating when ``n1 > 1``).
     d1_nm, d2_nm : float
-        Thicknesses in nm (>= 0).
+        Thicknesses in nm, in [0, 1e6].
     N : int
         Number of cells (>= 1).
     alpha : float
@@ -374,9 +374,10 @@ class ThinFilmMaterial:
     Parameters
     ----------
     n_film : float
-        Real index of the film (> 0).
+        Real index of the film, in (0, 100].
     thickness_nm : float
-        Film thickness in nm (>= 0); with a ``thickness_map``, the map's value replaces it.
+        Film thickness in nm, in [0, 1e6]; with a ``thickness_map``, the map's value replaces
+        it.
     alpha : float
         GGX roughness in [0.01, 1].
     n_base, k_base : float

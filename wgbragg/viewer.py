@@ -65,6 +65,7 @@ from .metals import METALS
 from .render import Renderer, _ibl_levels, display_transform
 from .scene import (
     ENVIRONMENT_TYPES,
+    MAX_EXPOSURE,
     MAX_IMAGE_SIDE,
     MODES,
     BraggLayerSpec,
@@ -625,7 +626,7 @@ class Viewer:
         distance : float
             The camera's distance from its target (> 0).
         exposure : float
-            EV stops of the display (finite); the only edit that keeps the samples.
+            EV stops of the display, in [-64, 64]; the only edit that keeps the samples.
 
         The structure's edits (``n1``, ``base_albedo``, ``layers``) apply to the Bragg layers
         whichever material is shown; alone, they leave the film's image (and its samples) as
@@ -671,7 +672,8 @@ class Viewer:
         camera["pitch_deg"] = _real("pitch_deg", camera["pitch_deg"], -_PITCH_LIMIT_DEG,
                                     _PITCH_LIMIT_DEG)
         camera["distance"] = _finite("distance", camera["distance"], positive=True)
-        exposure = _finite("exposure", changes.get("exposure", self.exposure))
+        exposure = _real("exposure", changes.get("exposure", self.exposure), -MAX_EXPOSURE,
+                         MAX_EXPOSURE)
         state = {}
         if "material_type" in changes:
             state["material_type"] = _choice("material_type", changes["material_type"],
