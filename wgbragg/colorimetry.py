@@ -31,6 +31,8 @@ from collections.abc import Callable
 import colour
 import numpy as np
 
+from ._validation import check_broadcast
+
 __all__ = [
     "CMFS_NAME",
     "HERO_SEGMENTS",
@@ -394,12 +396,8 @@ def delta_e_2000(rgb_a, rgb_b) -> np.ndarray:
     """
     a = linear_srgb_to_xyz(_xyz_array("rgb_a", rgb_a))
     b = linear_srgb_to_xyz(_xyz_array("rgb_b", rgb_b))
-    try:
-        a, b = np.broadcast_arrays(a, b)
-    except ValueError as error:
-        raise ValueError(
-            f"rgb_a {a.shape} and rgb_b {b.shape} do not broadcast"
-        ) from error
+    check_broadcast(rgb_a=a.shape, rgb_b=b.shape)
+    a, b = np.broadcast_arrays(a, b)
     lab_a = colour.XYZ_to_Lab(a, _D65_XY)
     lab_b = colour.XYZ_to_Lab(b, _D65_XY)
     return np.asarray(colour.delta_E(lab_a, lab_b, method="CIE 2000"), dtype=np.float64)

@@ -61,7 +61,7 @@ from collections.abc import Callable
 import numpy as np
 
 from . import colorimetry
-from ._validation import _as_float_array
+from ._validation import _as_float_array, check_broadcast
 from .materials import ThinFilm
 from .microfacet import _check_directions, check_alpha
 from .rough_thin_film import QUADRATURE_NODES, reflection_quadrature
@@ -115,10 +115,8 @@ def _check_spread(mu_x, sigma_x) -> tuple[np.ndarray, np.ndarray]:
     sigma = _as_float_array("sigma_x", sigma_x)
     if not np.all((sigma >= 0.0) & np.isfinite(sigma)):
         raise ValueError("sigma_x must be finite and >= 0")
-    try:
-        return tuple(np.broadcast_arrays(mu, sigma))
-    except ValueError as error:
-        raise ValueError(f"mu_x {mu.shape} and sigma_x {sigma.shape} do not broadcast") from error
+    check_broadcast(mu_x=mu.shape, sigma_x=sigma.shape)
+    return tuple(np.broadcast_arrays(mu, sigma))
 
 
 def _check_film(film) -> ThinFilm:

@@ -89,7 +89,7 @@ import numbers
 import numpy as np
 
 from . import colorimetry, gpu, kernels
-from ._validation import check_wavelength
+from ._validation import check_broadcast, check_wavelength
 from .layered import LayeredBragg, _check_directions, _refract_in, coating_reflectance
 
 __all__ = ["MAX_WAVELENGTHS", "MODES", "PATH_WAVELENGTHS", "TRANSMISSIONS", "simulate"]
@@ -275,10 +275,7 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
         raise ValueError("return_error needs wo and paths >= 2")
     if wo is not None:
         wo = _check_directions(wo, "wo")
-        try:
-            shape = np.broadcast_shapes(wi.shape, wo.shape)[:-1]
-        except ValueError:
-            raise ValueError(f"wi {wi.shape} and wo {wo.shape} do not broadcast") from None
+        shape = check_broadcast(wi=wi.shape[:-1], wo=wo.shape[:-1])
         wi, wo = np.broadcast_to(wi, (*shape, 3)), np.broadcast_to(wo, (*shape, 3))
     else:
         shape = wi.shape[:-1]

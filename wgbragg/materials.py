@@ -17,6 +17,7 @@ from .metals import METALS, SpectralIndex, metal
 from ._validation import (
     check_angle,
     check_backend,
+    check_broadcast,
     check_count,
     check_extinction,
     check_index,
@@ -55,12 +56,7 @@ def _checked_inputs(wavelength_nm, theta, polarization, backend):
     check_backend(backend)
     wavelength = check_wavelength(wavelength_nm)
     angle = check_angle(theta)
-    try:
-        np.broadcast_shapes(wavelength.shape, angle.shape)
-    except ValueError as error:
-        raise ValueError(
-            f"wavelength_nm {wavelength.shape} and theta {angle.shape} do not broadcast"
-        ) from error
+    check_broadcast(wavelength_nm=wavelength.shape, theta=angle.shape)
     return wavelength, angle
 
 
