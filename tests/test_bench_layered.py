@@ -51,7 +51,10 @@ def test_every_estimator_is_timed_and_scored(bench, run):
     assert [(r[0], r[1], r[2]) for r in rows] == expected
     assert {r[1] for r in rows} == {"GT (all paths)", *bench.ESTIMATORS[1:]}
     for row in rows:
-        if row[1] != "GT (all paths)":
+        if row[1] == "GT (all paths)":
+            noise, label = row[4].split(" ", 1)
+            assert 0.0 < float(noise) < 1.0 and label == "(own noise)"
+        else:
             assert 0.0 <= float(row[4]) < 1.0
             assert float(row[5].replace(",", "")) >= 0.0
     targets = _rows(text, "### Targets")
@@ -69,3 +72,10 @@ def test_environment_sampling_matches_its_density(bench):
     assert np.mean(1.0 / pdf) == pytest.approx(4.0 * np.pi, rel=0.02)
     np.testing.assert_allclose(pdf, bench.environment_pdf(direction), rtol=1e-12)
 
+
+
+def test_gt_noise_is_half_the_halves_smape(bench):
+    """GT's own noise: 0 for identical halves, half their SMAPE otherwise."""
+    half = np.array([[1.0, 2.0, 3.0]])
+    assert bench.gt_noise(half, half) == 0.0
+    assert bench.gt_noise(half, 3.0 * half) == pytest.approx(0.25)  # |1 - 3| / (1 + 3) / 2
