@@ -5,7 +5,7 @@ twin (:mod:`wgbragg.ibl`, :mod:`wgbragg.environment_prefilter`).
 The scene is a sphere filling a nearly orthographic view (the convergence tests' set-up) under
 the studio environment, whose key light (15 deg radius) a rough lobe resolves smoothly. The
 reference is the path tracer with one bounce (exact for a lone convex object). Errors are over
-the pixels the sphere covers: SMAPE (the paper's convention, :func:`wgbragg.smape`) and the mean
+the pixels the sphere covers: SMAPE (:func:`wgbragg.smape`) and the mean
 CIE dE2000 of the images scaled by the reference's 99th-percentile luminance.
 
 Measured on lavapipe (2 cores), split-sum / kneiphof SMAPE at alpha 0.05, 0.25, 0.5: film over

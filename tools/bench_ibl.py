@@ -697,8 +697,9 @@ def render_markdown(rows: list[dict], config: RenderConfig, command: str, second
         f"tracer; one bounce is exact for a lone convex object), {config.reference_spp} spp. "
         f"Filtered modes: {config.filtered_spp} spp (pixel jitter only: they shade "
         "deterministically). RGB mode.",
-        "- Errors over the pixels the sphere covers: SMAPE (the paper's convention) and mean "
-        "CIE dE2000 with both images scaled by the reference's 99th-percentile luminance.",
+        "- Errors over the pixels the sphere covers: SMAPE (`wgbragg.smape`, without the "
+        "Bragg paper's factor 2) and mean CIE dE2000 with both images scaled by the "
+        "reference's 99th-percentile luminance.",
         "- Time: median wall clock of one 1-spp frame (render and readback) of each mode, "
         "side by side in this run; set-up is a filtered renderer's construction (environment "
         "prefiltered per roughness, microfacet albedo table, pipeline).",

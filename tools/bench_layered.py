@@ -31,7 +31,8 @@ into linear sRGB with the CIE 1931 / D65 weights; the environment is RGB and mul
 colour of each sample. Times are wall clock of the
 whole estimator (GPU work, readback, the environment lookups), pipelines compiled and tables
 built beforehand. Accuracy is SMAPE against GT over the sphere's pixels and the three
-channels, ``mean |a - b| / (|a| + |b|)``; efficiency ``Eff = time_GT / (time x SMAPE)``.
+channels, ``mean |a - b| / (|a| + |b|)`` (half the paper's form, which divides by the mean of
+``|a|`` and ``|b|``); efficiency ``Eff = time_GT / (time x SMAPE)``.
 The compared estimators run at two operating points (samples per pixel): 64, where noise
 decides, and the paper's 3072, where the single-reflection bias does.
 
@@ -470,7 +471,9 @@ def render_section(results: Results, command: str) -> str:
         "structures: median 2-4 % of the brightest channel). That the model and the SR "
         "simulation agree is tested without noise in tests/test_layered_simulation.py "
         "(next-event estimates at fixed directions: SMAPE <= 0.001). \"+ base IR\" removes "
-        "most of that bias over a Lambertian base (an absorbing base has none to remove).",
+        "most of that bias over a Lambertian base (an absorbing base has none to remove). "
+        "SMAPE is `wgbragg.smape`, without the paper's factor 2: its Table 2 values compare "
+        "with twice these.",
         "2. Times: wall clock, the best of "
         + " and ".join(f"{repeats} runs at {spp} spp" for spp, repeats in cfg.points)
         + ", taken round robin over the estimators (GT: the sum of its halves, one run each); "

@@ -3,7 +3,8 @@
 References
 ----------
 Fourneau, Pacanowski, Barla, "Interactive Exploration of Vivid Structural Colors with Bragg
-Mirrors", Computer Graphics Forum 43(2), 2024: Table 2 reports SMAPE in this form.
+Mirrors", Computer Graphics Forum 43(2), 2024: Table 2 reports SMAPE with the mean
+``(|a| + |b|) / 2`` as denominator, twice the values here.
 """
 
 from __future__ import annotations
@@ -17,8 +18,9 @@ def smape(estimate, reference) -> float:
     """Symmetric mean absolute percentage error, ``mean |a - b| / (|a| + |b|)``.
 
     The mean runs over all entries (pixels and channels) where either value is nonzero; the
-    result is in [0, 1], with no factor 2 (the Bragg paper's convention). Absolute values keep
-    it meaningful for linear sRGB with slightly negative out-of-gamut channels.
+    result is in [0, 1]: without the factor 2 of the Bragg paper's form (its Table 2 values
+    are twice these; ratios of SMAPE, and so of efficiency, are the same). Absolute values
+    keep it meaningful for linear sRGB with slightly negative out-of-gamut channels.
 
     Parameters
     ----------
