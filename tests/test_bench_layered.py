@@ -8,9 +8,8 @@ import io
 
 import numpy as np
 import pytest
+from scipy import stats
 from conftest import load_tool, markdown_rows
-
-pytestmark = pytest.mark.gpu
 
 
 @pytest.fixture(scope="module")
@@ -33,12 +32,14 @@ def _rows(text: str, heading: str) -> list[list[str]]:
     return markdown_rows(text, heading)[2:]
 
 
+@pytest.mark.gpu
 def test_section_written_once(bench, run):
     text, printed = run
     assert text.count(bench.BEGIN_MARKER) == 1 and "stale" not in text
     assert "Quick mode" in text and bench.BEGIN_MARKER in printed
 
 
+@pytest.mark.gpu
 def test_every_estimator_is_timed_and_scored(bench, run):
     text, _ = run
     rows = _rows(text, "### Time, SMAPE")
@@ -75,10 +76,16 @@ def test_environment_sampling_matches_its_density(bench):
 
 
 def test_gt_noise_is_half_the_halves_smape(bench):
-    """GT's own noise: 0 for identical halves, half their SMAPE otherwise."""
+    """GT's own noise: 0 for identical halves, half their SMAPE otherwise; and statistically,
+    GT's SMAPE against the truth it estimates."""
     half = np.array([[1.0, 2.0, 3.0]])
     assert bench.gt_noise(half, half) == 0.0
     assert bench.gt_noise(half, 3.0 * half) == pytest.approx(0.25)  # |1 - 3| / (1 + 3) / 2
+    rng = np.random.default_rng(3)
+    truth = rng.uniform(0.5, 2.0, (100_000, 3))
+    halves = [truth * (1.0 + 0.02 * rng.standard_normal(truth.shape)) for _ in range(2)]
+    gt = 0.5 * (halves[0] + halves[1])
+    assert bench.gt_noise(*halves) == pytest.approx(bench.smape(gt, truth), rel=0.02)
 
 
 @pytest.mark.parametrize("sobol", [False, True])
@@ -91,10 +98,46 @@ def test_sobol_uniforms_are_stratified_per_pixel(bench):
     """Each pixel's 64 Sobol' numbers, shifted modulo 1, keep one in each of 64 equal
     intervals of every axis (shifted with them): any window 2/64 wide holds one to three, and
     their mean is within 1.5/64 of 1/2. Independent numbers leave about one window in eight
-    empty and stray by about 0.036 per pixel."""
-    u = bench.uniforms(np.random.default_rng(2), 100, 64, 4, sobol=True)
+    empty and stray by about 0.036 per pixel. Across pixels the shifts differ, and a pixel's
+    first number is uniform."""
+    u = bench.uniforms(np.random.default_rng(2), 400, 64, 4, sobol=True)
     start = np.arange(64) / 64.0
-    inside = (u[..., None] - start) % 1.0 < 2.0 / 64.0  # (pixel, sample, axis, window)
+    inside = (u[:100, :, :, None] - start) % 1.0 < 2.0 / 64.0  # (pixel, sample, axis, window)
     counts = inside.sum(axis=1)
     assert counts.min() >= 1 and counts.max() <= 3
     assert np.abs(u.mean(axis=1) - 0.5).max() <= 1.5 / 64.0
+    first = u[:, 0, :]
+    assert np.unique(first[:, 0]).size == first.shape[0]
+    for axis in range(4):
+        assert stats.kstest(first[:, axis], "uniform").pvalue > 1e-3
+
+
+def _results(bench, fast):
+    """Made-up results of the quick configuration: every estimator as efficient as the SR
+    simulation, except those whose name holds one of ``fast``: 100 times."""
+    cfg = bench.QUICK
+    environment = {"date": "-", "adapter": "-", "cpu": "-", "cores": 2, "python": "-",
+                   "versions": {}, "background_cores": 0.0}
+    results = bench.Results(cfg, environment)
+    for label, *_, albedo in cfg.structures:
+        results.seconds[label, "GT", cfg.gt_spp] = 1.0
+        results.errors[label, "GT", cfg.gt_spp] = 0.001
+        for spp, _ in cfg.points:
+            for estimator in bench.estimators(albedo)[1:]:
+                results.seconds[label, estimator, spp] = 1.0
+                results.errors[label, estimator, spp] = (
+                    0.001 if any(name in estimator for name in fast) else 0.1)
+    return results
+
+
+def test_targets_as_published_leave_out_sobol_and_base_interreflection(bench):
+    """The "as published" targets see neither Sobol' sampling nor the base's
+    interreflection; the best-variant targets see both."""
+    section = bench.render_section(_results(bench, (bench.SOBOL, bench.BASE_IR)), "-")
+    rows = _rows(section, "### Targets")
+    assert len(rows) == 4 * len(bench.QUICK.points)
+    for text, _, measured, met in rows:
+        published = "as published" in text
+        ratio = float(measured.split()[1].rstrip("\u00d7"))
+        assert ratio == pytest.approx(1.0 if published else 100.0), (text, measured)
+        assert met == ("no" if published else "yes")
