@@ -4,7 +4,7 @@ import os
 
 import pytest
 
-from wgbragg._io import atomic_path, write_text_atomic
+from wgbragg._io import atomic_path, check_output_folder, check_output_path, write_text_atomic
 
 
 def test_replaces_whole_and_leaves_no_temporary(tmp_path):
@@ -34,3 +34,21 @@ def test_temporary_keeps_the_suffix_and_result_is_readable_by_others(tmp_path):
     finally:
         os.umask(mask)
     assert (tmp_path / "figure.png").stat().st_mode & 0o777 == 0o644
+
+
+@pytest.mark.parametrize("check", [
+    lambda path: check_output_path(path / "image.png", "output", ".png"),
+    lambda path: check_output_folder(path / "frames", "folder"),
+])
+def test_output_under_a_dangling_link_is_refused_before_work(tmp_path, check):
+    link = tmp_path / "out"
+    link.symlink_to(tmp_path / "gone")
+    with pytest.raises(ValueError, match="link to nothing"):
+        check(link)
+
+
+def test_output_under_new_folders_is_accepted(tmp_path):
+    target = check_output_path(tmp_path / "a" / "b" / "image.png", "output", ".png")
+    with atomic_path(target) as temporary:
+        temporary.write_bytes(b"x")
+    assert target.read_bytes() == b"x"

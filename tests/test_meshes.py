@@ -350,3 +350,13 @@ def test_directory_is_refused(tmp_path):
     folder.mkdir()
     with pytest.raises(ValueError, match=r"folder\.obj"):
         load_mesh(folder)
+
+
+def test_obj_in_latin1_is_read(tmp_path):
+    # Old exporters write names and comments in Latin-1; the geometry is ASCII either way.
+    path = tmp_path / "caf\u00e9.obj"
+    path.write_bytes("# mod\u00e8le export\u00e9\no caf\u00e9\nv 0 0 0\nv 2 0 0\nv 0 1 0\n"
+                     "f 1 2 3\n".encode("latin-1"))
+    loaded = load_mesh(path)
+    np.testing.assert_array_equal(loaded.faces, [[0, 1, 2]])
+    np.testing.assert_allclose(loaded.vertices, [[0, 0, 0], [2, 0, 0], [0, 1, 0]])

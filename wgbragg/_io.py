@@ -79,6 +79,10 @@ def check_output_folder(path, name: str) -> Path:
 def _check_creatable(folder: Path, name: str, text: str) -> None:
     # The nearest folder that exists must be one we can create the rest in and write to.
     while not folder.exists():
+        if folder.is_symlink():
+            # mkdir would fail on the link's name, after the work was done.
+            raise ValueError(f"{name} cannot be written: {folder} is a link to nothing "
+                             f"(for {text!r})")
         folder = folder.parent
     if not folder.is_dir() or not os.access(folder, os.W_OK | os.X_OK):
         raise ValueError(f"{name} cannot be written: {folder} is not a writable folder "

@@ -20,6 +20,7 @@ References
 
 from __future__ import annotations
 
+import io
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -156,6 +157,22 @@ def area_weighted_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray
     return unit
 
 
+def _mesh_source(path: Path, suffix: str):
+    """What trimesh reads: the path, or an OBJ's text as UTF-8 bytes with a resolver for its
+    material files. OBJ is ASCII but for names and comments, often Latin-1 in old exports;
+    trimesh guesses a non-UTF-8 encoding only with the optional charset_normalizer, and Latin-1
+    decodes any byte."""
+    if suffix != ".obj":
+        return str(path), None
+    data = path.read_bytes()
+    try:
+        data.decode("utf-8")
+        return str(path), None
+    except UnicodeDecodeError:
+        text = data.decode("latin-1").encode("utf-8")
+        return io.BytesIO(text), trimesh.resolvers.FilePathResolver(str(path))
+
+
 def load_mesh(path: str | os.PathLike) -> TriangleMesh:
     """Read a triangle mesh from an OBJ, PLY, GLB/GLTF or STL file with trimesh.
 
@@ -192,7 +209,9 @@ def load_mesh(path: str | os.PathLike) -> TriangleMesh:
     if not path.is_file():
         raise ValueError(f"mesh file {path}: does not exist or is not a file")
     try:
-        scene = trimesh.load_scene(str(path), file_type=suffix[1:], allow_remote=False)
+        source, resolver = _mesh_source(path, suffix)
+        scene = trimesh.load_scene(source, file_type=suffix[1:], resolver=resolver,
+                                   allow_remote=False)
         parts = []
         for node in scene.graph.nodes_geometry:
             transform, name = scene.graph[node]
