@@ -71,8 +71,8 @@ class EnvironmentMap:
     Raises
     ------
     ValueError
-        If ``radiance`` has another shape, a negative or non-finite value, or an integral
-        beyond float64, or ``intensity`` is negative or not finite.
+        If ``radiance`` has another shape or a negative or non-finite value, or ``intensity``
+        is negative or not finite.
 
     Examples
     --------
@@ -106,21 +106,27 @@ class EnvironmentMap:
             [np.sin(half_edges[:-1]) ** 2, band, np.cos(half_edges[1:]) ** 2], axis=-1
         )
         solid_angle = (4.0 * np.pi / self.width) * band
-        luminance = radiance @ LUMINANCE_WEIGHTS
-        with np.errstate(over="ignore", invalid="ignore"):
-            mean = np.sum(luminance * solid_angle[:, None]) / (4.0 * np.pi)
-            floor = FLOOR_FRACTION * mean if mean > 0.0 else 1.0
-            cumulative = np.cumsum((luminance + floor) * solid_angle[:, None], axis=1)
-            marginal = np.cumsum(cumulative[:, -1])
+        with np.errstate(over="ignore"):
+            # A convex combination of finite channels, unless rounding tips it over.
+            luminance = np.minimum(radiance @ LUMINANCE_WEIGHTS, np.finfo(np.float64).max)
+        peak = float(luminance.max())
+        # The densities do not depend on the radiance's scale. From the luminance relative to
+        # its peak, a map of subnormal radiance keeps its floor (which would underflow to 0,
+        # and its CDFs to 0 / 0) and a huge one cannot overflow its integral.
+        relative = luminance / peak if peak > 0.0 else luminance
+        mean = np.sum(relative * solid_angle[:, None]) / (4.0 * np.pi)
+        floor = FLOOR_FRACTION * mean if mean > 0.0 else 1.0
+        cumulative = np.cumsum((relative + floor) * solid_angle[:, None], axis=1)
+        marginal = np.cumsum(cumulative[:, -1])
         total = marginal[-1]
-        if not np.isfinite(total):
-            raise ValueError("radiance is too large: its integral overflows float64")
         # Dividing by the last partial sum makes each CDF end at exactly 1.
         self._marginal = marginal / total
         self._conditional = cumulative / cumulative[:, -1:]
-        self._pdf_scale = 1.0 / total
+        # Per unit of absolute luminance; infinite for a subnormal peak, which packed() refuses.
+        with np.errstate(over="ignore", divide="ignore"):
+            self._pdf_scale = 1.0 / (total * peak) if peak > 0.0 else 1.0 / total
         self._pdf_floor = floor / total
-        self._density = (luminance + floor) / total
+        self._density = (relative + floor) / total
 
     def direction_to_texel(self, directions) -> tuple[np.ndarray, np.ndarray]:
         """The texel each direction sees.
