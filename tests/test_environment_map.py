@@ -196,6 +196,19 @@ def test_density_does_not_depend_on_the_radiance_scale(environment, scale, rtol)
         np.testing.assert_allclose(samples, environment.sample(u), atol=1e-9)
 
 
+def test_a_single_subnormal_texel_is_a_lamp():
+    # Its floor (1e-3 of the mean) underflowed to 0: 0 / 0 CDFs and NaN directions.
+    lamp = np.zeros((4, 8, 3))
+    lamp[1, 2] = 5e-324
+    unit = lamp / 5e-324
+    directions = random_directions(1000, seed=5)
+    np.testing.assert_allclose(EnvironmentMap(lamp).pdf(directions),
+                               EnvironmentMap(unit).pdf(directions), rtol=1e-12)
+    u = np.random.default_rng(6).random((1000, 2))
+    np.testing.assert_allclose(EnvironmentMap(lamp).sample(u), EnvironmentMap(unit).sample(u),
+                               atol=1e-12)
+
+
 def aligned_edges(environment, split):
     """Cells of a (cos theta, phi) grid, each texel split into ``split`` x ``split``, uniform
     in cos theta and phi, so that the density is constant in every cell."""
