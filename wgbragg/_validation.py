@@ -25,6 +25,7 @@ __all__ = [
     "check_extinction",
     "check_index",
     "check_polarization",
+    "check_real",
     "check_thickness",
     "check_wavelength",
 ]
@@ -111,6 +112,14 @@ def check_count(name: str, value) -> int:
     if not 1 <= count <= MAX_PERIODS:
         raise ValueError(f"{name} must be an integer in [1, {MAX_PERIODS}], got {count}")
     return count
+
+
+def check_real(name: str, value, low: float, high: float) -> float:
+    """``value`` as a float if it is a real number (not a bool) in [low, high]."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not (
+            low <= value <= high):  # NaN fails
+        raise ValueError(f"{name} must be a real number in [{low:g}, {high:g}], got {value!r}")
+    return float(value)
 
 
 def check_wavelength(value, name: str = "wavelength_nm") -> np.ndarray:

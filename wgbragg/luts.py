@@ -31,7 +31,6 @@ import dataclasses
 import hashlib
 import json
 import math
-import numbers
 import os
 import re
 import sys
@@ -46,7 +45,7 @@ import numpy as np
 
 from . import __version__
 from ._io import atomic_path
-from ._validation import check_backend, check_count
+from ._validation import check_backend, check_count, check_real
 
 __all__ = [
     "COLOUR_TABLES",
@@ -568,17 +567,6 @@ def cached(kind: str, parameters: dict, bake: Callable[[], dict], *, cache=None,
 # --------------------------------------------------------------------------- the kinds
 
 
-def _real(name: str, value, low: float, high: float, *, include_low: bool) -> float:
-    accepted = f"a real number in {'[' if include_low else '('}{low:g}, {high:g}]"
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ValueError(f"{name} must be {accepted}, got {value!r}")
-    value = float(value)
-    above = low <= value if include_low else low < value
-    if not (above and value <= high):  # NaN fails both
-        raise ValueError(f"{name} must be {accepted}, got {value}")
-    return value
-
-
 _FILTER_ARRAYS = ("theta_i", "theta_d", "values", "weights")
 
 
@@ -612,9 +600,8 @@ def transmission_filter_parameters(alpha, resolution_deg=0.25, psi_samples=1000)
     from .transmission_filter import FILTER_ALPHA_MIN, MIN_RESOLUTION_DEG
 
     return {
-        "alpha": _real("alpha", alpha, FILTER_ALPHA_MIN, ALPHA_MAX, include_low=True),
-        "resolution_deg": _real("resolution_deg", resolution_deg, MIN_RESOLUTION_DEG, 90.0,
-                                include_low=True),
+        "alpha": check_real("alpha", alpha, FILTER_ALPHA_MIN, ALPHA_MAX),
+        "resolution_deg": check_real("resolution_deg", resolution_deg, MIN_RESOLUTION_DEG, 90.0),
         "psi_samples": check_count("psi_samples", psi_samples),
         "wgbragg": __version__,
     }

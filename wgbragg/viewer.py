@@ -57,7 +57,7 @@ import types
 import numpy as np
 
 from . import luts
-from ._validation import check_count, check_extinction, check_index, check_thickness
+from ._validation import check_count, check_extinction, check_index, check_real, check_thickness
 from .colorimetry import xyz_weights
 from .colour_methods import COLOUR_METHODS
 from .materials import BraggMirror
@@ -173,13 +173,6 @@ class _Slot:
     material_version: int
 
 
-def _real(name: str, value, low: float, high: float) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not (
-            low <= value <= high):
-        raise ValueError(f"{name} must be a real number in [{low:g}, {high:g}], got {value!r}")
-    return float(value)
-
-
 def _finite(name: str, value, positive: bool = False) -> float:
     if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(
             value) or (positive and value <= 0):
@@ -198,7 +191,7 @@ def _albedo(value) -> float | tuple[float, float, float] | None:
     if value is None:
         return None
     if isinstance(value, numbers.Real) and not isinstance(value, bool):
-        return _real("base_albedo", value, 0.0, 1.0)
+        return check_real("base_albedo", value, 0.0, 1.0)
     try:
         channels = tuple(value)
     except TypeError:
@@ -206,7 +199,7 @@ def _albedo(value) -> float | tuple[float, float, float] | None:
     if len(channels) != 3:
         raise ValueError(f"base_albedo must be None, a number or 3 numbers in [0, 1], got "
                          f"{value!r}")
-    return tuple(_real("base_albedo", c, 0.0, 1.0) for c in channels)
+    return tuple(check_real("base_albedo", c, 0.0, 1.0) for c in channels)
 
 
 def _thickness_range(value) -> tuple[float, float]:
@@ -520,7 +513,7 @@ class Viewer:
                 period = check_thickness("period_nm", fields["period_nm"])
                 if period <= 0.0:
                     raise ValueError(f"period_nm must be > 0, got {period}")
-            delta = _real("delta", fields.get("delta", spec.delta), 0.0, 1.0)
+            delta = check_real("delta", fields.get("delta", spec.delta), 0.0, 1.0)
             changes.update(d1_nm=delta * period, d2_nm=period - delta * period)
         if "N" in fields:
             changes["N"] = check_count("N", fields["N"])
@@ -669,11 +662,11 @@ class Viewer:
         camera = {name: changes.get(name, getattr(self, name))
                   for name in ("yaw_deg", "pitch_deg", "distance")}
         camera["yaw_deg"] = _finite("yaw_deg", camera["yaw_deg"])
-        camera["pitch_deg"] = _real("pitch_deg", camera["pitch_deg"], -_PITCH_LIMIT_DEG,
-                                    _PITCH_LIMIT_DEG)
+        camera["pitch_deg"] = check_real("pitch_deg", camera["pitch_deg"], -_PITCH_LIMIT_DEG,
+                                         _PITCH_LIMIT_DEG)
         camera["distance"] = _finite("distance", camera["distance"], positive=True)
-        exposure = _real("exposure", changes.get("exposure", self.exposure), -MAX_EXPOSURE,
-                         MAX_EXPOSURE)
+        exposure = check_real("exposure", changes.get("exposure", self.exposure), -MAX_EXPOSURE,
+                              MAX_EXPOSURE)
         state = {}
         if "material_type" in changes:
             state["material_type"] = _choice("material_type", changes["material_type"],
