@@ -40,7 +40,7 @@ Outputs:
 
 Usage::
 
-    python tools/bench_ibl.py                    # full run (about a minute): docs + out/ibl
+    python tools/bench_ibl.py                    # full run (about 11 minutes): docs + out/ibl
     python tools/bench_ibl.py --no-write         # full run, print only (figures still drawn)
     python tools/bench_ibl.py --quick            # small grid, print only, no figures
     python tools/bench_ibl.py --quick --output /tmp/b.md --figures /tmp/ibl
