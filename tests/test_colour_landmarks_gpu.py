@@ -7,14 +7,11 @@ N in {3, 5, 10, 20, 100}, theta = 0, 7, ..., 84 degrees; plus an Appendix D mirr
 mean dE 4e-5 (approx, subdivided), max 3e-4; "averaged" uses the numpy twin's zones, Gauss
 nodes and weights, and agrees within 3e-3 (0.013 on tools/bench_rgb.py's 1-degree grid).
 
-The numpy landmark search (60 bisection steps per landmark) dominates the run time, so the
-module caches ``find_landmarks`` (a pure function of a frozen mirror, angle and polarisation)
-while it computes the numpy colours, and shares them between the tests.
+The numpy colours are computed once and shared between the tests.
 """
 
 from __future__ import annotations
 
-import functools
 import itertools
 import math
 
@@ -58,15 +55,13 @@ def delta_e(xyz_a, xyz_b):
 
 @pytest.fixture(scope="module")
 def numpy_colours():
-    """{(mirror index or name, method): numpy XYZ}, landmarks computed once per angle."""
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(cm, "find_landmarks", functools.lru_cache(maxsize=None)(find_landmarks))
-        out = {}
-        for method in METHODS:
-            for index, mirror in enumerate(GRID):
-                out[index, method] = numpy_xyz(mirror, THETA, method)
-            out["evanescent", method] = numpy_xyz(EVANESCENT, EVANESCENT_THETA, method)
-        out["host", "averaged"] = cm.averaged_xyz(HOST_MIRROR, THETA)
+    """{(mirror index or name, method): numpy XYZ}."""
+    out = {}
+    for method in METHODS:
+        for index, mirror in enumerate(GRID):
+            out[index, method] = numpy_xyz(mirror, THETA, method)
+        out["evanescent", method] = numpy_xyz(EVANESCENT, EVANESCENT_THETA, method)
+    out["host", "averaged"] = cm.averaged_xyz(HOST_MIRROR, THETA)
     return out
 
 

@@ -357,9 +357,8 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
     sweep_gpu_delta_e = {k: np.zeros(shape) for k in cfg.samples} if spectral_on_gpu else {}
     sweep_seconds = {(k, *NUMPY): np.zeros(len(grid)) for k in cfg.samples}
 
-    # Accuracy on the grid, and numpy time per colour from the same calls: the landmark
-    # methods cost tens of ms per colour in numpy, so one pass over the grid is all the
-    # timing they get (numbers in the table say so).
+    # Accuracy on the grid, and numpy time per colour from the same calls (one pass over the
+    # grid: the notes say so).
     bar = tqdm(list(enumerate(grid)), desc="bench_rgb accuracy", unit="mirror",
                disable=not progress, file=sys.stderr)
     for i, case in bar:
@@ -751,8 +750,8 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
     out.append(
         "1. Times are per colour (one XYZ, both polarisations). numpy rows: wall clock of "
         f"`mirror.xyz(theta, method)` on the {len(cfg.angles_deg)} angles of the grid, one "
-        "pass (the landmark methods loop over angles in Python; their cost is what a numpy "
-        "user pays). GPU wall clock: `mirror.xyz(theta, method, backend='gpu')` on "
+        "pass (the landmark methods search every angle's landmarks together, then integrate "
+        "every node in one call). GPU wall clock: `mirror.xyz(theta, method, backend='gpu')` on "
         f"{cfg.timing_angles:,} angles from 0 to 89°, upload, dispatch and readback included, "
         "pipeline compilation excluded, best of "
         f"{cfg.gpu_passes} pass(es). GPU kernel: GPU timestamp queries around the dispatch "

@@ -22,7 +22,7 @@ import inspect
 import numpy as np
 
 from . import colorimetry
-from .landmarks import VISIBLE_OMEGA, find_landmarks
+from .landmarks import VISIBLE_OMEGA, find_landmarks_many
 from .optics.yeh import cell_coefficients, yeh_reflectance
 from .thin_film_colour import DEFAULT_ORDER, FOURIER_METHODS, fourier_xyz
 
@@ -98,35 +98,53 @@ def _white():
     return _box_integral(360.0, 830.0)
 
 
+def _segment_sum(owner, values, size):
+    """Rows of ``values`` summed per ``owner`` (shape (size, 3))."""
+    out = np.zeros((size, 3))
+    np.add.at(out, owner, values)
+    return out
+
+
 def _approx_polarized(mirror, theta, polarization, subdivisions):
-    if _total_reflection(mirror, theta):
-        return _white()
-    landmarks = find_landmarks(mirror, theta, polarization)
-    bounds = np.concatenate([[VISIBLE_OMEGA[0]], landmarks.omega, [VISIBLE_OMEGA[1]]])
-    lo, hi = bounds[:-1], bounds[1:]
+    """XYZ of one polarisation at each angle of the 1-D ``theta`` (none totally reflected)."""
+    found = find_landmarks_many(mirror, theta, polarization)
+    owner, lo, hi = _intervals([landmarks.omega for landmarks in found])
     s = mirror.host * np.sin(theta)
     _, _, _, sin2 = cell_coefficients(mirror.n1, mirror.n2, mirror.d1, mirror.d2,
-                                      4.0 * np.pi / (lo + hi), s, polarization)
+                                      4.0 * np.pi / (lo + hi), s[owner], polarization)
     gap = sin2 <= 0.0
     pieces = np.ones(lo.size, dtype=int)
-    if subdivisions is not None and landmarks.n_plus > 0.0:
-        # "max(1, s - m) sub-boxes" for the box of mode number m (sec. 3.2.2).
-        mode = np.floor(0.5 * (lo + hi) * landmarks.n_plus / np.pi).astype(int)
-        pieces = np.where(gap, 1, np.maximum(1, subdivisions - mode))
+    n_plus = np.array([landmarks.n_plus for landmarks in found])[owner]
+    if subdivisions is not None:
+        # "max(1, s - m) sub-boxes" for the box of mode number m (sec. 3.2.2); none without
+        # modes (evanescent n2).
+        mode = np.floor(0.5 * (lo + hi) * n_plus / np.pi).astype(int)
+        pieces = np.where(gap | (n_plus <= 0.0), 1, np.maximum(1, subdivisions - mode))
     starts = np.repeat(lo, pieces)
     widths = np.repeat((hi - lo) / pieces, pieces)
-    steps = np.concatenate([np.arange(p) for p in pieces])
+    steps = np.arange(pieces.sum()) - np.repeat(np.cumsum(pieces) - pieces, pieces)
     omega_lo = starts + steps * widths
     omega_hi = omega_lo + widths
-    in_gap = np.repeat(gap, pieces)
-    theta1 = np.arcsin(np.clip(s / mirror.n1, 0.0, 1.0))
+    piece_owner = np.repeat(owner, pieces)
+    theta1 = np.arcsin(np.clip(s / mirror.n1, 0.0, 1.0))[piece_owner]
     weight = np.where(
-        in_gap, 1.0,
+        np.repeat(gap, pieces), 1.0,
         angular_correction(mirror.n1, mirror.n2, theta1)
-        * envelope(mirror, 0.5 * (omega_lo + omega_hi), theta, polarization),
+        * envelope(mirror, 0.5 * (omega_lo + omega_hi), theta[piece_owner], polarization),
     )
     boxes = _box_integral(2.0 * np.pi / omega_hi, 2.0 * np.pi / omega_lo)
-    return weight @ boxes
+    return _segment_sum(piece_owner, weight[:, None] * boxes, theta.size)
+
+
+def _intervals(cuts):
+    """(owner, lo, hi) of the intervals into which each angle's increasing ``cuts`` (inside
+    the visible range) split it, all angles concatenated."""
+    counts = np.array([c.size for c in cuts], dtype=int)
+    owner = np.repeat(np.arange(counts.size), counts + 1)
+    bounds = [np.concatenate([[VISIBLE_OMEGA[0]], c, [VISIBLE_OMEGA[1]]]) for c in cuts]
+    lo = np.concatenate([b[:-1] for b in bounds])
+    hi = np.concatenate([b[1:] for b in bounds])
+    return owner, lo, hi
 
 
 def approx_xyz(mirror, theta, subdivisions=None):
@@ -146,12 +164,22 @@ def approx_xyz(mirror, theta, subdivisions=None):
             "method 'approx'/'subdivided' needs host == n1 (it is built on the envelope of eq 11); "
             f"got host={mirror.host} and n1={mirror.n1}: use method='averaged'"
         )
+    return _per_angle(mirror, theta, lambda angles: 0.5 * (
+        _approx_polarized(mirror, angles, "s", subdivisions)
+        + _approx_polarized(mirror, angles, "p", subdivisions)))
+
+
+def _per_angle(mirror, theta, colours):
+    """XYZ of every angle of ``theta`` (any shape): white where totally reflected, else
+    ``colours`` of the 1-D array of the others, computed together."""
     theta = np.asarray(theta, dtype=np.float64)
-    out = np.empty((*theta.shape, 3))
-    for index, angle in np.ndenumerate(theta):
-        out[index] = 0.5 * (_approx_polarized(mirror, angle, "s", subdivisions)
-                            + _approx_polarized(mirror, angle, "p", subdivisions))
-    return out
+    flat = theta.reshape(-1)
+    out = np.empty((flat.size, 3))
+    total = _total_reflection(mirror, flat)
+    out[total] = _white()
+    if not total.all():
+        out[~total] = colours(flat[~total])
+    return out.reshape(*theta.shape, 3)
 
 
 def _zone_map(u, lower_edge, upper_edge):
@@ -159,83 +187,93 @@ def _zone_map(u, lower_edge, upper_edge):
 
     At a band edge the averaged spectrum goes like sqrt(distance): with a map quadratic at
     that end, ``s = u^2 (3 - 2u)`` at both ends, ``u^2`` or ``u (2 - u)`` at one, it is smooth
-    in u. Polynomials: the float32 twin pays no sine per node.
+    in u. Polynomials: the float32 twin pays no sine per node. ``lower_edge`` and
+    ``upper_edge`` broadcast against ``u``.
     """
-    if lower_edge and upper_edge:
-        return u * u * (3.0 - 2.0 * u), 6.0 * u * (1.0 - u)
-    if lower_edge:
-        return u * u, 2.0 * u
-    if upper_edge:
-        return u * (2.0 - u), 2.0 - 2.0 * u
-    return u, np.ones_like(u)
+    both = lower_edge & upper_edge
+    s = np.where(both, u * u * (3.0 - 2.0 * u),
+                 np.where(lower_edge, u * u, np.where(upper_edge, u * (2.0 - u), u)))
+    ds = np.where(both, 6.0 * u * (1.0 - u),
+                  np.where(lower_edge, 2.0 * u, np.where(upper_edge, 2.0 - 2.0 * u, 1.0)))
+    return s, ds
 
 
 def _zones(mirror, theta):
-    """Zones between consecutive band edges of either polarisation: (omega_lo, omega_hi, lower
-    is an edge, upper is, share of a pass band). Both spectra are smooth inside each, so the
-    polarisations share its nodes.
+    """Zones between consecutive band edges of either polarisation, at each angle of the 1-D
+    ``theta``: (angle index, omega_lo, omega_hi, lower is an edge, upper is, share of a pass
+    band). Both spectra are smooth inside each, so the polarisations share its nodes.
 
     The share of a pass band is the largest change of either Bloch phase ``K Lambda`` across
     the zone over pi: 0 in a gap, 1 for a whole pass band, in which the exact spectrum
     oscillates N times.
     """
-    edges = np.sort(np.concatenate([
-        landmarks.omega[landmarks.kind == "edge"]
-        for landmarks in (find_landmarks(mirror, theta, "s"), find_landmarks(mirror, theta, "p"))
-    ]))
-    bounds = np.concatenate([[VISIBLE_OMEGA[0]], edges, [VISIBLE_OMEGA[1]]])
-    is_edge = np.concatenate([[False], np.ones(edges.size, bool), [False]])
-    s = mirror.host * np.sin(theta)
-    phase = np.empty((2, bounds.size))
+    edges = [np.sort(np.concatenate([s_found.omega[s_found.kind == "edge"],
+                                     p_found.omega[p_found.kind == "edge"]]))
+             for s_found, p_found in zip(find_landmarks_many(mirror, theta, "s"),
+                                         find_landmarks_many(mirror, theta, "p"), strict=True)]
+    owner, lo, hi = _intervals(edges)
+    # A zone's ends are edges but for the range's ends: the first zone of an angle starts at
+    # the range's start, its last ends at the range's end.
+    first = np.r_[True, owner[1:] != owner[:-1]]
+    last = np.r_[owner[1:] != owner[:-1], True]
+    s = mirror.host * np.sin(theta)[owner]
+    phase_lo, phase_hi = np.empty((2, lo.size)), np.empty((2, lo.size))
     for row, polarization in enumerate(("s", "p")):
-        _, _, x, sin2 = cell_coefficients(mirror.n1, mirror.n2, mirror.d1, mirror.d2,
-                                          2.0 * np.pi / bounds, s, polarization)
-        # From sin^2, accurate at band edges (arccos(x) is not, in the float32 twin).
-        phase[row] = np.arctan2(np.sqrt(np.maximum(sin2, 0.0)), x)
+        for phase, omega in ((phase_lo, lo), (phase_hi, hi)):
+            _, _, x, sin2 = cell_coefficients(mirror.n1, mirror.n2, mirror.d1, mirror.d2,
+                                              2.0 * np.pi / omega, s, polarization)
+            # From sin^2, accurate at band edges (arccos(x) is not, in the float32 twin).
+            phase[row] = np.arctan2(np.sqrt(np.maximum(sin2, 0.0)), x)
     # At a band edge the phase is 0 or pi, but grows like the square root of the distance: the
     # float32 twin's edges (4e-7 relative) put it up to 0.05 away, enough to change a panel
     # count, so both twins snap it there.
-    phase = np.where(phase < PHASE_SNAP, 0.0, np.where(phase > np.pi - PHASE_SNAP, np.pi, phase))
-    share = np.abs(np.diff(phase, axis=1)).max(axis=0) / np.pi
-    keep = np.diff(bounds) > 0.0  # coincident edges: a closed gap, or s and p at normal incidence
-    return bounds[:-1][keep], bounds[1:][keep], is_edge[:-1][keep], is_edge[1:][keep], share[keep]
+    def snapped(phase):
+        return np.where(phase < PHASE_SNAP, 0.0, np.where(phase > np.pi - PHASE_SNAP, np.pi, phase))
+
+    share = np.abs(snapped(phase_hi) - snapped(phase_lo)).max(axis=0) / np.pi
+    keep = hi - lo > 0.0  # coincident edges: a closed gap, or s and p at normal incidence
+    return owner[keep], lo[keep], hi[keep], ~first[keep], ~last[keep], share[keep]
 
 
 def _panel_count(mirror, omega_lo, omega_hi, pass_band_share):
     width_nm = 2.0 * np.pi / omega_lo - 2.0 * np.pi / omega_hi
-    count = max(1, int(np.ceil(width_nm / PANEL_NM)))
+    count = np.maximum(1, np.ceil(width_nm / PANEL_NM)).astype(int)
     if mirror.N < AVERAGING_MIN_PERIODS:
         # The margin keeps a whole pass band (share 1 up to rounding: phases snapped to 0 and
         # pi) at the same count in both twins.
         oscillations = mirror.N * pass_band_share
-        count = max(count, int(np.ceil(PANELS_PER_OSCILLATION * oscillations - PANEL_MARGIN)))
+        count = np.maximum(count, np.ceil(PANELS_PER_OSCILLATION * oscillations
+                                          - PANEL_MARGIN).astype(int))
     return count
 
 
 def _averaged_unpolarized(mirror, theta):
-    if _total_reflection(mirror, theta):
-        return _white()
+    """XYZ at each angle of the 1-D ``theta`` (none totally reflected)."""
     method = "exact" if mirror.N < AVERAGING_MIN_PERIODS else "phase-averaged"
-    total = np.zeros(3)
-    for lo, hi, lower_edge, upper_edge, share in zip(*_zones(mirror, theta), strict=True):
-        panels = _panel_count(mirror, lo, hi, share)
-        u = ((np.arange(panels)[:, None] + _GAUSS_NODES[None, :]) / panels).ravel()
-        s, ds = _zone_map(u, lower_edge, upper_edge)
-        omega = lo + (hi - lo) * s
-        wavelength = 2.0 * np.pi / omega
-        # d lambda = 2 pi / omega^2 d omega.
-        weight = np.tile(_GAUSS_WEIGHTS, panels) / panels * (hi - lo) * ds * wavelength / omega
-        values = yeh_reflectance(mirror.n1, mirror.n2, mirror.d1, mirror.d2, mirror.N,
-                                 wavelength, theta, "unpolarized", host=mirror.host,
-                                 method=method)
-        density = colorimetry.xyz_density(wavelength)
-        # The zone's mean R times its exact box integral, plus the rule on R minus that mean:
-        # the rule's error on the D65 x CMF wiggles then scales with the variation of R
-        # rather than R itself (a perfect reflector is exactly white).
-        mean = (weight @ values) / (2.0 * np.pi / lo - 2.0 * np.pi / hi)
-        total += ((values - mean) * weight) @ density
-        total += mean * _box_integral(2.0 * np.pi / hi, 2.0 * np.pi / lo)
-    return total
+    owner, lo, hi, lower_edge, upper_edge, share = _zones(mirror, theta)
+    panels = _panel_count(mirror, lo, hi, share)
+    nodes = 3 * panels
+    zone = np.repeat(np.arange(lo.size), nodes)
+    step = np.arange(zone.size) - np.repeat(np.cumsum(nodes) - nodes, nodes)
+    panel, point = np.divmod(step, 3)
+    u = (panel + _GAUSS_NODES[point]) / panels[zone]
+    s, ds = _zone_map(u, lower_edge[zone], upper_edge[zone])
+    span = (hi - lo)[zone]
+    omega = lo[zone] + span * s
+    wavelength = 2.0 * np.pi / omega
+    # d lambda = 2 pi / omega^2 d omega.
+    weight = _GAUSS_WEIGHTS[point] / panels[zone] * span * ds * wavelength / omega
+    values = yeh_reflectance(mirror.n1, mirror.n2, mirror.d1, mirror.d2, mirror.N,
+                             wavelength, theta[owner][zone], "unpolarized", host=mirror.host,
+                             method=method)
+    density = colorimetry.xyz_density(wavelength)
+    # The zone's mean R times its exact box integral, plus the rule on R minus that mean:
+    # the rule's error on the D65 x CMF wiggles then scales with the variation of R rather
+    # than R itself (a perfect reflector is exactly white).
+    mean = np.bincount(zone, weight * values, lo.size) / (2.0 * np.pi / lo - 2.0 * np.pi / hi)
+    rule = _segment_sum(zone, ((values - mean[zone]) * weight)[:, None] * density, lo.size)
+    boxes = mean[:, None] * _box_integral(2.0 * np.pi / hi, 2.0 * np.pi / lo)
+    return _segment_sum(owner, rule + boxes, theta.size)
 
 
 def averaged_xyz(mirror, theta):
@@ -248,11 +286,7 @@ def averaged_xyz(mirror, theta):
     theta : array_like
         Angles in the host, radians.
     """
-    theta = np.asarray(theta, dtype=np.float64)
-    out = np.empty((*theta.shape, 3))
-    for index, angle in np.ndenumerate(theta):
-        out[index] = _averaged_unpolarized(mirror, angle)
-    return out
+    return _per_angle(mirror, theta, lambda angles: _averaged_unpolarized(mirror, angles))
 
 
 def option_names(method) -> tuple[str, ...]:

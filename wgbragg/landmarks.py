@@ -17,7 +17,7 @@ import numpy as np
 
 from .optics.yeh import cell_coefficients
 
-__all__ = ["KINDS", "VISIBLE_OMEGA", "Landmarks", "find_landmarks"]
+__all__ = ["KINDS", "VISIBLE_OMEGA", "Landmarks", "find_landmarks", "find_landmarks_many"]
 
 KINDS = ("mode", "airy", "edge", "zero")
 VISIBLE_OMEGA = (2.0 * np.pi / 830.0, 2.0 * np.pi / 360.0)
@@ -66,7 +66,7 @@ class Landmarks:
 
 
 def _dispersion(mirror, omega, s, polarization):
-    """(cos K Lambda, sin^2 K Lambda) at angular wavenumbers ``omega``."""
+    """(cos K Lambda, sin^2 K Lambda) at angular wavenumbers ``omega`` (``s`` broadcasts)."""
     _, _, x, sin2 = cell_coefficients(mirror.n1, mirror.n2, mirror.d1, mirror.d2,
                                       2.0 * np.pi / omega, s, polarization)
     return x, sin2
@@ -87,6 +87,14 @@ def _bisect(function, lo, hi, lo_negative):
     return 0.5 * (lo + hi)
 
 
+def _ranges(first, last):
+    """(owner, value) of every integer in ``[first[i], last[i])`` for each i, in order."""
+    counts = np.maximum(last - first, 0)
+    owner = np.repeat(np.arange(first.size), counts)
+    starts = np.cumsum(counts) - counts
+    return owner, first[owner] + np.arange(owner.size) - starts[owner]
+
+
 def find_landmarks(mirror, theta: float, polarization: str, omega_range=VISIBLE_OMEGA):
     """Landmarks of ``mirror`` (a :class:`~wgbragg.BraggMirror`) at one angle.
 
@@ -103,58 +111,98 @@ def find_landmarks(mirror, theta: float, polarization: str, omega_range=VISIBLE_
     -------
     Landmarks
     """
+    return find_landmarks_many(mirror, [theta], polarization, omega_range)[0]
+
+
+def find_landmarks_many(mirror, thetas, polarization: str, omega_range=VISIBLE_OMEGA):
+    """:func:`find_landmarks` at each of ``thetas`` (a sequence of angles, radians), the
+    searches of all angles run together.
+
+    Returns
+    -------
+    list of Landmarks
+    """
     lo_omega, hi_omega = omega_range
-    s = mirror.host * np.sin(theta)
-    empty = Landmarks(np.zeros(0), np.zeros(0, dtype="<U4"), np.zeros(0, int), omega_range, 0.0)
-    if s >= mirror.n1 or mirror.n1 == mirror.n2 or mirror.d2 == 0.0:
-        return empty  # total reflection, or no n2 layer: no interference structure
-    q1 = np.sqrt((mirror.n1 - s) * (mirror.n1 + s))
+    s = mirror.host * np.sin(np.asarray(thetas, dtype=np.float64).reshape(-1))
+    searched = (s < mirror.n1) & (mirror.n1 != mirror.n2) & (mirror.d2 != 0.0)
     q2sq = (mirror.n2 - s) * (mirror.n2 + s)
+    propagating = np.flatnonzero(searched & (q2sq > 0.0))
+    evanescent = np.flatnonzero(searched & (q2sq <= 0.0))
+    n_plus = np.zeros(s.size)
+    q1 = np.sqrt(np.maximum((mirror.n1 - s) * (mirror.n1 + s), 0.0))
+    q2 = np.sqrt(np.maximum(q2sq, 0.0))
+    n_plus[propagating] = q1[propagating] * mirror.d1 + q2[propagating] * mirror.d2
+    # Found landmarks of every angle: (angle, omega, kind index) in groups, concatenated.
+    owners, omegas, kinds = [], [], []
 
-    def sin2_at(omega):
-        return _dispersion(mirror, omega, s, polarization)[1]
+    def found(owner, omega, kind):
+        owners.append(owner)
+        omegas.append(omega)
+        kinds.append(np.full(omega.size, kind))
 
-    def x_at(omega):
-        return _dispersion(mirror, omega, s, polarization)[0]
-
-    if q2sq <= 0.0:
+    if evanescent.size:
+        # No mode structure: band edges bracketed on a grid.
         grid = np.linspace(lo_omega, hi_omega, _SCAN_POINTS)
-        values = sin2_at(grid)
-        change = np.flatnonzero((values[:-1] <= 0.0) != (values[1:] <= 0.0))
-        edges = _bisect(sin2_at, grid[change], grid[change + 1], values[change] <= 0.0)
-        return Landmarks(edges, np.full(edges.size, "edge"), np.full(edges.size, -1),
-                         omega_range, 0.0)
+        values = _dispersion(mirror, grid, s[evanescent, None], polarization)[1]
+        row, change = np.nonzero((values[:, :-1] <= 0.0) != (values[:, 1:] <= 0.0))
+        owner = evanescent[row]
+        edges = _bisect(lambda omega: _dispersion(mirror, omega, s[owner], polarization)[1],
+                        grid[change], grid[change + 1], values[row, change] <= 0.0)
+        found(owner, edges, KINDS.index("edge"))
+    if propagating.size:
+        plus = n_plus[propagating]
+        # Modes bracketing the range; each pair (m, m + 1) holds one Airy point and two edges.
+        first = np.floor(lo_omega * plus / np.pi).astype(np.int64)
+        last = np.ceil(hi_omega * plus / np.pi).astype(np.int64)
+        index, mode = _ranges(first, last + 1)
+        found(propagating[index], mode * np.pi / plus[index], KINDS.index("mode"))
+        index, m = _ranges(first, last)
+        owner = propagating[index]
+        lower, upper = m * np.pi / plus[index], (m + 1) * np.pi / plus[index]
 
-    q2 = np.sqrt(q2sq)
-    n_plus = q1 * mirror.d1 + q2 * mirror.d2
-    # Modes bracketing the range; each pair (m, m + 1) holds one Airy point and two edges.
-    first = int(np.floor(lo_omega * n_plus / np.pi))
-    last = int(np.ceil(hi_omega * n_plus / np.pi))
-    modes = np.arange(first, last + 1) * np.pi / n_plus
-    lower, upper = modes[:-1], modes[1:]
-    x_lower = x_at(np.maximum(lower, 1e-12))
-    airy = _bisect(x_at, lower, upper, x_lower <= 0.0)
-    # sin^2 K Lambda <= 0 at a mode (inside its gap) and = 1 at the Airy point.
-    rising = _bisect(sin2_at, lower, airy, np.full(lower.shape, True))
-    falling = _bisect(sin2_at, airy, upper, np.full(lower.shape, False))
-    # A closed gap (Brewster's angle for p, App. A) has its edges on the mode itself.
-    rising = np.where(sin2_at(np.maximum(lower, 1e-12)) > 0.0, lower, rising)
-    falling = np.where(sin2_at(upper) > 0.0, upper, falling)
-    omega = [modes, airy, rising, falling]
-    kind = [np.full(modes.size, "mode"), np.full(airy.size, "airy"),
-            np.full(rising.size, "edge"), np.full(falling.size, "edge")]
-    if mirror.d2 > 0.0:
-        period = np.pi / (q2 * mirror.d2)
-        zeros = np.arange(max(1, int(np.floor(lo_omega / period))),
-                          int(np.ceil(hi_omega / period)) + 1) * period
-        zeros = zeros[sin2_at(zeros) > 0.0] if zeros.size else zeros
-        omega.append(zeros)
-        kind.append(np.full(zeros.size, "zero"))
-    omega = np.concatenate(omega)
-    kind = np.concatenate(kind)
-    keep = (omega > lo_omega) & (omega < hi_omega)
-    omega, kind = omega[keep], kind[keep]
-    order = np.argsort(omega, kind="stable")
-    omega, kind = omega[order], kind[order]
-    mode_number = np.floor(omega * n_plus / np.pi + 1e-9).astype(int)
-    return Landmarks(omega, kind, mode_number, omega_range, float(n_plus))
+        def x_at(omega):
+            return _dispersion(mirror, omega, s[owner], polarization)[0]
+
+        def sin2_at(omega):
+            return _dispersion(mirror, omega, s[owner], polarization)[1]
+
+        x_lower = x_at(np.maximum(lower, 1e-12))
+        airy = _bisect(x_at, lower, upper, x_lower <= 0.0)
+        # sin^2 K Lambda <= 0 at a mode (inside its gap) and = 1 at the Airy point.
+        rising = _bisect(sin2_at, lower, airy, np.full(lower.shape, True))
+        falling = _bisect(sin2_at, airy, upper, np.full(lower.shape, False))
+        # A closed gap (Brewster's angle for p, App. A) has its edges on the mode itself.
+        rising = np.where(sin2_at(np.maximum(lower, 1e-12)) > 0.0, lower, rising)
+        falling = np.where(sin2_at(upper) > 0.0, upper, falling)
+        found(owner, airy, KINDS.index("airy"))
+        found(owner, rising, KINDS.index("edge"))
+        found(owner, falling, KINDS.index("edge"))
+        period = np.pi / (q2[propagating] * mirror.d2)
+        index, z = _ranges(np.maximum(1, np.floor(lo_omega / period)).astype(np.int64),
+                           np.ceil(hi_omega / period).astype(np.int64) + 1)
+        owner = propagating[index]
+        zeros = z * period[index]
+        keep = _dispersion(mirror, zeros, s[owner], polarization)[1] > 0.0
+        found(owner[keep], zeros[keep], KINDS.index("zero"))
+
+    owner = np.concatenate([np.zeros(0, np.int64), *owners])
+    omega = np.concatenate([np.zeros(0), *omegas])
+    kind = np.concatenate([np.zeros(0, np.int64), *kinds])
+    inside = (omega > lo_omega) & (omega < hi_omega)
+    owner, omega, kind = owner[inside], omega[inside], kind[inside]
+    # By angle, then omega; ties keep the order found (modes before Airy points and edges).
+    order = np.lexsort((np.arange(omega.size), omega, owner))
+    owner, omega, kind = owner[order], omega[order], kind[order]
+    bounds = np.searchsorted(owner, np.arange(s.size + 1))
+    names = np.array(KINDS)
+    out = []
+    for angle in range(s.size):
+        part = slice(bounds[angle], bounds[angle + 1])
+        plus = n_plus[angle]
+        if plus == 0.0:  # evanescent n2, or nothing searched
+            number = np.full(omega[part].size, -1)
+        else:
+            number = np.floor(omega[part] * plus / np.pi + 1e-9).astype(int)
+        out.append(Landmarks(omega[part], names[kind[part]].astype("<U4"), number, omega_range,
+                             float(plus)))
+    return out

@@ -181,17 +181,17 @@ class BraggMirror:
             One :class:`~wgbragg.landmarks.Landmarks` for a scalar angle, an object array of
             them shaped like ``theta`` otherwise.
         """
-        from .landmarks import find_landmarks
+        from .landmarks import find_landmarks_many
 
         if polarization not in ("s", "p"):
             raise ValueError(f"polarization must be 's' or 'p', got {polarization!r}")
         angle = check_angle(theta)
+        found = find_landmarks_many(self, angle.reshape(-1), polarization)
         if angle.ndim == 0:
-            return find_landmarks(self, float(angle), polarization)
-        out = np.empty(angle.shape, dtype=object)
-        for index, value in np.ndenumerate(angle):
-            out[index] = find_landmarks(self, float(value), polarization)
-        return out
+            return found[0]
+        out = np.empty(len(found), dtype=object)
+        out[:] = found
+        return out.reshape(angle.shape)
 
 
 @dataclass(frozen=True)
