@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from wgbragg import BraggMirror, ThinFilm
+from wgbragg import BraggMirror, ThinFilm, colour_methods
 from wgbragg.colorimetry import delta_e_2000
 from wgbragg.colour_methods import (
     AVERAGING_MIN_PERIODS,
@@ -137,6 +137,28 @@ def test_huge_n_colours_are_finite_and_saturated_in_gaps():
         assert np.all(np.isfinite(rgb)), name
 
 
+@pytest.mark.parametrize("method", ["approx", "subdivided", "averaged"])
+def test_grazing_is_white_among_other_angles(method):
+    """Total reflection at 90 degrees takes the perfect reflector's colour, whichever angles
+    share the call, and blocks of angles give what single angles do."""
+    mirror = BraggMirror(1.0, 1.5, 125.0, 375.0, 20)
+    theta = np.concatenate([np.linspace(0.0, 1.5, colour_methods.ANGLES_PER_BLOCK + 7),
+                            [math.pi / 2]])
+    xyz = mirror.xyz(theta, method=method)
+    np.testing.assert_allclose(xyz[-1], mirror.xyz(math.pi / 2, method="reference"), rtol=1e-5)
+    for index in (0, colour_methods.ANGLES_PER_BLOCK, theta.size - 2):
+        np.testing.assert_allclose(xyz[index], mirror.xyz(theta[index], method=method),
+                                   rtol=1e-12)
+
+
+@pytest.mark.parametrize("theta", [[0.3, math.nan], [-0.1], [2.0]])
+def test_landmark_methods_refuse_bad_angles(theta):
+    mirror = BraggMirror(1.0, 1.5, 125.0, 375.0, 20)
+    for call in (colour_methods.averaged_xyz, colour_methods.approx_xyz):
+        with pytest.raises(ValueError, match="theta"):
+            call(mirror, theta)
+
+
 def test_n_dimensional_angles():
     mirror = BraggMirror(1.0, 1.5, 125.0, 375.0, 20)
     theta = np.radians([[0.0, 20.0], [40.0, 60.0], [70.0, 85.0]])
@@ -217,8 +239,6 @@ def test_edge_phases_are_snapped_against_float32_edges(monkeypatch, snap):
     off 0 or pi (it grows like the square root of the distance). PHASE_SNAP keeps the zones'
     shares, hence the twins' panel counts, those of the exact edges; without it they move."""
     import dataclasses
-
-    from wgbragg import colour_methods
 
     mirror = BraggMirror(1.0, 1.5, 375.0, 125.0, 10)
     theta = 1.2740904

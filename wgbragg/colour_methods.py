@@ -22,6 +22,7 @@ import inspect
 import numpy as np
 
 from . import colorimetry
+from ._validation import check_angle
 from .landmarks import VISIBLE_OMEGA, find_landmarks_many
 from .optics.yeh import cell_coefficients, yeh_reflectance
 from .thin_film_colour import DEFAULT_ORDER, FOURIER_METHODS, fourier_xyz
@@ -54,6 +55,9 @@ oscillation cost up to 3 dE2000 at grazing angles (N = 10), three 1.4."""
 
 PANEL_MARGIN = 0.05
 """Panels of an exact spectrum: ``ceil(PANELS_PER_OSCILLATION x oscillations - PANEL_MARGIN)``."""
+
+ANGLES_PER_BLOCK = 256
+"""Angles whose landmarks and nodes the numpy methods hold at once (about 160 KB each)."""
 
 PHASE_SNAP = 0.15
 """Bloch phases (rad) this close to 0 or pi count as at a band edge (see :func:`_zones`)."""
@@ -171,14 +175,16 @@ def approx_xyz(mirror, theta, subdivisions=None):
 
 def _per_angle(mirror, theta, colours):
     """XYZ of every angle of ``theta`` (any shape): white where totally reflected, else
-    ``colours`` of the 1-D array of the others, computed together."""
-    theta = np.asarray(theta, dtype=np.float64)
+    ``colours`` of a 1-D array of the others, :data:`ANGLES_PER_BLOCK` at a time."""
+    theta = check_angle(theta)
     flat = theta.reshape(-1)
     out = np.empty((flat.size, 3))
     total = _total_reflection(mirror, flat)
     out[total] = _white()
-    if not total.all():
-        out[~total] = colours(flat[~total])
+    rest = np.flatnonzero(~total)
+    for start in range(0, rest.size, ANGLES_PER_BLOCK):
+        block = rest[start:start + ANGLES_PER_BLOCK]
+        out[block] = colours(flat[block])
     return out.reshape(*theta.shape, 3)
 
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._validation import check_angle
 from .optics.yeh import cell_coefficients
 
 __all__ = ["KINDS", "VISIBLE_OMEGA", "Landmarks", "find_landmarks", "find_landmarks_many"]
@@ -111,7 +112,7 @@ def find_landmarks(mirror, theta: float, polarization: str, omega_range=VISIBLE_
     -------
     Landmarks
     """
-    return find_landmarks_many(mirror, [theta], polarization, omega_range)[0]
+    return find_landmarks_many(mirror, [check_angle(theta)], polarization, omega_range)[0]
 
 
 def find_landmarks_many(mirror, thetas, polarization: str, omega_range=VISIBLE_OMEGA):
@@ -123,7 +124,7 @@ def find_landmarks_many(mirror, thetas, polarization: str, omega_range=VISIBLE_O
     list of Landmarks
     """
     lo_omega, hi_omega = omega_range
-    s = mirror.host * np.sin(np.asarray(thetas, dtype=np.float64).reshape(-1))
+    s = mirror.host * np.sin(check_angle(thetas, "thetas").reshape(-1))
     searched = (s < mirror.n1) & (mirror.n1 != mirror.n2) & (mirror.d2 != 0.0)
     q2sq = (mirror.n2 - s) * (mirror.n2 + s)
     propagating = np.flatnonzero(searched & (q2sq > 0.0))

@@ -158,19 +158,18 @@ def area_weighted_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray
 
 
 def _mesh_source(path: Path, suffix: str):
-    """What trimesh reads: the path, or an OBJ's text as UTF-8 bytes with a resolver for its
-    material files. OBJ is ASCII but for names and comments, often Latin-1 in old exports;
-    trimesh guesses a non-UTF-8 encoding only with the optional charset_normalizer, and Latin-1
-    decodes any byte."""
+    """What trimesh reads: the path, or an OBJ's text as UTF-8 bytes. OBJ is ASCII but for
+    names and comments, often Latin-1 in old exports; trimesh guesses a non-UTF-8 encoding only
+    with the optional charset_normalizer, and Latin-1 decodes any byte. (Such a file's material
+    library is not read: only geometry, normals and uv are kept anyway.)"""
     if suffix != ".obj":
-        return str(path), None
+        return str(path)
     data = path.read_bytes()
     try:
         data.decode("utf-8")
-        return str(path), None
+        return str(path)
     except UnicodeDecodeError:
-        text = data.decode("latin-1").encode("utf-8")
-        return io.BytesIO(text), trimesh.resolvers.FilePathResolver(str(path))
+        return io.BytesIO(data.decode("latin-1").encode("utf-8"))
 
 
 def load_mesh(path: str | os.PathLike) -> TriangleMesh:
@@ -209,8 +208,7 @@ def load_mesh(path: str | os.PathLike) -> TriangleMesh:
     if not path.is_file():
         raise ValueError(f"mesh file {path}: does not exist or is not a file")
     try:
-        source, resolver = _mesh_source(path, suffix)
-        scene = trimesh.load_scene(source, file_type=suffix[1:], resolver=resolver,
+        scene = trimesh.load_scene(_mesh_source(path, suffix), file_type=suffix[1:],
                                    allow_remote=False)
         parts = []
         for node in scene.graph.nodes_geometry:
