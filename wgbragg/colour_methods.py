@@ -23,7 +23,7 @@ import numpy as np
 
 from . import colorimetry
 from ._validation import check_angle
-from .landmarks import VISIBLE_OMEGA, find_landmarks_many
+from .landmarks import VISIBLE_OMEGA, _ranges, find_landmarks_many
 from .optics.yeh import cell_coefficients, yeh_reflectance
 from .thin_film_colour import DEFAULT_ORDER, FOURIER_METHODS, fourier_xyz
 
@@ -126,7 +126,7 @@ def _approx_polarized(mirror, theta, polarization, subdivisions):
         pieces = np.where(gap | (n_plus <= 0.0), 1, np.maximum(1, subdivisions - mode))
     starts = np.repeat(lo, pieces)
     widths = np.repeat((hi - lo) / pieces, pieces)
-    steps = np.arange(pieces.sum()) - np.repeat(np.cumsum(pieces) - pieces, pieces)
+    _, steps = _ranges(np.zeros(pieces.size, dtype=int), pieces)
     omega_lo = starts + steps * widths
     omega_hi = omega_lo + widths
     piece_owner = np.repeat(owner, pieces)
@@ -259,8 +259,7 @@ def _averaged_unpolarized(mirror, theta):
     owner, lo, hi, lower_edge, upper_edge, share = _zones(mirror, theta)
     panels = _panel_count(mirror, lo, hi, share)
     nodes = 3 * panels
-    zone = np.repeat(np.arange(lo.size), nodes)
-    step = np.arange(zone.size) - np.repeat(np.cumsum(nodes) - nodes, nodes)
+    zone, step = _ranges(np.zeros(lo.size, dtype=int), nodes)
     panel, point = np.divmod(step, 3)
     u = (panel + _GAUSS_NODES[point]) / panels[zone]
     s, ds = _zone_map(u, lower_edge[zone], upper_edge[zone])
