@@ -348,7 +348,7 @@ def test_radiance_is_a_read_only_copy():
         (lambda: EnvironmentMap(np.full((2, 2, 3), 1e39)).packed(), "float32 range"),
         (
             lambda: EnvironmentMap(np.ones((2, 2, 3))).pdf([0.0, 0.0, 2.0]),
-            "directions must be unit vectors",
+            "directions must hold unit vectors",
         ),
         (
             lambda: EnvironmentMap(np.ones((2, 2, 3))).radiance_at([0.0, 1.0]),

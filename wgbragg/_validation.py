@@ -17,11 +17,13 @@ __all__ = [
     "MAX_INDEX",
     "MAX_THICKNESS_NM",
     "POLARIZATIONS",
+    "UNIT_TOLERANCE",
     "WAVELENGTH_RANGE_NM",
     "check_angle",
     "check_backend",
     "check_broadcast",
     "check_count",
+    "check_directions",
     "check_extinction",
     "check_index",
     "check_polarization",
@@ -136,6 +138,23 @@ def check_angle(value, name: str = "theta") -> np.ndarray:
     array = _as_float_array(name, value)
     if not np.all((array >= 0.0) & (array <= np.pi / 2)):
         raise ValueError(f"{name} must be in [0, pi/2] radians")
+    return array
+
+
+# Unit vectors rounded to float32 and back are off by ~1e-7; anything further is a caller's bug.
+UNIT_TOLERANCE = 1e-5
+
+
+def check_directions(value, name: str, upper: bool = False) -> np.ndarray:
+    """Unit vectors with a trailing axis of 3 (norm within :data:`UNIT_TOLERANCE` of 1);
+    with ``upper``, also z >= 0."""
+    array = _as_float_array(name, value)
+    if array.ndim == 0 or array.shape[-1] != 3:
+        raise ValueError(f"{name} must have a trailing axis of length 3, got shape {array.shape}")
+    if not np.all(np.abs(np.linalg.norm(array, axis=-1) - 1.0) <= UNIT_TOLERANCE):
+        raise ValueError(f"{name} must hold unit vectors (norm within {UNIT_TOLERANCE} of 1)")
+    if upper and not np.all(array[..., 2] >= 0.0):
+        raise ValueError(f"{name} must lie in the upper hemisphere: {name}[..., 2] in [0, 1]")
     return array
 
 

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validation import _as_float, _as_float_array
+from ._validation import _as_float, _as_float_array, check_directions
 
 __all__ = ["FLOOR_FRACTION", "LUMINANCE_WEIGHTS", "EnvironmentMap"]
 
@@ -42,8 +42,6 @@ LUMINANCE_WEIGHTS = np.array([0.2126, 0.7152, 0.0722])
 FLOOR_FRACTION = 1e-3
 """Sampling floor added to every texel's luminance, as a fraction of the mean luminance."""
 
-# Unit vectors rounded to float32 and back are off by ~1e-7; anything further is a caller's bug.
-_UNIT_TOLERANCE = 1e-5
 # The kernel clamps u below 1 the same way, so that u = 1 (e.g. 1 - 1e-9 rounded to float32)
 # still falls inside the last CDF step.
 _BELOW_ONE = np.nextafter(1.0, 0.0)
@@ -147,7 +145,7 @@ class EnvironmentMap:
         ValueError
             If ``directions`` are not unit vectors with a trailing axis of 3.
         """
-        return self._texel(_check_directions(directions))
+        return self._texel(check_directions(directions, "directions"))
 
     def radiance_at(self, directions) -> np.ndarray:
         """Radiance arriving from ``directions``: their texel times ``intensity``.
@@ -264,17 +262,6 @@ class EnvironmentMap:
         column = np.floor(azimuth * self.width).astype(np.intp) % self.width
         row = np.minimum(np.floor(polar * self.height).astype(np.intp), self.height - 1)
         return column, row
-
-
-def _check_directions(value) -> np.ndarray:
-    array = _as_float_array("directions", value)
-    if array.ndim == 0 or array.shape[-1] != 3:
-        raise ValueError(
-            f"directions must have a trailing axis of length 3, got shape {array.shape}"
-        )
-    if not np.all(np.abs(np.linalg.norm(array, axis=-1) - 1.0) <= _UNIT_TOLERANCE):
-        raise ValueError(f"directions must be unit vectors (norm within {_UNIT_TOLERANCE} of 1)")
-    return array
 
 
 def _invert(cdf: np.ndarray, row: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -61,9 +61,9 @@ from collections.abc import Callable
 import numpy as np
 
 from . import colorimetry
-from ._validation import _as_float_array, check_broadcast
+from ._validation import _as_float_array, check_broadcast, check_directions
 from .materials import ThinFilm
-from .microfacet import _check_directions, check_alpha
+from .microfacet import check_alpha
 from .rough_thin_film import QUADRATURE_NODES, reflection_quadrature
 from .thin_film_colour import (
     DEFAULT_ORDER,
@@ -244,7 +244,7 @@ def moment_statistics(v, m1, m2) -> tuple[np.ndarray, np.ndarray]:
     ValueError
         For arrays of the wrong trailing shape or with NaN, or a ``v`` that is not unit.
     """
-    v = _check_directions(v, "v", upper=False)
+    v = check_directions(v, "v")
     m1 = _as_float_array("m1", m1)
     m2 = _as_float_array("m2", m2)
     if m1.ndim == 0 or m1.shape[-1] != 3:

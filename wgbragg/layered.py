@@ -36,7 +36,13 @@ from collections.abc import Sequence
 import numpy as np
 
 from . import colorimetry
-from ._validation import _as_float_array, check_backend, check_broadcast, check_wavelength
+from ._validation import (
+    _as_float_array,
+    check_backend,
+    check_broadcast,
+    check_directions,
+    check_wavelength,
+)
 from .microfacet import _D, _G1_over_cos, ggx_sample_visible_normal
 from .optics.yeh import yeh_reflectance
 from .rough_layer import RoughBraggLayer
@@ -62,18 +68,8 @@ Unbiased for the colour integral (which ``"integrated"`` sums on 1 nm nodes), at
 four spectral evaluations instead of 471: a renderer's spectral path without its own wavelength
 bookkeeping."""
 
-_UNIT_TOLERANCE = 1e-5
 _INTEGRATION_CHUNK = 1024
 _TABLE_CACHE_SIZE = 8
-
-
-def _check_directions(value, name: str) -> np.ndarray:
-    array = _as_float_array(name, value)
-    if array.ndim == 0 or array.shape[-1] != 3:
-        raise ValueError(f"{name} must have a trailing axis of length 3, got shape {array.shape}")
-    if not np.all(np.abs(np.linalg.norm(array, axis=-1) - 1.0) <= _UNIT_TOLERANCE):
-        raise ValueError(f"{name} must hold unit vectors (norm within {_UNIT_TOLERANCE} of 1)")
-    return array
 
 
 def coating_reflectance(cos_theta, n) -> np.ndarray:
@@ -358,7 +354,7 @@ class LayeredBragg:
 
     def coating_reflectance(self, wi) -> np.ndarray:
         """Reflectance of the coating's Dirac mirror lobe for ``wi`` (0 without a coating)."""
-        wi = _check_directions(wi, "wi")
+        wi = check_directions(wi, "wi")
         return coating_reflectance(np.maximum(wi[..., 2], 0.0), self.host_index)
 
     # ------------------------------------------------------------------ tables
@@ -541,8 +537,8 @@ class LayeredBragg:
         colours by the factors' correlation over wavelength, which is strong between stacked
         mirrors (light reflected by a lower layer went through the gaps of the upper one).
         """
-        wi = _check_directions(wi, "wi")
-        wo = _check_directions(wo, "wo")
+        wi = check_directions(wi, "wi")
+        wo = check_directions(wo, "wo")
         backend = check_backend(backend)
         if method not in BRDF_METHODS:
             raise ValueError(f"method must be one of {BRDF_METHODS}, got {method!r}")
@@ -629,8 +625,8 @@ class LayeredBragg:
         what leaves below the horizon or is totally reflected inside the coating. With
         ``backend="gpu"`` the float32 kernel (:mod:`wgbragg.layered_gpu`) evaluates it.
         """
-        wi = _check_directions(wi, "wi")
-        wo = _check_directions(wo, "wo")
+        wi = check_directions(wi, "wi")
+        wo = check_directions(wo, "wo")
         check_broadcast(wi=wi.shape[:-1], wo=wo.shape[:-1])
         if check_backend(backend) == "gpu":
             from . import layered_gpu
@@ -675,7 +671,7 @@ class LayeredBragg:
             :meth:`pdf` of ``wo``; 0 marks the Dirac reflection (no density: do not weight it
             against light sampling).
         """
-        wi = _check_directions(wi, "wi")
+        wi = check_directions(wi, "wi")
         u = _as_float_array("u", u)
         backend = check_backend(backend)
         if method not in BRDF_METHODS:

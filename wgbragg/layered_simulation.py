@@ -89,8 +89,8 @@ import numbers
 import numpy as np
 
 from . import colorimetry, gpu, kernels
-from ._validation import check_broadcast, check_wavelength
-from .layered import LayeredBragg, _check_directions, _refract_in, coating_reflectance
+from ._validation import check_broadcast, check_directions, check_wavelength
+from .layered import LayeredBragg, _refract_in, coating_reflectance
 
 __all__ = ["MAX_WAVELENGTHS", "MODES", "PATH_WAVELENGTHS", "TRANSMISSIONS", "simulate"]
 
@@ -258,7 +258,7 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
     """
     if not isinstance(structure, LayeredBragg):
         raise ValueError(f"structure must be a LayeredBragg, got {type(structure).__name__}")
-    wi = _check_directions(wi, "wi")
+    wi = check_directions(wi, "wi")
     if np.any(wi[..., 2] <= 0.0):
         raise ValueError("wi must lie strictly above the horizon: wi[..., 2] in (0, 1]")
     if mode not in MODES:
@@ -274,7 +274,7 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
     if return_error and (wo is None or paths < 2):
         raise ValueError("return_error needs wo and paths >= 2")
     if wo is not None:
-        wo = _check_directions(wo, "wo")
+        wo = check_directions(wo, "wo")
         shape = check_broadcast(wi=wi.shape[:-1], wo=wo.shape[:-1])
         wi, wo = np.broadcast_to(wi, (*shape, 3)), np.broadcast_to(wo, (*shape, 3))
     else:

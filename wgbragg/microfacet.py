@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validation import _as_float_array, check_broadcast
+from ._validation import _as_float_array, check_broadcast, check_directions
 
 __all__ = [
     "ALPHA_MAX",
@@ -38,8 +38,6 @@ ALPHA_MIN = 1e-4
 ALPHA_MAX = 1.0
 """Largest accepted GGX roughness, the upper end of the paper's range (eq 18)."""
 
-# Unit vectors rounded to float32 and back are off by ~1e-7; anything further is a caller's bug.
-_UNIT_TOLERANCE = 1e-5
 
 
 def check_alpha(value, name: str = "alpha", low: float = ALPHA_MIN) -> np.ndarray:
@@ -54,17 +52,6 @@ def _check_cosine(value, name: str) -> np.ndarray:
     array = _as_float_array(name, value)
     if not np.all((array >= -1.0) & (array <= 1.0)):
         raise ValueError(f"{name} must be in [-1, 1]")
-    return array
-
-
-def _check_directions(value, name: str, upper: bool) -> np.ndarray:
-    array = _as_float_array(name, value)
-    if array.ndim == 0 or array.shape[-1] != 3:
-        raise ValueError(f"{name} must have a trailing axis of length 3, got shape {array.shape}")
-    if not np.all(np.abs(np.linalg.norm(array, axis=-1) - 1.0) <= _UNIT_TOLERANCE):
-        raise ValueError(f"{name} must hold unit vectors (norm within {_UNIT_TOLERANCE} of 1)")
-    if upper and not np.all(array[..., 2] >= 0.0):
-        raise ValueError(f"{name} must lie in the upper hemisphere: {name}[..., 2] in [0, 1]")
     return array
 
 
@@ -195,7 +182,7 @@ def ggx_sample_visible_normal(wi, u, alpha) -> np.ndarray:
     ----------
     Heitz 2018, listing 1.
     """
-    wi = _check_directions(wi, "wi", upper=True)
+    wi = check_directions(wi, "wi", upper=True)
     u = _as_float_array("u", u)
     if u.ndim == 0 or u.shape[-1] != 2:
         raise ValueError(f"u must have a trailing axis of length 2, got shape {u.shape}")
@@ -257,8 +244,8 @@ def ggx_visible_normal_pdf(wi, m, alpha) -> np.ndarray:
     ----------
     Heitz 2018, eq 1; Fourneau, Pacanowski & Barla 2024, eqs 18 and 19.
     """
-    wi = _check_directions(wi, "wi", upper=True)
-    m = _check_directions(m, "m", upper=False)
+    wi = check_directions(wi, "wi", upper=True)
+    m = check_directions(m, "m")
     alpha = check_alpha(alpha)
     cos_wm = np.maximum(np.sum(wi * m, axis=-1), 0.0)
     cos_m = np.clip(m[..., 2], -1.0, 1.0)

@@ -36,12 +36,17 @@ import numbers
 
 import numpy as np
 
-from ._validation import _as_float_array, check_angle, check_broadcast, check_wavelength
+from ._validation import (
+    _as_float_array,
+    check_angle,
+    check_broadcast,
+    check_directions,
+    check_wavelength,
+)
 from .materials import ThinFilm
 from .microfacet import (
     _D,
     _G1_over_cos,
-    _check_directions,
     check_alpha,
     ggx_sample_visible_normal,
 )
@@ -333,8 +338,8 @@ class RoughThinFilm:
             For directions that are not unit vectors with a trailing axis of 3, bad
             wavelengths, an unknown method or an order out of range.
         """
-        wi = _check_directions(wi, "wi", upper=False)
-        wo = _check_directions(wo, "wo", upper=False)
+        wi = check_directions(wi, "wi")
+        wo = check_directions(wo, "wo")
         wavelength, method = self._options(wavelength_nm, method, order)
         shape = check_broadcast(wi=wi.shape[:-1], wo=wo.shape[:-1])
         wi, wo = np.broadcast_to(wi, (*shape, 3)), np.broadcast_to(wo, (*shape, 3))
@@ -371,8 +376,8 @@ class RoughThinFilm:
         numpy.ndarray
             Shape ``broadcast(wi, wo).shape[:-1]``.
         """
-        wi = _check_directions(wi, "wi", upper=False)
-        wo = _check_directions(wo, "wo", upper=False)
+        wi = check_directions(wi, "wi")
+        wo = check_directions(wo, "wo")
         shape = check_broadcast(wi=wi.shape[:-1], wo=wo.shape[:-1])
         wi, wo = np.broadcast_to(wi, (*shape, 3)), np.broadcast_to(wo, (*shape, 3))
         up = (wi[..., 2] > 0.0) & (wo[..., 2] > 0.0)
@@ -415,7 +420,7 @@ class RoughThinFilm:
             For ``wi`` not strictly above the horizon, ``u`` outside [0, 1] or with no
             trailing axis of 2, or the errors of :meth:`brdf`.
         """
-        wi = _check_directions(wi, "wi", upper=False)
+        wi = check_directions(wi, "wi")
         if np.any(wi[..., 2] <= 0.0):
             raise ValueError("wi must lie strictly above the horizon: wi[..., 2] in (0, 1]")
         wavelength, method = self._options(wavelength_nm, method, order)
