@@ -66,7 +66,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from . import colorimetry, optics
-from ._validation import MAX_THICKNESS_NM, check_angle
+from ._validation import MAX_THICKNESS_NM, check_angle, check_real
 from .optics.fresnel import normal_component
 
 __all__ = [
@@ -152,11 +152,7 @@ def check_order(order) -> int:
 
 def check_thickness_std(value) -> float:
     """Standard deviation of the film thickness, nm, in [0, MAX_THICKNESS_NM]."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not (
-            0.0 <= float(value) <= MAX_THICKNESS_NM):
-        raise ValueError(f"thickness_std_nm must be a number in [0, {MAX_THICKNESS_NM:g}] (nm), "
-                         f"got {value!r}")
-    return float(value)
+    return check_real("thickness_std_nm", value, 0.0, MAX_THICKNESS_NM)
 
 
 # --------------------------------------------------------------------------- the series
