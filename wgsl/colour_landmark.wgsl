@@ -356,15 +356,15 @@ fn zone_edge(c: ColourSetup, zones: ptr<function, Zones>, omega: f32) {
     }
 }
 
-// The fields of every method's setup: the angle's fields of cell_geometry (the wavelength only
-// sets the phases); false at grazing in n1, or beyond its critical angle (total reflection).
+// The fields of every method's setup: the angle's fields of the cell geometry (the wavelength
+// only sets the phases); false at grazing in n1, or beyond its critical angle (total reflection).
 // With host == n1, q1 = n1 cos(theta) decides: s = n1 sin(theta) rounds to n1 within 2e-4 rad
 // of grazing.
 fn colour_setup(c: ptr<function, ColourSetup>, m: BraggMirror, theta: f32,
                 host_matched: bool) -> bool {
     (*c).mirror = m;
     (*c).host_matched = host_matched;
-    (*c).angle = cell_geometry(m, 1.0, theta);
+    (*c).angle = angle_geometry(m, theta);
     return (*c).angle.q1 > 0.0 && (host_matched || (*c).angle.s < m.n1);
 }
 

@@ -26,10 +26,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
     if (i >= arrayLength(&xyz)) {
         return;
     }
-    let angle = theta[i];
+    let angle = angle_geometry(mirror, theta[i]);
     var acc = vec3<f32>(0.0);
     for (var k = 0u; k < arrayLength(&wavelength_nm); k++) {
-        let r = bragg_reflectance(mirror, wavelength_nm[k], angle, 2u, HOST_MATCHED);
+        let g = geometry_at(mirror, angle, wavelength_nm[k]);
+        let r = bragg_reflectance_at(mirror, g, 2u, HOST_MATCHED);
         acc += r * weights[k].xyz;
     }
     xyz[i] = vec4<f32>(acc, 0.0);

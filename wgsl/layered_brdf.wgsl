@@ -250,10 +250,12 @@ fn layer_colour(s: LayeredStructure, layer: RoughLayer, theta_d: f32) -> vec3<f3
         return table_lerp_rgb(layer.reflectance_rgb, lut_row(s, theta_d));
     }
     if (COLOUR_METHOD == COLOUR_REFERENCE) {
+        let m = layer_mirror(layer);
+        let angle = angle_geometry(m, theta_d);
         var xyz = vec3<f32>(0.0);
         for (var j = 0u; j < VISIBLE_NODES; j++) {
-            xyz += bragg_reflectance(layer_mirror(layer), node_wavelength(j), theta_d, 2u, HOST_MATCHED)
-                * node_weights(j);
+            let g = geometry_at(m, angle, node_wavelength(j));
+            xyz += bragg_reflectance_at(m, g, 2u, HOST_MATCHED) * node_weights(j);
         }
         return xyz_to_linear_srgb(xyz);
     }

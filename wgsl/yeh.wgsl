@@ -36,6 +36,12 @@ struct CellGeometry {
 }
 
 fn cell_geometry(m: BraggMirror, wavelength_nm: f32, theta: f32) -> CellGeometry {
+    return geometry_at(m, angle_geometry(m, theta), wavelength_nm);
+}
+
+// The angle fields of a CellGeometry (s, cos_theta, q1, q2sq); the rest is left 0 for
+// geometry_at. Without dispersion they serve every wavelength at that angle.
+fn angle_geometry(m: BraggMirror, theta: f32) -> CellGeometry {
     var g: CellGeometry;
     let sc = sin_cos_angle(theta);
     g.s = m.host * sc.x;
@@ -43,11 +49,11 @@ fn cell_geometry(m: BraggMirror, wavelength_nm: f32, theta: f32) -> CellGeometry
     // (n - s)(n + s) instead of n^2 - s^2: no cancellation near the critical angle.
     g.q1 = select(sqrt(max((m.n1 - g.s) * (m.n1 + g.s), 0.0)), m.n1 * sc.y, m.host == m.n1);
     g.q2sq = (m.n2 - g.s) * (m.n2 + g.s);
-    return geometry_at(m, g, wavelength_nm);
+    return g;
 }
 
-// The wavelength-dependent fields of a CellGeometry whose angle fields (s, cos_theta, q1,
-// q2sq) are already set: one angle's setup serves every wavelength of a sweep.
+// The wavelength-dependent fields of a CellGeometry whose angle fields (angle_geometry) are
+// already set: one angle's setup serves every wavelength of a sweep.
 fn geometry_at(m: BraggMirror, angle: CellGeometry, wavelength_nm: f32) -> CellGeometry {
     var g = angle;
     let inv_wavelength = 1.0 / wavelength_nm;
@@ -267,7 +273,14 @@ fn yeh_polarized(m: BraggMirror, g: CellGeometry, polarization: u32, host_matche
 // polarization: 0 = s, 1 = p, 2 = unpolarized (mean of s and p, sharing the geometry).
 fn bragg_reflectance(m: BraggMirror, wavelength_nm: f32, theta: f32, polarization: u32,
                      host_matched: bool) -> f32 {
-    let g = cell_geometry(m, wavelength_nm, theta);
+    return bragg_reflectance_at(m, cell_geometry(m, wavelength_nm, theta), polarization,
+                                host_matched);
+}
+
+// bragg_reflectance at a geometry built by the caller: a sweep over wavelengths at one angle
+// calls angle_geometry once, then geometry_at per wavelength.
+fn bragg_reflectance_at(m: BraggMirror, g: CellGeometry, polarization: u32,
+                        host_matched: bool) -> f32 {
     if (polarization == 2u) {
         return 0.5 * (yeh_polarized(m, g, 0u, host_matched)
             + yeh_polarized(m, g, 1u, host_matched));
