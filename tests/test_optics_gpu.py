@@ -352,6 +352,22 @@ def test_thin_film_at_its_critical_angle(film):
         assert err[worst] <= GPU_ATOL, (film, pol, th32[worst], got[worst], ref[worst])
 
 
+@pytest.mark.parametrize("film", [ThinFilm(1.33, 0.0, 1.0, 0.0, 1.0),
+                                  ThinFilm(1.0001, 290.0, 1.0, 0.0, 1.0),
+                                  ThinFilm(1.33, 290.0, 1.33, 0.0, 1.33),
+                                  ThinFilm(1.33, 290.0, 1.0, 0.0, 1.0)], ids=str)
+def test_thin_film_with_a_medium_matching_the_host_near_grazing(film):
+    """host sin(theta) rounds to host near grazing in float32: a base (or film) matching the
+    host must still get q = host cos(theta), not 0 (which made R = 1 where it is 0)."""
+    below = np.nextafter(np.float32(HALF_PI), np.float32(0.0))
+    theta = np.concatenate([HALF_PI - np.logspace(-6, -1, 25), float32_neighbours(below)[:3]])
+    wavelength = np.linspace(360.0, 830.0, 48)[:, None]
+    for pol, (_, th32, got, ref) in gpu_errors(film, wavelength, theta).items():
+        err = np.abs(got - ref)
+        worst = int(np.argmax(err))
+        assert err[worst] <= GPU_ATOL, (film, pol, th32[worst], got[worst], ref[worst])
+
+
 # --------------------------------------------------------------------------- extremes
 
 EXTREME_MIRRORS = [

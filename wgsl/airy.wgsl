@@ -17,13 +17,16 @@ struct ThinFilm {
 //   r = [c (eta0 - eta2) + i S (eta1^2 - eta0 eta2)] / [c (eta0 + eta2) - i S (eta1^2 + eta0 eta2)]
 fn airy_polarized(f: ThinFilm, wavelength_nm: f32, theta: f32, polarization: u32) -> f32 {
     let sc = sin_cos_angle(theta);
-    let s = f.host * sc.x;
     let base2 = vec2<f32>(f.n_base * f.n_base - f.k_base * f.k_base, 2.0 * f.n_base * f.k_base);
-    let q_base = c_sqrt(base2 - vec2<f32>(s * s, 0.0));
-    let film_q2 = (f.n_film - s) * (f.n_film + s);
+    // q^2 = n^2 - host^2 sin^2 = (n - host)(n + host) + (host cos)^2: near grazing host sin
+    // rounds to host, and a medium matching the host would get q = 0 instead of host cos.
+    let host_q = f.host * sc.y;
+    let q_base = c_sqrt(vec2<f32>((f.n_base - f.host) * (f.n_base + f.host)
+                                  - f.k_base * f.k_base + host_q * host_q, base2.y));
+    let film_q2 = (f.n_film - f.host) * (f.n_film + f.host) + host_q * host_q;
     let evanescent = film_q2 < 0.0;
     let h = layer_half_phase(sqrt(abs(film_q2)), evanescent, f.d_nm / wavelength_nm);
-    var eta0 = f.host * sc.y;
+    var eta0 = host_q;
     var eta2 = q_base;
     var eta1_squared = film_q2;
     var S = 2.0 * h.c * h.s_over_q;
