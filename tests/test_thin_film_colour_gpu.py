@@ -55,6 +55,17 @@ def test_fourier_gpu_matches_numpy(film, method, options):
     assert de.max() <= min(ISSUE_DE, FOURIER_MAX_DE), (de.max(), np.argmax(de))
 
 
+@pytest.mark.parametrize("film", [ThinFilm(1.33, 0.0), ThinFilm(1.0001, 290.0),
+                                  ThinFilm(1.33, 290.0, n_base=1.33, host=1.33)], ids=film_id)
+@pytest.mark.parametrize("method", FOURIER_METHODS)
+def test_fourier_gpu_near_grazing_with_a_base_matching_the_host(film, method):
+    """host sin(theta) rounds to host in float32 near grazing: the base's q must stay
+    host cos(theta) (it was 0, a white film where numpy has 0.84 at 89.99 degrees)."""
+    theta = np.radians(90.0 - np.logspace(-3, 0, 13))
+    de = delta_e(film.xyz(theta, method, "numpy"), film.xyz(theta, method, "gpu"))
+    assert de.max() <= ISSUE_DE, (de.max(), np.degrees(theta[np.argmax(de)]))
+
+
 @pytest.mark.parametrize("method", FOURIER_METHODS)
 def test_gpu_perfect_reflector_and_shapes(method):
     film = ThinFilm(1.4, 300.0, base="Au")

@@ -123,10 +123,12 @@ fn table_transform(w: FourierWindow, window: u32, x: f32, spread: f32, p: FilmCo
 
 // (T*, w.re, w.im) of one polarisation (0 = s, 1 = p) with admittances eta = q or q / n^2;
 // 1 - |r|^2 = 4 eta_i Re(eta_j) / |eta_i + eta_j|^2 stays exact at grazing incidence.
-fn airy_series(host: f32, n_film: f32, q1: f32, q2: f32, s: f32, base: vec2<f32>,
+fn airy_series(host: f32, n_film: f32, q1: f32, q2: f32, base: vec2<f32>,
                polarization: u32) -> vec3<f32> {
     let base2 = vec2<f32>(base.x * base.x - base.y * base.y, 2.0 * base.x * base.y);
-    let q3 = c_sqrt(base2 - vec2<f32>(s * s, 0.0));
+    // n^2 - host^2 sin^2 as in airy.wgsl: a base matching the host keeps q3 = q1 at grazing.
+    let q3 = c_sqrt(vec2<f32>((base.x - host) * (base.x + host) - base.y * base.y + q1 * q1,
+                              base2.y));
     var eta1 = q1;
     var eta2 = q2;
     var eta3 = q3;
@@ -153,9 +155,8 @@ fn add_transform(acc: vec3<f32>, g: vec2<f32>, f: Transform) -> vec3<f32> {
 
 fn film_colour(theta: f32, p: FilmColourParams, gaussian: bool, prefiltered: bool) -> vec3<f32> {
     let sc = sin_cos_angle(theta);
-    let s = p.host * sc.x;
     let q1 = max(p.host * sc.y, 0.0);
-    let film_q2 = (p.n_film - s) * (p.n_film + s);
+    let film_q2 = (p.n_film - p.host) * (p.n_film + p.host) + q1 * q1;
     var acc = vec3<f32>(0.0);
     if (film_q2 <= 0.0) {
         var film: ThinFilm;
@@ -174,8 +175,8 @@ fn film_colour(theta: f32, p: FilmColourParams, gaussian: bool, prefiltered: boo
         let opd = opd_per_nm * p.d_nm;
         for (var b = 0u; b < p.windows; b++) {
             let w = fourier_windows[p.film * p.windows + b];
-            let cs = airy_series(p.host, p.n_film, q1, q2, s, w.node.yz, 0u);
-            let cp = airy_series(p.host, p.n_film, q1, q2, s, w.node.yz, 1u);
+            let cs = airy_series(p.host, p.n_film, q1, q2, w.node.yz, 0u);
+            let cp = airy_series(p.host, p.n_film, q1, q2, w.node.yz, 1u);
             acc += (1.0 - 0.5 * (cs.x + cp.x)) * w.white.xyz;
             var power_s = vec2<f32>(1.0, 0.0);
             var power_p = vec2<f32>(1.0, 0.0);
