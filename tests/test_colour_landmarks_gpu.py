@@ -212,5 +212,28 @@ def test_finite_and_bounded_at_extremes(method):
         xyz = colour_landmarks_gpu.landmark_xyz(mirror, EXTREME_THETA, method)
         assert np.all(np.isfinite(xyz)), mirror
         assert np.all(xyz >= -1e-6) and np.all(xyz <= white * (1.0 + 1e-4)), mirror
-        # Grazing incidence reflects everything.
-        np.testing.assert_allclose(xyz[-1], white, rtol=1e-5)
+        # Grazing incidence reflects everything, unless no n2 layer is there (host == n1:
+        # nothing reflects at all).
+        bulk = mirror.n1 == mirror.n2 or mirror.d2 == 0.0
+        np.testing.assert_allclose(xyz[-1], 0.0 if bulk else white, rtol=1e-5, atol=1e-12)
+
+
+BULK_MIRRORS = [
+    BraggMirror(1.0, 1.5, 0.0, 0.0, 20),  # no period at all
+    BraggMirror(1.3, 1.3, 100.0, 100.0, 20),
+    BraggMirror(1.2, 1.5, 100.0, 0.0, 20, host=1.0),  # Appendix D host: Fresnel host | n1
+    BraggMirror(1.5, 1.5, 100.0, 100.0, 5, host=2.0),  # total reflection beyond 48.6 deg
+]
+
+
+@pytest.mark.parametrize("mirror", BULK_MIRRORS, ids=str)
+@pytest.mark.parametrize("backend", ["numpy", "gpu"])
+def test_mirrors_without_an_n2_layer_have_their_exact_colour(mirror, backend):
+    """No n2 layer: R is the host | n1 Fresnel reflectance at every wavelength, so every
+    landmark method gives R times white (approx gave white, grazing gave white for any host)."""
+    theta = np.concatenate([np.linspace(0.0, 1.5, 7), EXTREME_THETA[-3:]])
+    want = mirror.reflectance(550.0, theta, "unpolarized")[:, None] * cm._white()
+    methods = METHODS if mirror.host == mirror.n1 else ["averaged"]
+    for method in methods:
+        got = mirror.xyz(theta, method=method, backend=backend)
+        np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-7, err_msg=method)

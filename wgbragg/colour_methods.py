@@ -175,8 +175,11 @@ def approx_xyz(mirror, theta, subdivisions=None):
 
 def _per_angle(mirror, theta, colours):
     """XYZ of every angle of ``theta`` (any shape): white where totally reflected, else
-    ``colours`` of a 1-D array of the others, :data:`ANGLES_PER_BLOCK` at a time."""
+    ``colours`` of a 1-D array of the others, :data:`ANGLES_PER_BLOCK` at a time. A mirror
+    without an n2 layer reflects the same at every wavelength: its exact colour."""
     theta = check_angle(theta)
+    if mirror.n1 == mirror.n2 or mirror.d2 == 0.0:
+        return mirror.reflectance(550.0, theta, "unpolarized")[..., None] * _white()
     flat = theta.reshape(-1)
     out = np.empty((flat.size, 3))
     total = _total_reflection(mirror, flat)

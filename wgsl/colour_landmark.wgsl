@@ -556,6 +556,10 @@ fn averaged_colour(m: BraggMirror, theta: f32, host_matched: bool,
 // Unpolarised XYZ at one angle by `method` (approx, subdivided or averaged).
 fn landmark_colour_unpolarized(m: BraggMirror, theta: f32, method: u32, subdivisions: i32,
                                host_matched: bool, matched_layers: bool) -> vec3<f32> {
+    if (!matched_layers && m.bulk != 0u) {
+        // No n2 layer: the host | n1 reflectance holds at every wavelength, grazing included.
+        return bragg_reflectance(m, 550.0, theta, 2u, host_matched) * white_xyz();
+    }
     if (method == METHOD_AVERAGED) {
         return averaged_colour(m, theta, host_matched, matched_layers);
     }
