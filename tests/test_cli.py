@@ -24,7 +24,10 @@ def test_reflectance_prints_the_numpy_reference(capsys):
     [
         (["reflectance", "--n2", "-1"], "n2"),
         (["reflectance", "-N", "0"], "N"),
-        (["reflectance", "--theta-deg", "95"], "theta"),
+        (["reflectance", "--theta-deg", "95"], "--theta-deg must be in [0, 90] degrees"),
+        (["reflectance", "--theta-deg", "0", "91"], "--theta-deg must be in [0, 90] degrees"),
+        (["reflectance", "--theta-deg", "-1"], "--theta-deg must be in [0, 90] degrees"),
+        (["reflectance", "--theta-deg", "nan"], "--theta-deg must be in [0, 90] degrees"),
         (["reflectance", "--wavelength", "0"], "wavelength"),
     ],
 )
@@ -32,6 +35,13 @@ def test_bad_input_is_a_clear_error(argv, message, capsys):
     assert main([*argv, "--backend", "numpy"]) == 2
     error = capsys.readouterr().err
     assert error.startswith("wgbragg: error:") and message in error
+    assert "radians" not in error
+
+
+def test_ninety_degrees_is_grazing_incidence(capsys):
+    assert main(["reflectance", "--backend", "numpy", "--theta-deg", "90"]) == 0
+    rows = capsys.readouterr().out.strip().splitlines()[1:]
+    assert [float(row.split()[1]) for row in rows] == [1.0, 1.0, 1.0]
 
 
 @pytest.mark.gpu
@@ -66,6 +76,13 @@ def test_map_writes_a_png_atomically(tmp_path, capsys):
         (["map", "-o", "{tmp}/mapnosuffix"], "--output must end in .png"),
         (["scatterogram", "-o", "{tmp}"], "--output is a folder"),
         (["bake", "--cache", "{tmp}/file.txt", "--alpha", "0.3"], "--cache is a file"),
+        (["bake", "--cache", "", "--alpha", "0.3"], "--cache must be a folder path, got ''"),
+        (["scatterogram", "--theta-deg", "90", "-o", "{tmp}/s.png"],
+         "--theta-deg must be in [0, 90) degrees"),
+        (["scatterogram", "--theta-deg", "-5", "-o", "{tmp}/s.png"],
+         "--theta-deg must be in [0, 90) degrees"),
+        (["scatterogram", "--phi-deg", "inf", "-o", "{tmp}/s.png"],
+         "--phi-deg must be a finite number of degrees"),
         (["bake", "--cache", "{tmp}/file.txt/cache", "--alpha", "0.3"],
          "is not a writable folder"),
     ],

@@ -198,6 +198,15 @@ def test_a_map_at_the_float64_limit_samples():
     assert np.all(np.isfinite(huge.sample(np.random.default_rng(8).random((100, 2)))))
 
 
+def test_the_largest_scaled_radiance_is_finite():
+    # intensity * radiance overflowed to inf in radiance_at; the limit itself is accepted.
+    top = np.finfo(np.float64).max
+    environment = EnvironmentMap(np.full((2, 4, 3), 1e300), intensity=top / 1e300)
+    assert np.all(np.isfinite(environment.radiance_at(random_directions(100, seed=9))))
+    black = EnvironmentMap(np.zeros((2, 4, 3)), intensity=top)
+    assert black.radiance_at([0.0, 1.0, 0.0]).max() == 0.0
+
+
 def test_a_single_subnormal_texel_is_a_lamp():
     # Its floor (1e-3 of the mean) underflowed to 0: 0 / 0 CDFs and NaN directions.
     lamp = np.zeros((4, 8, 3))
@@ -345,6 +354,11 @@ def test_radiance_is_a_read_only_copy():
         (lambda: EnvironmentMap(np.ones((2, 2, 3)), intensity=-1.0), "intensity must be"),
         (lambda: EnvironmentMap(np.ones((2, 2, 3)), intensity=np.inf), "intensity must be"),
         (lambda: EnvironmentMap(np.ones((2, 2, 3)), intensity=np.nan), "intensity is NaN"),
+        (lambda: EnvironmentMap(np.full((4, 8, 3), 1e308), intensity=1e308),
+         r"intensity .* must not overflow float64"),
+        (lambda: EnvironmentMap(np.full((2, 2, 3), np.finfo(np.float64).max), intensity=2.0),
+         r"intensity .* must not overflow float64"),
+        (lambda: EnvironmentMap(np.full((2, 2, 3), True)), "radiance must be a real number"),
         (lambda: EnvironmentMap(np.full((2, 2, 3), 1e39)).packed(), "float32 range"),
         (
             lambda: EnvironmentMap(np.ones((2, 2, 3))).pdf([0.0, 0.0, 2.0]),

@@ -45,6 +45,9 @@ def test_out_of_range_and_bad_tables():
         metal("Cu")(np.nan)
     with pytest.raises(ValueError, match=r"\bbase\b"):
         metal("Fe")
+    for name in (["Au"], {"Au": 1}, np.array("Au"), None):  # unhashable or not one string
+        with pytest.raises(ValueError, match=r"\bbase\b"):
+            metal(name)
     for args in (([400.0], [1.0], [1.0]), ([400.0, 300.0], [1, 1], [0, 0]),
                  ([400.0, 500.0], [1.0, -1.0], [0, 0]), ([400.0, 500.0], [1, 1], [0, -1]),
                  ([400.0, 500.0], [1, 1, 1], [0, 0])):

@@ -87,10 +87,29 @@ def test_jewel_beetle_colours_at_normal_incidence():
     ({"size": 8}, "size"),
     ({"size": 64.0}, "size"),
     ({"phi_i": np.inf}, "phi_i"),
+    ({"phi_i": [0.1, 0.2]}, "phi_i"),
+    ({"phi_i": "x"}, "phi_i"),
+    ({"theta_i": np.array([0.1, 0.2])}, r"theta_i must be one angle in \[0, pi/2\)"),
+    ({"theta_i": np.float32(math.pi / 2)}, "theta_i"),
+    ({"size": np.float64(64.0)}, r"size must be an integer in \[16, 4096\]"),
+    ({"size": np.True_}, "size"),
+    ({"size": np.int64(8)}, "size"),
 ])
 def test_bad_arguments_raise(structure, kwargs, match):
     with pytest.raises(ValueError, match=match):
         scatterogram(structure, **kwargs)
+
+
+@pytest.mark.parametrize("structure", ["x", None, BraggMirror(1.0, 1.5, 250.0, 250.0, 10)])
+def test_a_structure_without_brdf_is_named(structure):
+    with pytest.raises(ValueError, match=r"\bstructure must be a LayeredBragg"):
+        scatterogram(structure)
+
+
+def test_numpy_integer_size_is_accepted(structure):
+    result = scatterogram(structure, np.float32(0.1), size=np.int64(16))
+    expected = scatterogram(structure, float(np.float32(0.1)), size=16)
+    np.testing.assert_array_equal(result.radiance, expected.radiance)
 
 
 def test_unknown_preset_raises():

@@ -327,8 +327,8 @@ def test_a_byte_order_mark_is_read_and_deep_nesting_refused(tmp_path):
 
 
 @pytest.mark.parametrize(("old", "new", "key", "accepted"), [
-    ("n2 = 1.5", "n2 = 0.0", "materials.blue.layers[0].n2", "refractive index in (0, 100]"),
-    ("n2 = 1.5", "n2 = 1e20", "materials.blue.layers[0].n2", "refractive index in (0, 100]"),
+    ("n2 = 1.5", "n2 = 0.0", "materials.blue.layers[0].n2", "refractive index in [1e-30, 100]"),
+    ("n2 = 1.5", "n2 = 1e20", "materials.blue.layers[0].n2", "refractive index in [1e-30, 100]"),
     ("n1 = 1.0", "n1 = 0.9", "materials.blue.layers[0].n1", "must be >= 1"),
     ("d1_nm = 250.0", "d1_nm = -1.0", "materials.blue.layers[0].d1_nm",
      "thickness in [0, 1e+06] nm"),

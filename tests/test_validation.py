@@ -113,7 +113,8 @@ BAD_CALLS = [
     ([500.0, math.nan, 600.0], 0.1, "s", "numpy", "wavelength_nm"),
     ([[500.0], [0.0]], 0.1, "p", "numpy", "wavelength_nm"),
     (500.0, -1e-12, "s", "numpy", "theta"),
-    (500.0, np.nextafter(math.pi / 2, 4.0), "s", "numpy", "theta"),
+    # Up to float32's pi/2 (1.5707964) is accepted and clipped to pi/2; beyond, refused.
+    (500.0, np.nextafter(float(np.float32(math.pi / 2)), 4.0), "s", "numpy", "theta"),
     (500.0, 2.0, "unpolarized", "numpy", "theta"),
     (500.0, math.nan, "s", "numpy", "theta"),
     (500.0, [0.1, math.nan], "s", "numpy", "theta"),
@@ -249,3 +250,116 @@ def test_shapes_that_do_not_broadcast_are_named(index):
     call, named = _broadcast_calls()[index]
     with pytest.raises(ValueError, match=re.escape(named) + ".* do not broadcast"):
         call()
+
+
+# --------------------------------------------------------------------------- fuzz audit
+
+HALF_PI_FLOAT32 = np.float32(math.pi / 2)  # 1.5707964, above pi/2 in float64
+
+
+def test_float32_half_pi_is_accepted_and_clipped():
+    from wgbragg._validation import check_angle
+
+    assert float(HALF_PI_FLOAT32) > math.pi / 2
+    assert check_angle(HALF_PI_FLOAT32) == math.pi / 2
+    clipped = check_angle(np.array([0.0, 0.5, HALF_PI_FLOAT32], np.float32))
+    assert clipped.dtype == np.float64 and clipped[-1] == math.pi / 2
+    assert check_angle(0.5).shape == ()
+    for thing in THINGS:
+        R = thing.reflectance(500.0, HALF_PI_FLOAT32)
+        np.testing.assert_array_equal(R, thing.reflectance(500.0, math.pi / 2))
+    mirror = THINGS[0]
+    np.testing.assert_array_equal(mirror.rgb(HALF_PI_FLOAT32), mirror.rgb(math.pi / 2))
+    # The next float32 above is still refused.
+    with pytest.raises(ValueError, match=names("theta")):
+        mirror.reflectance(500.0, np.nextafter(HALF_PI_FLOAT32, np.float32(4.0)))
+
+
+@pytest.mark.parametrize("value", [np.int64(7), np.int32(7), np.uint8(7), np.int16(7)])
+def test_integer_checks_accept_numpy_integers(value):
+    from wgbragg._validation import check_count, check_integer
+
+    assert check_integer("k", value, 1, 10) == 7 and type(check_integer("k", value, 1)) is int
+    assert check_count("k", value) == 7
+
+
+@pytest.mark.parametrize("value", [True, np.True_, 7.0, np.float64(7.0), "7", None, 0, 11,
+                                   np.int64(11)])
+def test_check_integer_refuses_bools_floats_and_out_of_range(value):
+    from wgbragg._validation import check_integer
+
+    with pytest.raises(ValueError, match=r"\bk must be an integer in \[1, 10\]"):
+        check_integer("k", value, 1, 10)
+
+
+@pytest.mark.parametrize("samples", [0, -1, 100_001, 2**31])
+def test_spectral_samples_message_states_the_real_range(samples):
+    with pytest.raises(ValueError, match=r"\bsamples must be an integer in \[1, 100000\]"):
+        THINGS[0].xyz(0.1, method="spectral", samples=samples)
+    with pytest.raises(ValueError, match=r"\bsamples\b.* \[1, 100000\]"):
+        THINGS[2].xyz(0.1, method="spectral", samples=samples)
+
+
+def test_spectral_samples_accept_numpy_integers():
+    mirror = THINGS[0]
+    np.testing.assert_array_equal(mirror.xyz(0.1, method="spectral", samples=np.int64(8)),
+                                  mirror.xyz(0.1, method="spectral", samples=8))
+
+
+@pytest.mark.parametrize("seed", [-1, "a", 1.5, True])
+def test_spectral_seed_is_named(seed):
+    with pytest.raises(ValueError, match=names("seed")):
+        THINGS[0].xyz(0.1, method="spectral", seed=seed)
+
+
+@pytest.mark.parametrize("polarization", [np.array("s"), np.array(["s", "p"]), ["s"], ("s",)])
+@pytest.mark.parametrize("backend", ["numpy", "gpu"])
+@pytest.mark.parametrize("thing", THINGS, ids=["mirror", "mirror-host", "film"])
+def test_polarization_must_be_one_string(thing, polarization, backend, monkeypatch):
+    """An array compared elementwise: "s" == np.array("s") passed the check, then the GPU
+    kernel's dict lookup raised TypeError (unhashable), and two elements numpy's ambiguous
+    truth value."""
+    from wgbragg import gpu, kernels
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("the GPU was reached with invalid input")
+
+    monkeypatch.setattr(gpu, "compute_pipeline", forbidden)
+    monkeypatch.setattr(kernels, "_evaluate", forbidden)
+    with pytest.raises(ValueError, match=names("polarization")):
+        thing.reflectance(550.0, 0.1, polarization, backend)
+
+
+@pytest.mark.parametrize("backend", [np.array("numpy"), np.array(["numpy", "gpu"]), ["gpu"]])
+def test_backend_must_be_one_string(backend):
+    with pytest.raises(ValueError, match=names("backend")):
+        THINGS[0].reflectance(550.0, 0.1, "s", backend)
+
+
+@pytest.mark.parametrize(
+    ("wavelength", "theta", "name"),
+    [(np.array([True]), 0.0, "wavelength_nm"), (550.0, np.array([False]), "theta"),
+     (np.array(True), 0.0, "wavelength_nm"), (550.0, np.zeros((2, 2), bool), "theta")],
+)
+def test_bool_arrays_are_refused(wavelength, theta, name):
+    with pytest.raises(ValueError, match=names(name) + " must be a real number"):
+        THINGS[0].reflectance(wavelength, theta)
+
+
+@pytest.mark.parametrize("material", ["x", None, 1.5, np.ones(3)])
+def test_reflectance_map_names_a_material_without_reflectance(material):
+    from wgbragg.maps import reflectance_map
+
+    with pytest.raises(ValueError, match=r"\bmaterial must have a reflectance.*BraggMirror"):
+        reflectance_map(material, backend="numpy")
+
+
+@pytest.mark.parametrize(("options", "name"), [
+    ({"theta": "x"}, "theta"), ({"wavelength_nm": ["a"]}, "wavelength_nm"),
+    ({"theta": [0.1, 2.0]}, "theta"), ({"polarization": np.array("s")}, "polarization"),
+])
+def test_reflectance_map_names_bad_grids(options, name):
+    from wgbragg.maps import reflectance_map
+
+    with pytest.raises(ValueError, match=names(name)):
+        reflectance_map(THINGS[0], backend="numpy", **options)

@@ -16,6 +16,7 @@ __all__ = [
     "MAX_EXTINCTION",
     "MAX_INDEX",
     "MAX_THICKNESS_NM",
+    "MIN_INDEX",
     "POLARIZATIONS",
     "UNIT_TOLERANCE",
     "WAVELENGTH_RANGE_NM",
@@ -26,8 +27,11 @@ __all__ = [
     "check_directions",
     "check_extinction",
     "check_index",
+    "check_integer",
+    "check_material",
     "check_polarization",
     "check_real",
+    "check_seed",
     "check_thickness",
     "check_wavelength",
 ]
@@ -42,8 +46,9 @@ def _as_float_array(name: str, value) -> np.ndarray:
         raw = np.asarray(value)
     except (TypeError, ValueError) as error:
         raise ValueError(message) from error
-    # Strings would convert ("500" -> 500.0); refuse them rather than guess.
-    if raw.dtype.kind not in "biuf":
+    # Strings would convert ("500" -> 500.0) and booleans read as 0 and 1 (True -> 1 nm);
+    # refuse them rather than guess, as scalars are refused.
+    if raw.dtype.kind not in "iuf":
         raise ValueError(f"{message}, got dtype {raw.dtype}")
     array = raw.astype(np.float64)
     if np.isnan(array).any():
@@ -67,16 +72,20 @@ def _as_float(name: str, value) -> float:
 # k < 15 (metals) and layers far thinner than a millimetre; k up to 1e4 models a perfect
 # conductor (R = 1 - 4e-8 against air).
 MAX_INDEX = 100.0
+# Below ~1e-60 the p admittances q / n^2 (and Yeh's n^8) underflow or overflow float64 and the
+# formulas return NaN; no medium has n anywhere near this.
+MIN_INDEX = 1e-30
 MAX_EXTINCTION = 1e4
 MAX_THICKNESS_NM = 1e6
 WAVELENGTH_RANGE_NM = (1.0, 1e6)
 
 
 def check_index(name: str, value) -> float:
-    """A real refractive index in (0, :data:`MAX_INDEX`]."""
+    """A real refractive index in [:data:`MIN_INDEX`, :data:`MAX_INDEX`]."""
     value = _as_float(name, value)
-    if not (0.0 < value <= MAX_INDEX):
-        raise ValueError(f"{name} must be a refractive index in (0, {MAX_INDEX:g}], got {value}")
+    if not (MIN_INDEX <= value <= MAX_INDEX):
+        raise ValueError(f"{name} must be a refractive index in [{MIN_INDEX:g}, {MAX_INDEX:g}], "
+                         f"got {value}")
     return value
 
 
@@ -101,19 +110,23 @@ def check_thickness(name: str, value) -> float:
 MAX_PERIODS = 2**31 - 1
 
 
-def check_count(name: str, value) -> int:
-    """A number of periods: an integer in [1, 2**31 - 1] (integral floats are accepted)."""
-    if isinstance(value, bool):
-        raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
-    if isinstance(value, numbers.Integral):
-        count = int(value)
-    elif isinstance(value, numbers.Real) and float(value).is_integer():
-        count = int(value)
-    else:
-        raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
-    if not 1 <= count <= MAX_PERIODS:
-        raise ValueError(f"{name} must be an integer in [1, {MAX_PERIODS}], got {count}")
-    return count
+def check_integer(name: str, value, low: int, high: int | None = None) -> int:
+    """``value`` as an int if it is an integer (Python or numpy, not a bool, not a float) in
+    [low, high] (``high=None``: no upper bound)."""
+    if (isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < low
+            or (high is not None and value > high)):
+        accepted = f">= {low}" if high is None else f"in [{low}, {high}]"
+        raise ValueError(f"{name} must be an integer {accepted}, got {value!r}")
+    return int(value)
+
+
+def check_count(name: str, value, high: int = MAX_PERIODS) -> int:
+    """A count: an integer in [1, ``high``] (integral floats are accepted); ``high`` defaults
+    to a number of periods' 2**31 - 1."""
+    if (isinstance(value, numbers.Real) and not isinstance(value, numbers.Integral)
+            and float(value).is_integer()):
+        value = int(value)
+    return check_integer(name, value, 1, high)
 
 
 def check_real(name: str, value, low: float, high: float) -> float:
@@ -133,12 +146,17 @@ def check_wavelength(value, name: str = "wavelength_nm") -> np.ndarray:
     return array
 
 
+# pi/2 rounded to float32 (1.5707964) lies above pi/2: a float32 caller's pi/2 is accepted.
+_HALF_PI_FLOAT32 = float(np.float32(np.pi / 2))
+
+
 def check_angle(value, name: str = "theta") -> np.ndarray:
-    """Angles of incidence in radians, in [0, pi/2]."""
+    """Angles of incidence in radians, in [0, pi/2]; float32's pi/2 is accepted and clipped to
+    pi/2."""
     array = _as_float_array(name, value)
-    if not np.all((array >= 0.0) & (array <= np.pi / 2)):
+    if not np.all((array >= 0.0) & (array <= _HALF_PI_FLOAT32)):
         raise ValueError(f"{name} must be in [0, pi/2] radians")
-    return array
+    return np.minimum(array, np.pi / 2, out=array)  # array is a fresh copy
 
 
 # Unit vectors rounded to float32 and back are off by ~1e-7; anything further is a caller's bug.
@@ -168,12 +186,35 @@ def check_broadcast(**shapes: tuple[int, ...]) -> tuple[int, ...]:
 
 
 def check_polarization(value) -> str:
-    if value not in POLARIZATIONS:
+    # One string: an array would compare elementwise ("s" == np.array("s") passes).
+    if not isinstance(value, str) or value not in POLARIZATIONS:
         raise ValueError(f"polarization must be one of {POLARIZATIONS}, got {value!r}")
     return value
 
 
 def check_backend(value) -> str:
-    if value not in BACKENDS:
+    if not isinstance(value, str) or value not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {value!r}")
     return value
+
+
+def check_seed(value, name: str = "seed"):
+    """A random seed: None, an integer >= 0, or a numpy.random Generator, BitGenerator or
+    SeedSequence (returned as is)."""
+    if value is None or isinstance(value, (np.random.Generator, np.random.BitGenerator,
+                                           np.random.SeedSequence)):
+        return value
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
+        raise ValueError(f"{name} must be None, an integer >= 0 or a numpy.random Generator, "
+                         f"BitGenerator or SeedSequence, got {value!r}")
+    return value
+
+
+def check_material(material, name: str = "material") -> None:
+    """An object with the ``reflectance`` method of :class:`~wgbragg.BraggMirror` and
+    :class:`~wgbragg.ThinFilm`."""
+    if not callable(getattr(material, "reflectance", None)):
+        raise ValueError(
+            f"{name} must have a reflectance(wavelength_nm, theta, polarization, backend) "
+            f"method (a BraggMirror or ThinFilm), got {type(material).__name__}"
+        )

@@ -37,6 +37,17 @@ def _add_mirror_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--backend", choices=("gpu", "numpy"), default="gpu")
 
 
+def _radians(flag: str, degrees, high: float = 90.0, *, below_high: bool = False):
+    """``degrees`` (a flag's value or values) in radians, once each lies in [0, high] (or
+    [0, high) with ``below_high``); the library would report the range in radians."""
+    values = np.asarray(degrees, dtype=np.float64)
+    inside = (values >= 0.0) & ((values < high) if below_high else (values <= high))
+    if not inside.all():  # NaN fails
+        bracket = ")" if below_high else "]"
+        raise ValueError(f"{flag} must be in [0, {high:g}{bracket} degrees")
+    return np.radians(values)
+
+
 def _mirror(args):
     from . import BraggMirror
 
@@ -60,7 +71,7 @@ def _info(_args) -> int:
 def _reflectance(args) -> int:
     mirror = _mirror(args)
     wavelength = np.asarray(args.wavelength, dtype=np.float64)
-    theta = np.radians(np.asarray(args.theta_deg, dtype=np.float64))
+    theta = _radians("--theta-deg", args.theta_deg)
     values = mirror.reflectance(wavelength[:, None], theta[None, :], args.polarization,
                                 args.backend)
     print("wavelength_nm " + " ".join(f"theta={t:g}deg" for t in args.theta_deg))
@@ -101,6 +112,8 @@ def _bake(args) -> int:
     for alpha in args.alpha:
         luts.transmission_filter_parameters(alpha, args.resolution_deg, args.psi_samples)
     if args.cache is not None:
+        if not args.cache:  # Path("") is the current folder
+            raise ValueError("--cache must be a folder path, got ''")
         check_output_folder(args.cache, "--cache")
     jobs = [
         # shared=False: baking means checking every file, even one read before.
@@ -125,6 +138,9 @@ def _scatterogram(args) -> int:
     from .scatterogram import jewel_beetle, save_scatterogram, scatterogram
 
     check_output_path(args.output, "--output", ".png")
+    theta = _radians("--theta-deg", args.theta_deg, below_high=True)
+    if not np.isfinite(args.phi_deg):
+        raise ValueError(f"--phi-deg must be a finite number of degrees, got {args.phi_deg}")
     if args.preset is not None:
         structure = jewel_beetle(args.preset)
         label = f"jewel beetle, {args.preset} area (Table 3)"
@@ -136,7 +152,7 @@ def _scatterogram(args) -> int:
         label = (f"n1={mirror.n1:g} n2={mirror.n2:g} d1={mirror.d1:g} d2={mirror.d2:g} nm "
                  f"N={mirror.N} alpha={args.alpha:g}")
     start = time.perf_counter()
-    result = scatterogram(structure, np.radians(args.theta_deg), np.radians(args.phi_deg),
+    result = scatterogram(structure, theta, np.radians(args.phi_deg),
                           size=args.size, backend=args.backend)
     seconds = time.perf_counter() - start
     title = f"{label}\nlight at {args.theta_deg:g} deg; {args.size}x{args.size} in {seconds:.1f} s"

@@ -14,12 +14,10 @@ float32 WGSL invocation per angle over the same nodes (:mod:`wgbragg.colour_gpu`
 
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 
 from . import colorimetry
-from ._validation import check_angle, check_backend, check_count
+from ._validation import check_angle, check_backend, check_count, check_material, check_seed
 
 __all__ = [
     "MAX_SAMPLES",
@@ -43,14 +41,6 @@ call stay in memory."""
 
 # Reflectances evaluated per numpy block: bounds memory for large angle arrays.
 _BLOCK = 1 << 20
-
-
-def _check_material(material) -> None:
-    if not callable(getattr(material, "reflectance", None)):
-        raise ValueError(
-            "material must have a reflectance(wavelength_nm, theta, polarization, backend) "
-            f"method (a BraggMirror or ThinFilm), got {type(material).__name__}"
-        )
 
 
 def integrate_xyz(material, theta, wavelength_nm, weights, backend="numpy") -> np.ndarray:
@@ -81,7 +71,7 @@ def integrate_xyz(material, theta, wavelength_nm, weights, backend="numpy") -> n
         weights of mismatched shapes.
     """
     check_backend(backend)
-    _check_material(material)
+    check_material(material)
     angle = check_angle(theta)
     wavelength = np.asarray(wavelength_nm, np.float64)
     weight = np.asarray(weights, np.float64)
@@ -189,20 +179,13 @@ def stratified_nodes(samples: int, seed=None) -> tuple[np.ndarray, np.ndarray]:
     >>> wavelength.tolist()
     [418.375, 536.125, 653.875, 771.625]
     """
-    count = check_count("samples", samples)
-    if count > MAX_SAMPLES:
-        raise ValueError(f"samples must be an integer in [1, {MAX_SAMPLES}], got {count}")
+    count = check_count("samples", samples, MAX_SAMPLES)
     start, end = STRATA_RANGE_NM
     width = (end - start) / count
     if seed is None:
         offset = np.full(count, 0.5)
     else:
-        if not isinstance(seed, (np.random.Generator, np.random.BitGenerator,
-                                 np.random.SeedSequence)) and (
-                isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0):
-            raise ValueError(f"seed must be None, an integer >= 0 or a numpy.random Generator, "
-                             f"BitGenerator or SeedSequence, got {seed!r}")
-        offset = np.random.default_rng(seed).random(count)
+        offset = np.random.default_rng(check_seed(seed)).random(count)
     # float32-representable nodes: the GPU kernel then samples exactly the numpy wavelengths.
     wavelength = (start + (np.arange(count) + offset) * width).astype(np.float32).astype(float)
     return wavelength, colorimetry.xyz_density(wavelength) * width

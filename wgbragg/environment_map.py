@@ -56,7 +56,8 @@ class EnvironmentMap:
         Linear sRGB radiance (e.g. from :func:`wgbragg.exr.read_exr`), finite and >= 0,
         ``H >= 1`` rows, ``W >= 2`` columns, in the module's convention.
     intensity : float
-        Finite scale >= 0 applied to the returned radiance; sampling ignores it.
+        Finite scale >= 0 applied to the returned radiance (its product with the largest
+        radiance must be finite in float64); sampling ignores it.
 
     Attributes
     ----------
@@ -70,7 +71,7 @@ class EnvironmentMap:
     ------
     ValueError
         If ``radiance`` has another shape or a negative or non-finite value, or ``intensity``
-        is negative or not finite.
+        is negative, not finite, or so large that the scaled radiance would overflow.
 
     Examples
     --------
@@ -88,8 +89,12 @@ class EnvironmentMap:
         if not np.all(np.isfinite(radiance) & (radiance >= 0.0)):
             raise ValueError("radiance must be finite and >= 0")
         intensity = _as_float("intensity", intensity)
-        if not 0.0 <= intensity < np.inf:
-            raise ValueError(f"intensity must be finite and >= 0, got {intensity}")
+        peak_radiance = float(radiance.max())
+        # Python floats overflow to inf without a warning: radiance_at stays finite.
+        if not (0.0 <= intensity < np.inf and intensity * peak_radiance < np.inf):
+            raise ValueError(f"intensity must be finite and >= 0, and intensity times the "
+                             f"largest radiance ({peak_radiance:g}) must not overflow float64, "
+                             f"got {intensity}")
         radiance.flags.writeable = False
         self.radiance = radiance
         self.intensity = intensity

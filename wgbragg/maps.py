@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._io import atomic_path, check_output_path
+from ._validation import _as_float_array, check_material
 
 __all__ = ["ReflectanceMap", "reflectance_map", "save_reflectance_map"]
 
@@ -37,11 +38,18 @@ def reflectance_map(material, *, wavelength_nm=None, theta=None, polarization="u
         Angles in radians; default 0..90 degrees every 0.25 degree.
     polarization, backend : str
         As for :meth:`BraggMirror.reflectance`.
+
+    Raises
+    ------
+    ValueError
+        If ``material`` has no ``reflectance`` method, or as :meth:`BraggMirror.reflectance`.
     """
+    check_material(material)
     wavelength = np.linspace(360.0, 830.0, 941) if wavelength_nm is None else wavelength_nm
     angle = np.radians(np.linspace(0.0, 90.0, 361)) if theta is None else theta
-    wavelength = np.asarray(wavelength, dtype=np.float64).ravel()
-    angle = np.asarray(angle, dtype=np.float64).ravel()
+    # Ranges are the material's to check; here only what ravel needs (no strings, no NaN).
+    wavelength = _as_float_array("wavelength_nm", wavelength).ravel()
+    angle = _as_float_array("theta", angle).ravel()
     values = material.reflectance(wavelength[None, :], angle[:, None], polarization, backend)
     return ReflectanceMap(material, wavelength, angle, values, polarization, backend)
 

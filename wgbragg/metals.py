@@ -216,6 +216,6 @@ def metal(name: str) -> SpectralIndex:
     >>> round(float(index.real), 3), round(float(index.imag), 3)
     (0.424, 2.472)
     """
-    if name not in METALS:
+    if not isinstance(name, str) or name not in METALS:
         raise ValueError(f"base must be one of {tuple(METALS)} or a SpectralIndex, got {name!r}")
     return METALS[name]

@@ -21,7 +21,7 @@ import os
 import numpy as np
 
 from ._io import atomic_path, check_output_path
-from ._validation import check_angle
+from ._validation import _as_float_array, check_angle, check_integer
 
 __all__ = [
     "CIRCLES_DEG",
@@ -112,14 +112,25 @@ def scatterogram(structure, theta_i=0.0, phi_i=0.0, size=256, method="single-ref
     Returns
     -------
     Scatterogram
+
+    Raises
+    ------
+    ValueError
+        If ``structure`` has no ``brdf`` method, ``theta_i`` is not one angle in [0, pi/2),
+        ``phi_i`` not one finite angle, ``size`` not an integer (Python or numpy) in
+        [16, 4096], or as :meth:`LayeredBragg.brdf`.
     """
-    theta = float(check_angle(theta_i, "theta_i"))
-    if theta >= np.pi / 2:
-        raise ValueError("theta_i must be in [0, pi/2) radians")
-    if not np.isfinite(phi_i):
-        raise ValueError("phi_i must be finite")
-    if isinstance(size, bool) or not isinstance(size, int) or not 16 <= size <= 4096:
-        raise ValueError(f"size must be an integer in [16, 4096], got {size!r}")
+    if not callable(getattr(structure, "brdf", None)):
+        raise ValueError("structure must be a LayeredBragg (an object with a brdf method), "
+                         f"got {type(structure).__name__}")
+    theta = check_angle(theta_i, "theta_i")
+    if theta.ndim != 0 or theta >= np.pi / 2:
+        raise ValueError(f"theta_i must be one angle in [0, pi/2) radians, got {theta_i!r}")
+    phi = _as_float_array("phi_i", phi_i)
+    if phi.ndim != 0 or not np.isfinite(phi):
+        raise ValueError(f"phi_i must be one finite angle in radians, got {phi_i!r}")
+    theta, phi_i = float(theta), float(phi)
+    size = check_integer("size", size, 16, 4096)
     wi = np.array([np.sin(theta) * np.cos(phi_i), np.sin(theta) * np.sin(phi_i), np.cos(theta)])
     directions, inside = _hemisphere_directions(size)
     radiance = np.zeros((size, size, 3))

@@ -374,7 +374,7 @@ class ThinFilmMaterial:
     Parameters
     ----------
     n_film : float
-        Real index of the film, in (0, 100].
+        Real index of the film, in [1e-30, 100].
     thickness_nm : float
         Film thickness in nm, in [0, 1e6]; with a ``thickness_map``, the map's value replaces
         it.
