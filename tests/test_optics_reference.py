@@ -19,7 +19,12 @@ from scipy.optimize import brentq
 
 import wgbragg
 from wgbragg import BraggMirror, ThinFilm
-from wgbragg.optics import bloch_dispersion, transfer_matrix_reflectance, yeh_reflectance
+from wgbragg.optics import (
+    bloch_dispersion,
+    thin_film_reflectance,
+    transfer_matrix_reflectance,
+    yeh_reflectance,
+)
 
 # Absolute tolerances, one per kind of comparison.
 TMM_ATOL = 1e-10  # float64 closed forms and transfer matrices vs the tmm package
@@ -621,3 +626,81 @@ def test_phase_average_is_exact_inside_band_gaps():
 def test_unknown_yeh_method_is_refused():
     with pytest.raises(ValueError, match="method"):
         yeh_reflectance(1.0, 1.5, 125.0, 375.0, 5, 500.0, 0.1, "s", method="fast")
+
+
+# --------------------------------------------------------------------------- input validation
+
+# Each bad call must raise ValueError naming the parameter and the accepted range.
+FILM = {"n_host": 1.0, "n_film": 1.3, "d_film_nm": 290.0, "n_base": 1.5,
+        "wavelength_nm": 500.0, "theta": 0.3}
+CELL = {"n1": 1.0, "n2": 1.5, "d1_nm": 125.0, "d2_nm": 375.0, "wavelength_nm": 500.0,
+        "theta": 0.3, "polarization": "s"}
+
+
+@pytest.mark.parametrize("name, value, accepted", [
+    ("n_base", math.nan, r"\[1e-30, 100\]"),
+    ("n_base", math.inf, r"\[1e-30, 100\]"),
+    ("n_base", -math.inf, r"\[1e-30, 100\]"),
+    ("n_base", 1.5 - 0.1j, r"k in \[0, 10000\]"),
+    ("n_base", 1.5 + 2e4j, r"k in \[0, 10000\]"),
+    ("d_film_nm", -300.0, r"\[0, 1e\+06\] nm"),
+    ("n_film", 0.0, r"\[1e-30, 100\]"),
+    ("n_host", 1.5 + 0.0j, "must be a real number"),
+    ("n_host", math.nan, "is NaN"),
+    ("theta", 2.0, r"\[0, pi/2\]"),
+    ("polarization", "x", r"one of"),
+])
+def test_thin_film_reflectance_rejects_bad_input(name, value, accepted):
+    with pytest.raises(ValueError, match=rf"\b{name}\b.*{accepted}"):
+        thin_film_reflectance(**{**FILM, name: value})
+
+
+@pytest.mark.parametrize("changes, name, accepted", [
+    ({"n1": 0.0}, "n1", r"\[1e-30, 100\]"),
+    ({"wavelength_nm": 0.0}, "wavelength_nm", r"\[1, 1e\+06\] nm"),
+    ({"host": 3.0, "theta": 1.5}, "theta", r"host sin\(theta\) below n1"),
+    ({"theta": math.pi / 2}, "theta", r"host sin\(theta\) below n1"),  # grazing in n1
+    ({"polarization": "x"}, "polarization", r"\('s', 'p'\)"),
+    ({"polarization": "unpolarized"}, "polarization", r"\('s', 'p'\)"),
+    ({"theta": 2.0}, "theta", r"\[0, pi/2\]"),
+    ({"d2_nm": -1.0}, "d2_nm", r"\[0, 1e\+06\] nm"),
+])
+def test_bloch_dispersion_rejects_bad_input(changes, name, accepted):
+    with pytest.raises(ValueError, match=rf"\b{name}\b.*{accepted}"):
+        bloch_dispersion(**{**CELL, **changes})
+
+
+@pytest.mark.parametrize("indices, thicknesses, polarization, name, accepted", [
+    ([1.0, math.inf, 1.5], [100.0], "s", "indices", r"n in \[1e-30, 100\]"),
+    ([1.0, 1e-300, 1.5], [100.0], "p", "indices", r"n in \[1e-30, 100\]"),
+    ([1.0, 100.5, 1.5], [100.0], "s", "indices", r"n in \[1e-30, 100\]"),
+    ([1.0, 1.5 + 2e4j, 1.5], [100.0], "s", "indices", r"k in \[0, 10000\]"),
+    ([1.0, "1.5", 1.5], [100.0], "s", "indices", r"n \+ i k"),
+    ([1.0, 1.5, 1.5], [2e6], "s", "thicknesses_nm", r"\[0, 1e\+06\] nm"),
+])
+def test_transfer_matrix_rejects_bad_input(indices, thicknesses, polarization, name, accepted):
+    with pytest.raises(ValueError, match=rf"\b{name}\b.*{accepted}"):
+        transfer_matrix_reflectance(indices, thicknesses, 500.0, 0.3, polarization)
+
+
+def test_valid_extremes_stay_finite():
+    wavelength = np.array([1.0, 500.0, 1e6])[:, None]
+    theta = np.array([0.0, 0.5, 1.2, math.pi / 2])[None, :]
+    # A host denser than the film and base: total reflection beyond the critical angle.
+    for pol in (*POLARIZATIONS, "unpolarized"):
+        R = [thin_film_reflectance(2.4, 1.3, 290.0, 1.5, wavelength, theta, pol),
+             thin_film_reflectance(1.0, 1.3, 0.0, 1.0 + 1e4j, wavelength, theta, pol),
+             thin_film_reflectance(1e-30, 100.0, 1e6, 100.0 + 1e4j, wavelength, theta, pol),
+             transfer_matrix_reflectance([2.4, 1.3, 1.0 + 1e4j], [0.0], wavelength, theta, pol),
+             transfer_matrix_reflectance([1.0, 1e-30, 100.0], [1e6], wavelength, theta, pol),
+             yeh_reflectance(1.0, 1.5, 0.0, 1e6, 5, wavelength, theta, pol, host=2.4)]
+        for value in R:
+            assert np.all(np.isfinite(value) & (value >= 0.0) & (value <= 1.0)), pol
+    np.testing.assert_array_equal(
+        thin_film_reflectance(2.4, 1.3, 290.0, 1.5, 500.0, 1.2), 1.0)  # 2.4 sin 1.2 > 1.5
+    np.testing.assert_allclose(  # k = 1e4: a near-perfect conductor
+        thin_film_reflectance(1.0, 1.3, 0.0, 1.0 + 1e4j, 500.0, 0.0), 1.0, rtol=0, atol=1e-7)
+    for pol in POLARIZATIONS:  # host above n1, below its critical angle; edge of the range
+        for x, sin2 in (bloch_dispersion(1.5, 1.0, 0.0, 1e6, wavelength, 0.6, pol, host=2.4),
+                        bloch_dispersion(1e-30, 100.0, 1e6, 1e6, wavelength, 0.0, pol)):
+            assert np.all(np.isfinite(x) & np.isfinite(sin2)), pol

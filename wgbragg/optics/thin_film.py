@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._validation import check_broadcast, check_index, check_thickness
+from ._checks import check_complex_index, check_light
 from ._series import sinc, sinhc
 from .fresnel import normal_component
 
@@ -88,13 +90,27 @@ def thin_film_reflectance(n_host, n_film, d_film_nm, n_base, wavelength_nm, thet
                           polarization="unpolarized"):
     """Reflectance ``|r|^2`` of a film over a base; see :func:`airy_amplitude`.
 
-    ``polarization="unpolarized"`` averages the s and p reflectances. Inputs are assumed valid
-    (the public classes validate them).
+    ``polarization="unpolarized"`` averages the s and p reflectances. ``n_base`` may be an
+    array (a dispersive base), broadcast with ``wavelength_nm`` and ``theta``.
+
+    Raises
+    ------
+    ValueError
+        Naming the parameter: real ``n_host`` and ``n_film`` must be in [1e-30, 100],
+        ``d_film_nm`` in [0, 1e6] nm, ``n_base`` ``n + i k`` with ``n`` in [1e-30, 100] and
+        ``k`` in [0, 1e4]; ``wavelength_nm``, ``theta`` and ``polarization`` as in
+        :func:`~wgbragg.optics.yeh_reflectance`.
     """
+    n_host, n_film = check_index("n_host", n_host), check_index("n_film", n_film)
+    d_film_nm = check_thickness("d_film_nm", d_film_nm)
+    n_base = check_complex_index("n_base", n_base)
+    wavelength, angle = check_light(wavelength_nm, theta, polarization)
+    check_broadcast(n_base=n_base.shape, wavelength_nm=wavelength.shape, theta=angle.shape)
+
+    def reflectance(pol):
+        r = airy_amplitude(n_host, n_film, d_film_nm, n_base, wavelength, angle, pol)
+        return np.clip(np.abs(r) ** 2, 0.0, 1.0)
+
     if polarization == "unpolarized":
-        return 0.5 * (
-            thin_film_reflectance(n_host, n_film, d_film_nm, n_base, wavelength_nm, theta, "s")
-            + thin_film_reflectance(n_host, n_film, d_film_nm, n_base, wavelength_nm, theta, "p")
-        )
-    r = airy_amplitude(n_host, n_film, d_film_nm, n_base, wavelength_nm, theta, polarization)
-    return np.clip(np.abs(r) ** 2, 0.0, 1.0)
+        return 0.5 * (reflectance("s") + reflectance("p"))
+    return reflectance(polarization)

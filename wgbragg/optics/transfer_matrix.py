@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import check_angle, check_polarization, check_wavelength
+from .._validation import MAX_THICKNESS_NM, _as_float_array
+from ._checks import check_complex_index, check_light
 from ._series import sinc
 from .fresnel import normal_component
 
@@ -22,13 +23,13 @@ def transfer_matrix_reflectance(indices, thicknesses_nm, wavelength_nm, theta,
     Parameters
     ----------
     indices : sequence of complex
-        Indices ``n + i k`` (``n > 0``, ``k >= 0``) from the incident medium (first, real) to
-        the substrate (last).
+        Indices ``n + i k`` (``n`` in [1e-30, 100], ``k`` in [0, 1e4]) from the incident medium
+        (first, real) to the substrate (last).
     thicknesses_nm : sequence of float
-        Thicknesses of the inner layers in nm: ``len(indices) - 2`` values, or ``len(indices)``
-        values with ``inf`` at both ends as in the ``tmm`` package.
+        Thicknesses of the inner layers in nm, in [0, 1e6]: ``len(indices) - 2`` values, or
+        ``len(indices)`` values with ``inf`` at both ends as in the ``tmm`` package.
     wavelength_nm, theta : array_like
-        Vacuum wavelength (nm, > 0) and angle of incidence in the first medium (radians,
+        Vacuum wavelength (nm, in [1, 1e6]) and angle of incidence in the first medium (radians,
         ``[0, pi/2]``); broadcast together.
     polarization : {"s", "p", "unpolarized"}
 
@@ -37,19 +38,20 @@ def transfer_matrix_reflectance(indices, thicknesses_nm, wavelength_nm, theta,
     numpy.ndarray
         Reflectance in [0, 1], shape ``broadcast(wavelength_nm, theta)``.
 
+    Raises
+    ------
+    ValueError
+        Naming the parameter, for values outside the ranges above.
+
     References
     ----------
     Byrnes, "Multilayer optical calculations", arXiv:1603.02720, sec. 2 (same conventions).
     """
-    check_polarization(polarization)
-    wavelength = check_wavelength(wavelength_nm)
-    angle = check_angle(theta)
-    indices = np.asarray(indices, dtype=np.complex128).ravel()
-    thicknesses = np.asarray(thicknesses_nm, dtype=np.float64).ravel()
+    wavelength, angle = check_light(wavelength_nm, theta, polarization)
+    indices = check_complex_index("indices", indices).ravel()
+    thicknesses = _as_float_array("thicknesses_nm", thicknesses_nm).ravel()
     if indices.size < 2:
         raise ValueError("indices must name at least the incident medium and the substrate")
-    if np.isnan(indices).any() or np.any(indices.real <= 0) or np.any(indices.imag < 0):
-        raise ValueError("indices must have real part > 0 and imaginary part >= 0")
     if indices[0].imag != 0:
         raise ValueError("indices[0] (the incident medium) must be real")
     if thicknesses.size == indices.size:
@@ -61,8 +63,9 @@ def transfer_matrix_reflectance(indices, thicknesses_nm, wavelength_nm, theta,
             f"thicknesses_nm must have len(indices) - 2 = {indices.size - 2} values "
             f"(or len(indices) with inf at both ends), got {thicknesses.size}"
         )
-    if np.isnan(thicknesses).any() or np.any(thicknesses < 0) or np.any(np.isinf(thicknesses)):
-        raise ValueError("thicknesses_nm must be finite and >= 0 (nm)")
+    if not np.all((thicknesses >= 0.0) & (thicknesses <= MAX_THICKNESS_NM)):
+        raise ValueError(f"thicknesses_nm must be in [0, {MAX_THICKNESS_NM:g}] nm "
+                         "(inf only at both ends, tmm style)")
 
     if polarization == "unpolarized":
         return 0.5 * (_reflectance(indices, thicknesses, wavelength, angle, "s")

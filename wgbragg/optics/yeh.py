@@ -17,14 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import (
-    check_angle,
-    check_count,
-    check_index,
-    check_polarization,
-    check_thickness,
-    check_wavelength,
-)
+from .._validation import check_count, check_index, check_thickness
+from ._checks import check_light
 from ._series import sinc, sinhc
 from .fresnel import fresnel_r, normal_component
 
@@ -117,11 +111,31 @@ def cell_coefficients(n1, n2, d1_nm, d2_nm, wavelength_nm, s, polarization):
     return A, C, x, sin2
 
 
+def _check_cell(n1, n2, d1_nm, d2_nm, host):
+    """Checked ``(n1, n2, d1_nm, d2_nm, host)`` of a Bragg cell; ``host`` defaults to ``n1``."""
+    n1, n2 = check_index("n1", n1), check_index("n2", n2)
+    host = n1 if host is None else check_index("host", host)
+    return n1, n2, check_thickness("d1_nm", d1_nm), check_thickness("d2_nm", d2_nm), host
+
+
 def bloch_dispersion(n1, n2, d1_nm, d2_nm, wavelength_nm, theta, polarization, host=None):
-    """``cos(K Lambda)`` and ``sin^2(K Lambda)`` of the Bloch wave (eq 8), angles in the host."""
-    host = n1 if host is None else host
+    """``cos(K Lambda)`` and ``sin^2(K Lambda)`` of the Bloch wave (eq 8), angles in the host.
+
+    Arguments as :func:`yeh_reflectance`, with ``polarization`` one of ``"s"``, ``"p"``. The
+    Bloch wave is defined where light propagates in ``n1``: ``host sin(theta) < n1``.
+
+    Raises
+    ------
+    ValueError
+        Naming the parameter, for values outside those ranges.
+    """
+    n1, n2, d1_nm, d2_nm, host = _check_cell(n1, n2, d1_nm, d2_nm, host)
+    wavelength, theta = check_light(wavelength_nm, theta, polarization, ("s", "p"))
     s = host * np.sin(theta)
-    _, _, x, sin2 = cell_coefficients(n1, n2, d1_nm, d2_nm, wavelength_nm, s, polarization)
+    if not np.all(s < n1):
+        raise ValueError(f"theta must keep host sin(theta) below n1 = {n1:g} (host = {host:g}), "
+                         f"got host sin(theta) = {np.max(s):g}")
+    _, _, x, sin2 = cell_coefficients(n1, n2, d1_nm, d2_nm, wavelength, s, polarization)
     return x, sin2
 
 
@@ -224,9 +238,10 @@ def yeh_reflectance(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization=
     Parameters
     ----------
     n1, n2 : float
-        Real indices of the two layers of a cell (the cell starts with ``n1``).
+        Real indices of the two layers of a cell (the cell starts with ``n1``), in
+        [1e-30, 100].
     d1_nm, d2_nm : float
-        Layer thicknesses in nm (``>= 0``).
+        Layer thicknesses in nm, in [0, 1e6].
     N : int
         Number of cells (``>= 1``).
     wavelength_nm, theta : array_like
@@ -252,19 +267,17 @@ def yeh_reflectance(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization=
     ------
     ValueError
         Naming the parameter, for values outside the ranges of :class:`wgbragg.BraggMirror`
-        and :meth:`~wgbragg.BraggMirror.reflectance`.
+        and :meth:`~wgbragg.BraggMirror.reflectance` (indices also below 1e-30, where the p
+        admittances leave float64).
 
     References
     ----------
     Yeh, *Optical Waves in Layered Media*, 1988, ch. 6; Fourneau, Pacanowski & Barla 2024,
     eqs 2, 8, 9, 10 and Appendix D.
     """
-    n1, n2 = check_index("n1", n1), check_index("n2", n2)
-    host = n1 if host is None else check_index("host", host)
-    d1_nm, d2_nm = check_thickness("d1_nm", d1_nm), check_thickness("d2_nm", d2_nm)
+    n1, n2, d1_nm, d2_nm, host = _check_cell(n1, n2, d1_nm, d2_nm, host)
     N = check_count("N", N)
-    wavelength_nm, theta = check_wavelength(wavelength_nm), check_angle(theta)
-    check_polarization(polarization)
+    wavelength_nm, theta = check_light(wavelength_nm, theta, polarization)
     if method not in YEH_METHODS:
         raise ValueError(f"method must be one of {YEH_METHODS}, got {method!r}")
     averaged = method == "phase-averaged"
