@@ -182,11 +182,19 @@ def test_paper_methods_refuse_another_host():
                                               ({"backend": "cuda"}, "backend"),
                                               ({"theta": 2.0}, "theta"),
                                               ({"method": "subdivided", "s": 0}, "s"),
-                                              ({"method": "subdivided", "s": 2.5}, "s")])
+                                              ({"method": "subdivided", "s": 2.5}, "s"),
+                                              ({"method": "subdivided", "s": True}, "s")])
 def test_bad_input(kwargs, name):
     arguments = {"theta": 0.3} | kwargs
     with pytest.raises(ValueError, match=name):
         BraggMirror(1.0, 1.5, 125.0, 375.0, 20).xyz(**arguments)
+
+
+@pytest.mark.parametrize("backend", ["numpy", "gpu"])
+def test_numpy_integers_are_integers(backend):
+    mirror = BraggMirror(1.0, 1.5, 125.0, 375.0, 20)
+    np.testing.assert_array_equal(mirror.xyz(0.3, "subdivided", backend, s=np.int64(4)),
+                                  mirror.xyz(0.3, "subdivided", backend, s=4))
 
 
 @pytest.mark.parametrize(("material", "method", "option", "accepted"), [

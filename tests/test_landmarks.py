@@ -92,6 +92,8 @@ def test_array_angles_give_an_array_of_landmarks():
 
 
 @pytest.mark.parametrize(("kwargs", "name"), [({"polarization": "x"}, "polarization"),
+                                              ({"polarization": "unpolarized"}, "polarization"),
+                                              ({"polarization": ["s", "p"]}, "polarization"),
                                               ({"theta": -0.1}, "theta"),
                                               ({"theta": float("nan")}, "theta")])
 def test_bad_input(kwargs, name):

@@ -360,6 +360,8 @@ def test_bad_structures_raise(filters, make, match):
     (lambda s: s.sample([1.0, 0.0, 0.0], [0.5, 0.5, 0.5]), "above the horizon"),
     (lambda s: s.albedo(math.pi / 2), "theta_i"),
     (lambda s: s.albedo(0.1, samples=0), "samples"),
+    (lambda s: s.albedo(0.1, seed=-1), "seed"),
+    (lambda s: s.albedo(0.1, seed="a"), "seed"),
 ])
 def test_bad_arguments_raise(structures, call, match):
     with pytest.raises(ValueError, match=match):

@@ -27,6 +27,7 @@ import functools
 import numpy as np
 
 from . import colorimetry, gpu, kernels
+from ._validation import check_integer
 from .materials import BraggMirror
 
 __all__ = [
@@ -89,8 +90,7 @@ def _check_mirror(mirror, method: str) -> BraggMirror:
 def _check_subdivisions(s) -> int:
     # As colour_methods._subdivided, plus a bound: the kernel loops over max(1, s - m)
     # sub-boxes per pass band, so an unbounded s could stall the device.
-    if isinstance(s, bool) or not isinstance(s, int) or s < 1:
-        raise ValueError(f"s (subdivision quality) must be an integer >= 1, got {s!r}")
+    s = check_integer("s (subdivision quality)", s, 1)
     if s > MAX_SUBDIVISIONS:
         raise ValueError(
             f"s (subdivision quality) must be <= {MAX_SUBDIVISIONS} with backend='gpu', got {s}"

@@ -22,7 +22,7 @@ import inspect
 import numpy as np
 
 from . import colorimetry
-from ._validation import check_angle
+from ._validation import check_angle, check_integer
 from .landmarks import VISIBLE_OMEGA, _ranges, find_landmarks_many
 from .optics.yeh import cell_coefficients, yeh_reflectance
 from .thin_film_colour import DEFAULT_ORDER, FOURIER_METHODS, fourier_xyz
@@ -338,8 +338,7 @@ def _spectral(material, theta, backend, samples=16, seed=None):
 
 
 def _subdivided(mirror, theta, s=3):
-    if isinstance(s, bool) or not isinstance(s, int) or s < 1:
-        raise ValueError(f"s (subdivision quality) must be an integer >= 1, got {s!r}")
+    s = check_integer("s (subdivision quality)", s, 1)
     return approx_xyz(mirror, theta, subdivisions=s)
 
 

@@ -123,6 +123,8 @@ def find_landmarks_many(mirror, thetas, polarization: str, omega_range=VISIBLE_O
     -------
     list of Landmarks
     """
+    if not isinstance(polarization, str) or polarization not in ("s", "p"):
+        raise ValueError(f"polarization must be 's' or 'p', got {polarization!r}")
     lo_omega, hi_omega = omega_range
     s = mirror.host * np.sin(check_angle(thetas, "thetas").reshape(-1))
     searched = (s < mirror.n1) & (mirror.n1 != mirror.n2) & (mirror.d2 != 0.0)

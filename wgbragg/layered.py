@@ -769,7 +769,7 @@ class LayeredBragg:
         """
         from scipy.stats import qmc
 
-        from ._validation import check_angle
+        from ._validation import check_angle, check_seed
 
         theta = check_angle(theta_i, "theta_i")
         if np.any(theta >= np.pi / 2):
@@ -777,6 +777,7 @@ class LayeredBragg:
                              "light enters")
         if isinstance(samples, bool) or not isinstance(samples, numbers.Integral) or samples < 1:
             raise ValueError(f"samples must be an integer >= 1, got {samples!r}")
+        check_seed(seed)
         wavelength = None if wavelength_nm is None else check_wavelength(wavelength_nm)
         shape = theta.shape if wavelength is None else check_broadcast(
             theta_i=theta.shape, wavelength_nm=wavelength.shape)
