@@ -362,6 +362,21 @@ def test_benchmark_times_each_dispatch():
         gpu.benchmark([first, second], repeats=1025)
 
 
+def test_llvmpipe_loop_budget_is_what_kernels_plan_for():
+    """The pitfall behind SAFE_LOOP_ITERATIONS: llvmpipe ends all loops of a SIMD group after
+    LOOP_BUDGET back-edges in total. If Mesa ever lifts it, this documents the change."""
+    from conftest import GPU_INFO
+
+    counts = np.array([gpu.SAFE_LOOP_ITERATIONS // 2, 40000] + [1] * 30, np.uint32)
+    (taken,) = gpu.compute_pipeline("test_kernels/loop_budget.wgsl").run(
+        [counts], [(counts.size, np.uint32)])
+    assert taken[0] == gpu.SAFE_LOOP_ITERATIONS
+    if GPU_INFO["is_lavapipe"]:
+        assert gpu.LOOP_BUDGET - 2 <= taken[1] < gpu.LOOP_BUDGET  # silently cut short
+    else:
+        assert taken[1] == 80000
+
+
 # ------------------------------------------------------------------ adapters
 
 ADAPTERS = [

@@ -53,6 +53,16 @@ dispatches in order in one submission and reads back only the arrays asked for;
     second = kernel_b.bind([first.outputs[0], weights], [(n, np.float32)])
     (result,) = submit([first, second], read=second.outputs)
 
+Loop budget
+-----------
+llvmpipe (lavapipe's shader compiler) ends every loop of an invocation once the loops of its
+SIMD group (8 lanes on AVX2) have taken :data:`LOOP_BUDGET` back-edges in total, counted over
+all loops, nested ones included, as the slowest lane of the group sees them. It does so
+silently: the kernel returns a partial sum, or a walk stops early. Every kernel whose loop
+count comes from its inputs therefore keeps an invocation's total iterations under
+:data:`SAFE_LOOP_ITERATIONS`, by splitting the work over invocations or dispatches or by
+refusing the input with a ``ValueError``.
+
 Environment
 -----------
 ``WGBRAGG_ADAPTER``
@@ -80,6 +90,8 @@ import numpy as np
 import wgpu
 
 __all__ = [
+    "LOOP_BUDGET",
+    "SAFE_LOOP_ITERATIONS",
     "DeviceArray",
     "Dispatch",
     "Kernel",
@@ -99,6 +111,15 @@ __all__ = [
 
 DEFAULT_WORKGROUP_SIZE = 64
 """WORKGROUP_SIZE the harness sets when the caller's constants do not."""
+
+LOOP_BUDGET = 65535
+"""Back-edges llvmpipe lets one SIMD group of invocations take, over all its loops
+(``LP_MAX_TGSI_LOOP_ITERATIONS`` in Mesa's gallivm), before it ends them."""
+
+SAFE_LOOP_ITERATIONS = 32768
+"""Iterations a kernel may plan for one invocation: half of :data:`LOOP_BUDGET`, leaving room
+for the short inner loops (Newton steps, bisections, unrolled sums) that the plan does not
+count."""
 
 _MAX_QUERIES = 4096  # WebGPU's limit on the size of a query set
 
