@@ -18,7 +18,7 @@ import math
 import numpy as np
 import pytest
 
-from wgbragg import BraggMirror, colour_landmarks_gpu
+from wgbragg import BraggMirror, colour_landmarks_gpu, gpu
 from wgbragg import colour_methods as cm
 from wgbragg.colorimetry import delta_e_2000, xyz_to_linear_srgb
 from wgbragg.landmarks import find_landmarks
@@ -182,6 +182,23 @@ def test_subdivided_options():
             mirror.xyz(0.2, method="subdivided", backend="gpu", s=bad)
     with pytest.raises(ValueError, match="method 'approx' takes no option 's'"):
         mirror.xyz(0.2, method="approx", backend="gpu", s=3)  # as numpy: no such option
+
+
+def test_work_beyond_the_loop_budget_is_refused_not_cut_short():
+    """s = 5000 sub-boxes per pass band take ~14 s iterations per landmark interval: beyond
+    llvmpipe's loop budget, which would silently return a partial sum."""
+    from conftest import GPU_INFO
+
+    mirror = BraggMirror(1.0, 1.5, 250.0, 250.0, 20)
+    theta = np.linspace(0.0, 1.5, 16)
+    within = mirror.xyz(theta, method="subdivided", backend="gpu", s=1000)
+    np.testing.assert_allclose(within, mirror.xyz(theta, method="subdivided", s=1000), atol=2e-4)
+    if GPU_INFO["is_lavapipe"]:
+        with pytest.raises(gpu.LoopBudgetError, match=r"'subdivided'.*625 nm.*backend='numpy'"):
+            mirror.xyz(theta, method="subdivided", backend="gpu", s=5000)
+    else:
+        np.testing.assert_allclose(mirror.xyz(theta, method="subdivided", backend="gpu", s=5000),
+                                   mirror.xyz(theta, method="subdivided", s=5000), atol=2e-4)
 
 
 EXTREME_MIRRORS = [

@@ -364,17 +364,27 @@ def test_benchmark_times_each_dispatch():
 
 def test_llvmpipe_loop_budget_is_what_kernels_plan_for():
     """The pitfall behind SAFE_LOOP_ITERATIONS: llvmpipe ends all loops of a SIMD group after
-    LOOP_BUDGET back-edges in total. If Mesa ever lifts it, this documents the change."""
+    LOOP_BUDGET back-edges in total, and loops_were_cut() tells. If Mesa ever lifts the
+    budget, this documents the change."""
     from conftest import GPU_INFO
 
-    counts = np.array([gpu.SAFE_LOOP_ITERATIONS // 2, 40000] + [1] * 30, np.uint32)
-    (taken,) = gpu.compute_pipeline("test_kernels/loop_budget.wgsl").run(
-        [counts], [(counts.size, np.uint32)])
-    assert taken[0] == gpu.SAFE_LOOP_ITERATIONS
+    counts = np.zeros(64, np.uint32)
+    counts[:32] = 1
+    counts[0] = gpu.SAFE_LOOP_ITERATIONS // 2  # first SIMD group (8 or 16 lanes): safe
+    counts[32] = 40000  # the last: 80000 back-edges asked for
+    (out,) = gpu.compute_pipeline("test_kernels/loop_budget.wgsl").run(
+        [counts], [((counts.size, 2), np.uint32)])
+    taken, cut = out.T
+    np.testing.assert_array_equal(taken[:32], 2 * counts[:32])
+    np.testing.assert_array_equal(cut[:32], 0)
     if GPU_INFO["is_lavapipe"]:
-        assert gpu.LOOP_BUDGET - 2 <= taken[1] < gpu.LOOP_BUDGET  # silently cut short
+        assert gpu.LOOP_BUDGET - 2 <= taken[32] < gpu.LOOP_BUDGET  # silently cut short
+        assert cut[32] == 1
+        with pytest.raises(gpu.LoopBudgetError, match=r"toy kernel.*backend='numpy'"):
+            gpu.check_loops(cut, "toy kernel")
     else:
-        assert taken[1] == 80000
+        assert taken[32] == 80000 and cut[32] == 0
+    gpu.check_loops(cut[:32], "toy kernel")
 
 
 # ------------------------------------------------------------------ adapters

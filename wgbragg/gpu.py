@@ -95,10 +95,12 @@ __all__ = [
     "DeviceArray",
     "Dispatch",
     "Kernel",
+    "LoopBudgetError",
     "ShaderCompileError",
     "ShaderSource",
     "adapter_info",
     "benchmark",
+    "check_loops",
     "compute_pipeline",
     "get_device",
     "load_shader",
@@ -120,6 +122,32 @@ SAFE_LOOP_ITERATIONS = 32768
 """Iterations a kernel may plan for one invocation: half of :data:`LOOP_BUDGET`, leaving room
 for the short inner loops (Newton steps, bisections, unrolled sums) that the plan does not
 count."""
+
+
+
+class LoopBudgetError(ValueError):
+    """The device ended a kernel's loops before its work was done (llvmpipe's
+    :data:`LOOP_BUDGET`): the input asks for more iterations than this backend can run."""
+
+
+def check_loops(cut, what: str) -> None:
+    """Raise :class:`LoopBudgetError` if any ``loops_were_cut()`` flag in ``cut`` is set.
+
+    Parameters
+    ----------
+    cut : array_like
+        The kernel's flags (non-zero = cut), any shape.
+    what : str
+        The work and the input that sizes it, for the message.
+    """
+    cut = np.asarray(cut)
+    if np.any(cut != 0):
+        raise LoopBudgetError(
+            f"{what}: the GPU ({adapter_info()['name']}) ended the kernel's loops early at "
+            f"{np.count_nonzero(cut)} of {cut.size} points (llvmpipe allows {LOOP_BUDGET} loop "
+            "iterations per invocation); use backend='numpy', or ask for less work per point"
+        )
+
 
 _MAX_QUERIES = 4096  # WebGPU's limit on the size of a query set
 

@@ -32,7 +32,7 @@ struct LandmarkColourParams {
 
 @group(0) @binding(0) var<storage, read> theta: array<f32>;
 @group(0) @binding(1) var<storage, read> cmf: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read_write> xyz: array<vec4<f32>>;  // w = 0
+@group(0) @binding(2) var<storage, read_write> xyz: array<vec4<f32>>;  // w = 1 where llvmpipe cut the loops short
 @group(0) @binding(3) var<uniform> params: LandmarkColourParams;
 
 const CMF_NODES: u32 = 471u;
@@ -55,5 +55,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
     let m = BraggMirror(p.n1, p.n2, p.d1_nm, p.d2_nm, p.host, p.periods, p.bulk, 0u);
     let s = i32(min(p.subdivisions, 0x7fffffffu));
     let colour = landmark_colour_unpolarized(m, theta[i], METHOD, s, HOST_MATCHED, MATCHED_LAYERS);
-    xyz[i] = vec4<f32>(colour, 0.0);
+    xyz[i] = vec4<f32>(colour, f32(loops_were_cut(p.periods)));
 }

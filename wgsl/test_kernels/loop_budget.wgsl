@@ -1,8 +1,9 @@
-// Test kernel: two loops of counts[i] iterations each; out[i] = iterations taken.
+// Test kernel: two loops of counts[i] iterations each; out[i] = (iterations taken,
+// loops_were_cut).
 //! include "harness.wgsl"
 
 @group(0) @binding(0) var<storage, read> counts: array<u32>;
-@group(0) @binding(1) var<storage, read_write> out: array<u32>;
+@group(0) @binding(1) var<storage, read_write> out: array<vec2<u32>>;
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>,
@@ -12,5 +13,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
     var taken = 0u;
     for (var k = 0u; k < counts[i]; k++) { taken += 1u; }
     for (var k = 0u; k < counts[i]; k++) { taken += 1u; }
-    out[i] = taken;
+    out[i] = vec2<u32>(taken, u32(loops_were_cut(counts[i])));
 }
