@@ -1,9 +1,11 @@
 // Entry point: D65-weighted XYZ of a Bragg mirror, one invocation per angle theta[i]:
 //   xyz[i] = sum_k R(wavelength_nm[k], theta[i]) weights[k].xyz,  R unpolarized (mean of s, p).
 // The host passes the quadrature: 1 nm nodes for the reference, K strata for "spectral"
-// (wgbragg/colour_reference.py). Plain float32 sum: its
-// rounding (bound 470 ulp relative, 1.3e-6 measured) is far below the reflectance's own float32
-// error; a Kahan carry would be folded away by the driver's float reassociation (measured).
+// (wgbragg/colour_reference.py), at most gpu.SAFE_LOOP_ITERATIONS per dispatch: llvmpipe would end
+// a longer loop early (wgbragg/gpu.py, "Loop budget"), so colour_gpu.py sums chunks of nodes.
+// Plain float32 sum: its rounding (bound 470 ulp relative, 1.3e-6 measured) is far below the
+// reflectance's own float32 error; a Kahan carry would be folded away by the driver's float
+// reassociation (measured).
 //! include "harness.wgsl"
 //! include "numerics.wgsl"
 //! include "complex.wgsl"

@@ -1,6 +1,7 @@
 // Entry point: D65-weighted XYZ of a thin film, one invocation per angle theta[i]:
 //   xyz[i] = sum_k R(wavelength_nm[k], theta[i]) weights[k].xyz,  R unpolarized (mean of s, p).
-// Twin of colour_reference_bragg.wgsl for wgbragg.ThinFilm. Plain float32 sum: its
+// Twin of colour_reference_bragg.wgsl for wgbragg.ThinFilm, chunked alike (at most
+// gpu.SAFE_LOOP_ITERATIONS nodes per dispatch). Plain float32 sum: its
 // rounding (bound 470 ulp relative, 1.3e-6 measured) is far below the reflectance's own float32
 // error; a Kahan carry would be folded away by the driver's float reassociation (measured).
 //! include "harness.wgsl"
