@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from scipy.integrate import IntegrationWarning
 
+from wgbragg import gpu, transmission_filter
 from wgbragg.microfacet import ggx_G1
 from wgbragg.optics import yeh_reflectance
 from wgbragg.transmission_filter import (
@@ -180,6 +181,29 @@ def test_gpu_matches_numpy(numpy_filters, alpha):
     peak = cpu.values.max(axis=1, keepdims=True)
     assert np.all(np.abs(gpu_filter.values - cpu.values) <= GPU_RTOL * peak)
     np.testing.assert_allclose(gpu_filter.weights.sum(1), cpu.weights.sum(1), atol=GPU_RTOL)
+
+
+def assert_gpu_bake_matches(gpu_filter, cpu):
+    peak = cpu.values.max(axis=1, keepdims=True)
+    assert np.all(np.abs(gpu_filter.values - cpu.values) <= GPU_RTOL * peak)
+
+
+@pytest.mark.gpu
+def test_gpu_bake_sums_every_psi_sample_past_the_loop_budget():
+    # llvmpipe ends a SIMD group's loops after gpu.LOOP_BUDGET back-edges: in one dispatch the
+    # psi loop stopped at sample 65535 of 100000, every entry 34% low.
+    psi_samples = 100_000
+    assert psi_samples > gpu.LOOP_BUDGET
+    gpu_filter = TransmissionFilter.bake(0.3, 10.0, psi_samples, backend="gpu")
+    # The midpoint rule has converged long before (see F_alpha): 1000 samples are the reference.
+    assert_gpu_bake_matches(gpu_filter, TransmissionFilter.bake(0.3, 10.0, 1000, backend="numpy"))
+
+
+@pytest.mark.gpu
+def test_gpu_bake_parts_partition_the_psi_samples(monkeypatch):
+    monkeypatch.setattr(transmission_filter, "PSI_SAMPLES_PER_DISPATCH", 7)  # 8 parts, 1 partial
+    gpu_filter = TransmissionFilter.bake(0.3, 10.0, 50, backend="gpu")
+    assert_gpu_bake_matches(gpu_filter, TransmissionFilter.bake(0.3, 10.0, 50, backend="numpy"))
 
 
 # --------------------------------------------------------------------------- table

@@ -1,6 +1,8 @@
 // Entry point: the transmission filter table, one invocation per (theta_i, theta_d) cell,
 // row-major (row = theta_i). Angles are (cos, sin, cos/2, sin/2) as transmission_filter.wgsl
-// expects.
+// expects. One dispatch sums the psi samples first_sample .. first_sample + sample_count - 1
+// (transmission_filter.PSI_SAMPLES_PER_DISPATCH, within llvmpipe's loop budget); the host adds
+// the parts.
 //! include "harness.wgsl"
 //! include "numerics.wgsl"
 //! include "ggx.wgsl"
@@ -9,6 +11,8 @@
 struct BakeParams {
     alpha: f32,
     psi_samples: u32,
+    first_sample: u32,
+    sample_count: u32,
 }
 
 @group(0) @binding(0) var<storage, read> incident: array<vec4<f32>>;
@@ -25,5 +29,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
     }
     let n_d = arrayLength(&difference);
     values[cell] = transmission_filter(incident[cell / n_d], difference[cell % n_d],
-                                       params.alpha, params.psi_samples);
+                                       params.alpha, params.psi_samples, params.first_sample,
+                                       params.sample_count);
 }

@@ -4,8 +4,11 @@
 
 // Angles arrive as (cos t, sin t, cos t/2, sin t/2), computed by the host in float64: f32(pi/2)
 // lies above pi/2, so cos of the rounded angle would be negative at grazing incidence.
+// The midpoint samples first .. first + count - 1 of psi_samples: F is the sum of these parts
+// over a partition of 0 .. psi_samples - 1, which lets the host keep count within llvmpipe's
+// loop budget (wgbragg/gpu.py, "Loop budget") whatever psi_samples is.
 fn transmission_filter(incident: vec4<f32>, difference: vec4<f32>, alpha: f32,
-                       psi_samples: u32) -> f32 {
+                       psi_samples: u32, first: u32, count: u32) -> f32 {
     let ci = incident.x;
     let si = incident.y;
     let cd = difference.x;
@@ -28,12 +31,13 @@ fn transmission_filter(incident: vec4<f32>, difference: vec4<f32>, alpha: f32,
     let a2 = alpha * alpha;
     // Midpoint rule in psi. D~ depends on cos^2 theta_m, which is even about psi = 0 and, to
     // first order, about psi_max (where cos theta_m = 0): the rule's h^2 term vanishes at both
-    // ends. Half-angles advance by a rotation: error ~ k ulp, smallest near the peak at psi = 0.
+    // ends. Half-angles advance by a rotation from the part's first sample: error ~ k ulp after
+    // k steps, smallest near the peak at psi = 0.
     let half_step = 0.5 * psi_max / f32(psi_samples);
     let rotation = sin_cos_reduced(half_step);
-    var half = sin_cos_reduced(0.5 * half_step);
+    var half = sin_cos_reduced((f32(first) + 0.5) * half_step);
     var sum = 0.0;
-    for (var k = 0u; k < psi_samples; k++) {
+    for (var k = 0u; k < count; k++) {
         let one_minus_cos = base + slope * half.x * half.x;
         let c = 1.0 - one_minus_cos;
         // D~ = alpha^2 / (pi d^2), d = alpha^2 cos^2 + sin^2 (eq 18 without chi+).
