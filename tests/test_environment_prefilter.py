@@ -315,6 +315,20 @@ def test_gpu_splits_long_loops():
 
 
 @pytest.mark.gpu
+def test_gpu_loop_blocks_hold_for_outputs_narrower_than_a_simd_group():
+    """Output rows of 2 texels: unpadded, one SIMD group of 8 lanes held all 4 output rows,
+    whose loops (each within MAX_ITERATIONS per block) ran in lockstep past llvmpipe's budget
+    and lost 5% of row 2's radiance."""
+    environment = structured_map(64, 128, seed=5)
+    sizes = ((1024, 512), (2, 4))
+    twin = prefilter_environment(environment, [0.05], "numpy", sizes=sizes)
+    pre = prefilter_environment(environment, [0.05], "gpu", sizes=sizes)
+    np.testing.assert_allclose(pre.radiance[0], twin.radiance[0], rtol=TWIN_RTOL)
+    np.testing.assert_allclose(pre.mean[0], twin.mean[0], atol=TWIN_ATOL)
+    np.testing.assert_allclose(pre.second[0], twin.second[0], atol=TWIN_ATOL)
+
+
+@pytest.mark.gpu
 @pytest.mark.parametrize("backend", ["gpu", "numpy"])
 def test_black_windows_fall_back_to_r(backend):
     """A black upper half: texels whose window (53 degrees at alpha = 0.05) sees only black

@@ -53,11 +53,14 @@ Backends
 --------
 ``"numpy"`` is the float64 twin, vectorised per output row (slow at full resolution: tests
 use small levels). ``"gpu"`` runs ``wgsl/environment_prefilter.wgsl`` in float32, one
-invocation per output texel. llvmpipe (lavapipe) silently ends a loop after 65535 iterations
-counted over a whole invocation, so a level's input rows are split into blocks in which no
-invocation iterates more than :data:`MAX_ITERATIONS` times; one dispatch per block adds into
-a buffer of partial sums, and the last also normalises. Sums are taken per input row and then
-added, which keeps the float32 ratios within about 1e-6 of their float64 values.
+invocation per output texel. llvmpipe (lavapipe) silently ends the loops of a SIMD group of
+invocations after 65535 iterations in total (:mod:`wgbragg.gpu`, "Loop budget"), so a level's
+input rows are split into blocks in which no output row iterates more than
+:data:`MAX_ITERATIONS` times, and the invocations of an output row are padded to a multiple of
+:data:`SIMD_LANES` so that no group mixes two rows (whose loops, run in lockstep, could take
+up to twice the turns); one dispatch per block adds into a buffer of partial sums, and the
+last also normalises. Sums are taken per input row and then added, which keeps the float32
+ratios within about 1e-6 of their float64 values.
 
 The result, :class:`PrefilteredEnvironment`, looks levels up bilinearly between texel centres
 (:meth:`PrefilteredEnvironment.lookup`, the twin of ``wgsl/prefiltered_environment.wgsl``)
@@ -93,6 +96,7 @@ __all__ = [
     "COSINE",
     "MAX_ITERATIONS",
     "PARAMS_DTYPE",
+    "SIMD_LANES",
     "TRUNCATION",
     "PrefilteredEnvironment",
     "level_sizes",
@@ -110,12 +114,21 @@ ALPHA_MAX = 1.0
 TRUNCATION = 1e-4
 """``D(h) / D(n)`` at the edge of a GGX window (see :func:`window_angle`)."""
 MAX_ITERATIONS = 60_000
-"""Loop iterations one GPU invocation may run per dispatch, under llvmpipe's 65535."""
+"""Loop turns the invocations of one output row may run per dispatch: column iterations plus
+one per input row. Under llvmpipe's :data:`gpu.LOOP_BUDGET` with room for the exit pass of
+each loop, which this count leaves out (at most one per input row, and input heights are at
+most 2048). It holds per SIMD group because a group never spans two output rows
+(:data:`SIMD_LANES`)."""
+
+SIMD_LANES = 16
+"""Invocations of an output row are padded to a multiple of this: llvmpipe's SIMD groups (8
+lanes with AVX2, 16 with 512-bit vectors) then each lie in one output row. A group spanning
+two rows would run both rows' loops in lockstep, up to twice :data:`MAX_ITERATIONS` turns."""
 
 PARAMS_DTYPE = gpu.struct_dtype([
     ("in_width", "u32"), ("in_height", "u32"), ("out_width", "u32"), ("out_height", "u32"),
-    ("row_begin", "u32"), ("row_end", "u32"), ("cosine", "u32"), ("finish", "u32"),
-    ("alpha", "f32"), ("q_max", "f32"),
+    ("out_stride", "u32"), ("row_begin", "u32"), ("row_end", "u32"), ("cosine", "u32"),
+    ("finish", "u32"), ("alpha", "f32"), ("q_max", "f32"),
 ])
 """Layout of ``PrefilterParams`` in ``wgsl/environment_prefilter.wgsl``."""
 
@@ -138,8 +151,8 @@ _DISC_SUBSAMPLES_MAX = 512
 _WINDOW_SLACK = 1e-9
 # Kernel evaluations per numpy chunk: bounds each temporary to ~25 MB.
 _NUMPY_CHUNK = 1 << 20
-# A WGSL workgroup of this many output texels shares its rows' loop counts when the output
-# width is a multiple of it: lavapipe then runs whole vectors without divergence.
+# Output texels per WGSL workgroup; a multiple of SIMD_LANES, so that groups of lanes start at
+# the padded output rows' starts.
 _WORKGROUP_SIZE = 64
 
 
@@ -454,8 +467,9 @@ class _Plan:
         return cls(level, source, target, q_max, first, end, spans.astype(np.int32), centre)
 
     def blocks(self) -> list[tuple[int, int]]:
-        """Input rows split so that no invocation iterates more than MAX_ITERATIONS times in
-        a block: per row, its column loop and one turn of the row loop."""
+        """Input rows split so that no output row iterates more than MAX_ITERATIONS times in
+        a block: per input row, its column loop and one turn of the row loop. The GPU bake
+        pads output rows to SIMD_LANES invocations, so this bounds every SIMD group."""
         w_in = self.source.width
         cost = np.where(self.spans >= 0, np.minimum(2 * self.spans + 1, w_in) + 1, 0)
         blocks, begin = [], 0
@@ -548,7 +562,8 @@ def _bake_gpu(plan: _Plan, radiance: np.ndarray):
     kernel = gpu.compute_pipeline("environment_prefilter.wgsl",
                                   constants={"WORKGROUP_SIZE": _WORKGROUP_SIZE})
     inputs = [gpu.DeviceArray.upload(a) for a in _gpu_inputs(plan, radiance)]
-    count = target.width * target.height
+    stride = -(-target.width // SIMD_LANES) * SIMD_LANES
+    count = stride * target.height
     sums = gpu.DeviceArray.empty((count * 4, 4), np.float32)
     result = gpu.DeviceArray.empty((count * 4, 4), np.float32)
     blocks = plan.blocks()
@@ -557,6 +572,7 @@ def _bake_gpu(plan: _Plan, radiance: np.ndarray):
         params = np.zeros((), PARAMS_DTYPE)
         params["in_width"], params["in_height"] = source.width, source.height
         params["out_width"], params["out_height"] = target.width, target.height
+        params["out_stride"] = stride
         params["row_begin"], params["row_end"] = begin, end
         params["cosine"] = plan.level == COSINE
         params["finish"] = index == len(blocks) - 1
@@ -564,7 +580,7 @@ def _bake_gpu(plan: _Plan, radiance: np.ndarray):
         params["q_max"] = plan.q_max
         dispatches.append(kernel.bind(inputs, [sums, result], params, count=count))
     (out,) = gpu.submit(dispatches, read=[result])
-    out = out.astype(np.float64).reshape(target.height, target.width, 16)
+    out = out.astype(np.float64).reshape(target.height, stride, 16)[:, :target.width]
     return out[..., 0:3], out[..., 4:7], np.concatenate([out[..., 8:11], out[..., 12:15]], -1)
 
 

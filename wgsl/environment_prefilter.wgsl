@@ -2,11 +2,14 @@
 // whose docstring defines the sums), one invocation per output texel, in float32.
 //
 // A dispatch sums the input rows [row_begin, row_end) that lie in the texel's window into
-// `sums`, adding to what earlier dispatches of the level left there: llvmpipe silently ends a
-// loop after 65535 iterations counted over a whole invocation, so the host splits the rows
-// into blocks of at most MAX_ITERATIONS (environment_prefilter.py) loop turns. The last
-// dispatch (finish = 1) also writes the normalised texel to `prefiltered`, in the layout of
-// prefiltered_environment.wgsl: (radiance, 0), (mean, 0), (xx, yy, zz, 0), (xy, yz, zx, 0).
+// `sums`, adding to what earlier dispatches of the level left there: llvmpipe silently ends the
+// loops of a SIMD group after 65535 iterations in total, counted as its slowest lane sees them,
+// so the host splits the rows into blocks of at most MAX_ITERATIONS (environment_prefilter.py)
+// loop turns per output row. Invocations run row by row with a stride of out_stride, a multiple
+// of the SIMD width, so that no group mixes the loop counts of two output rows; the columns
+// past out_width idle. The last dispatch (finish = 1) also writes the normalised texel to
+// `prefiltered`, in the layout of prefiltered_environment.wgsl: (radiance, 0), (mean, 0),
+// (xx, yy, zz, 0), (xy, yz, zx, 0), with the same stride.
 //! include "harness.wgsl"
 //! include "numerics.wgsl"
 
@@ -15,6 +18,7 @@ struct PrefilterParams {
     in_height: u32,
     out_width: u32,
     out_height: u32,
+    out_stride: u32,  // invocations per output row: out_width padded to the SIMD width
     row_begin: u32,
     row_end: u32,
     cosine: u32,     // 1: the cosine kernel, 0: GGX of roughness alpha
@@ -67,12 +71,13 @@ fn prefilter_kernel(q: f32) -> f32 {
 fn main(@builtin(global_invocation_id) gid: vec3<u32>,
         @builtin(num_workgroups) nwg: vec3<u32>) {
     let index = global_index(gid, nwg);
-    if (index >= params.out_width * params.out_height) {
+    let y_out = index / params.out_stride;
+    let x_out = index - y_out * params.out_stride;
+    if (y_out >= params.out_height || x_out >= params.out_width) {
         return;
     }
-    let y_out = index / params.out_width;
     let row = output_rows[y_out];
-    let column = output_columns[index - y_out * params.out_width];
+    let column = output_columns[x_out];
     let r = vec3<f32>(row.sin_theta * column.sin_phi, row.cos_theta,
                       row.sin_theta * column.cos_phi);
     let width = params.in_width;
