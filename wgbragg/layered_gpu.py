@@ -25,7 +25,15 @@ at 360, 361, ..., 830 nm and interpolated linearly in between, so spectral resul
 the float64 model (which integrates the transmissivity at each requested wavelength) to float32
 rounding at whole nanometres, and to the tables' interpolation error between them. Wavelengths
 outside 360-830 nm are refused. A trailing wavelength axis along which the directions do not
-vary is multiplexed: one invocation evaluates the directions once for all its wavelengths.
+vary is multiplexed: one invocation evaluates the directions once for all its wavelengths, up
+to :func:`wavelengths_per_invocation`; a longer axis is split over several dispatches.
+
+Loop budget. llvmpipe ends an invocation's loops after a fixed number of iterations
+(:mod:`wgbragg.gpu`, "Loop budget"). The multiplexed wavelengths are split as above; the 471
+nodes of the integrated colour and of the factored "reference" colour bound the number of
+layers (:data:`MAX_INTEGRATED_LAYERS`); the loops of a landmark colour grow with the mirror's
+thickness, so every invocation reports whether its loops were cut and such a result is refused
+with :class:`gpu.LoopBudgetError`.
 
 RGB. ``colour_method="integrated"`` (the default) integrates the spectral model over the 471
 nodes in the kernel; ``"hero"`` (sampling only) estimates that colour from four hero
@@ -49,6 +57,7 @@ from .layered import HERO, INTEGRATED
 __all__ = [
     "FACTORED_COLOUR_METHODS",
     "LAYER_DTYPE",
+    "MAX_INTEGRATED_LAYERS",
     "OPERATIONS",
     "PARAMS_DTYPE",
     "WAVELENGTH_RANGE_NM",
@@ -56,6 +65,7 @@ __all__ = [
     "brdf",
     "pdf",
     "sample",
+    "wavelengths_per_invocation",
 ]
 
 WORKGROUP_SIZE = 64
@@ -89,6 +99,31 @@ PARAMS_DTYPE = gpu.struct_dtype([
 
 _VISIBLE_NODES = 471
 _HERO_SEGMENTS = 512  # HERO_SEGMENTS of wgsl/hero.wgsl
+
+MAX_INTEGRATED_LAYERS = gpu.SAFE_LOOP_ITERATIONS // _VISIBLE_NODES - 2
+"""Most layers of a structure whose RGB the kernel integrates over the 471 nodes in one
+invocation (``colour_method="integrated"``, or ``"reference"`` without LUT): each node costs
+the loop budget ``layers + 2`` iterations (:func:`wavelengths_per_invocation`)."""
+
+
+def wavelengths_per_invocation(layers: int) -> int:
+    """Most multiplexed wavelengths one invocation evaluates, for ``layers`` rough layers.
+
+    An invocation plans for :data:`gpu.SAFE_LOOP_ITERATIONS` loop iterations (llvmpipe's
+    budget), and each wavelength takes one of the wavelength loop and ``layers + 1`` of the
+    layer loop (its exit test counts; a single layer is unrolled): on lavapipe, the budget
+    cut 65535 wavelengths at one layer, 16384 at two, 13107 at three and 10922 at four.
+
+    Parameters
+    ----------
+    layers : int
+        Rough layers of the structure, >= 1.
+
+    Returns
+    -------
+    int
+    """
+    return gpu.SAFE_LOOP_ITERATIONS // (layers + 2)
 
 # What a kernel reads besides the transmission probabilities: the spectral tables (spectral
 # and integrated RGB results), the factored RGB tables, or nothing more (the density).
@@ -212,6 +247,16 @@ def _constants(variant: _Variant, kind: str, lut: bool, colour_method: str,
 
 
 def _check_request(structure, wavelength, method: str, colour_method: str) -> None:
+    layers = len(structure.layers)
+    nodes_in_kernel = wavelength is None and (
+        colour_method == INTEGRATED
+        or (colour_method == "reference" and method != "single-reflection-lut"))
+    if nodes_in_kernel and layers > MAX_INTEGRATED_LAYERS:
+        raise ValueError(
+            f"layers: backend='gpu' sums colour_method={colour_method!r} over "
+            f"{_VISIBLE_NODES} wavelengths in one invocation for 1 to {MAX_INTEGRATED_LAYERS} "
+            f"layers (llvmpipe's loop budget), got {layers}: pass wavelength_nm and integrate, "
+            "or use backend='numpy'")
     if wavelength is not None:
         low, high = WAVELENGTH_RANGE_NM
         if not np.all((wavelength >= low) & (wavelength <= high)):
@@ -245,13 +290,30 @@ class _Batch:
     stride: int
 
 
+def _multiplexed(direction_shape: tuple, wavelength) -> bool:
+    """Whether the request's trailing axis holds wavelengths along which the directions do
+    not vary."""
+    shape = np.broadcast_shapes(direction_shape, wavelength.shape)
+    padded = (1,) * (len(shape) - len(direction_shape)) + tuple(direction_shape)
+    return len(shape) > 0 and padded[-1] == 1 and shape[-1] > 1
+
+
+def _wavelength_parts(structure, direction_shape: tuple, wavelength) -> list:
+    """``wavelength`` split along a multiplexed axis into parts that an invocation evaluates
+    within llvmpipe's loop budget (:func:`wavelengths_per_invocation`)."""
+    if wavelength is None or not _multiplexed(direction_shape, wavelength):
+        return [wavelength]
+    step = wavelengths_per_invocation(len(structure.layers))
+    return [wavelength[..., start:start + step]
+            for start in range(0, wavelength.shape[-1], step)]
+
+
 def _batch(direction_shape: tuple, wavelength) -> _Batch:
     if wavelength is None:
         count = int(np.prod(direction_shape, dtype=np.int64))
         return _Batch(direction_shape, direction_shape, count, 0, np.zeros(1, np.float32), 0)
     shape = np.broadcast_shapes(direction_shape, wavelength.shape)
-    padded = (1,) * (len(shape) - len(direction_shape)) + tuple(direction_shape)
-    multiplexed = len(shape) > 0 and padded[-1] == 1 and shape[-1] > 1
+    multiplexed = _multiplexed(direction_shape, wavelength)
     invocations = (*shape[:-1], 1) if multiplexed else shape
     per_invocation = shape[-1] if multiplexed else 1
     count = int(np.prod(invocations, dtype=np.int64))
@@ -290,7 +352,8 @@ def _setup(structure, operation: str, first, second, wavelength, batch: _Batch, 
     directions = batch.count if operation == "sample" else 1
     inputs = [_vec4(first, batch.invocations), _vec4(second, batch.invocations),
               batch.wavelength, variant.layers, variant.tables]
-    outputs = [(batch.count * channels, np.float32), ((directions, 4), np.float32)]
+    outputs = [(batch.count * channels, np.float32), ((directions, 4), np.float32),
+               (batch.count, np.uint32)]
     return kernel, inputs, outputs, params
 
 
@@ -299,7 +362,13 @@ def _run(structure, operation, first, second, wavelength, batch, method, colour_
         return np.zeros(0, np.float32), np.zeros((0, 4), np.float32)
     kernel, inputs, outputs, params = _setup(structure, operation, first, second, wavelength,
                                              batch, method, colour_method)
-    return kernel.run(inputs, outputs, params, count=batch.count)
+    value, drawn, cut = kernel.run(inputs, outputs, params, count=batch.count)
+    thickest = max(layer.mirror.n1 * layer.mirror.d1 + layer.mirror.n2 * layer.mirror.d2
+                   for layer in structure.layers)
+    colour = f", colour_method={colour_method!r}" if batch.wavelengths == 0 else ""
+    gpu.check_loops(cut, f"LayeredBragg.{operation} on {len(structure.layers)} layers with "
+                         f"periods up to n1 d1 + n2 d2 = {thickest:g} nm{colour}")
+    return value, drawn
 
 
 def _values(value: np.ndarray, batch: _Batch) -> np.ndarray:
@@ -330,9 +399,13 @@ def brdf(structure, wi, wo, wavelength, method: str, colour_method: str) -> np.n
         float64 ``f`` in 1/sr, shaped as :meth:`LayeredBragg.brdf`'s result.
     """
     _check_request(structure, wavelength, method, colour_method)
-    batch = _batch(np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1]), wavelength)
-    value, _ = _run(structure, "brdf", wi, wo, wavelength, batch, method, colour_method)
-    return _values(value, batch)
+    shape = np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1])
+    values = []
+    for part in _wavelength_parts(structure, shape, wavelength):
+        batch = _batch(shape, part)
+        value, _ = _run(structure, "brdf", wi, wo, part, batch, method, colour_method)
+        values.append(_values(value, batch))
+    return values[0] if len(values) == 1 else np.concatenate(values, axis=-1)
 
 
 def pdf(structure, wi, wo) -> np.ndarray:
@@ -362,10 +435,17 @@ def sample(structure, wi, u, wavelength, method: str, colour_method: str):
     """
     _check_request(structure, wavelength, method, colour_method)
     sample_shape = np.broadcast_shapes(wi.shape[:-1], u.shape[:-1])
-    batch = _batch(sample_shape, wavelength)
-    value, drawn = _run(structure, "sample", wi, u, wavelength, batch, method, colour_method)
-    drawn = _reduce(drawn.astype(np.float64).reshape((*batch.invocations, 4)), sample_shape)
-    return drawn[..., :3], _values(value, batch), drawn[..., 3]
+    weights = []
+    for part in _wavelength_parts(structure, sample_shape, wavelength):
+        batch = _batch(sample_shape, part)
+        # Every part draws the same directions from (wi, u): keep the first part's.
+        value, drawn_part = _run(structure, "sample", wi, u, part, batch, method, colour_method)
+        if not weights:
+            drawn = _reduce(drawn_part.astype(np.float64).reshape((*batch.invocations, 4)),
+                            sample_shape)
+        weights.append(_values(value, batch))
+    weight = weights[0] if len(weights) == 1 else np.concatenate(weights, axis=-1)
+    return drawn[..., :3], weight, drawn[..., 3]
 
 
 def _reduce(array: np.ndarray, shape: tuple) -> np.ndarray:
@@ -400,6 +480,12 @@ def benchmark(structure, operation: str, wi, second, wavelength=None,
     -------
     float
         Seconds; ``count / seconds`` is the evaluation rate (pairs or samples per second).
+
+    Raises
+    ------
+    ValueError
+        As the operations, and for a multiplexed wavelength axis longer than
+        :func:`wavelengths_per_invocation` (which the operations split over dispatches).
     """
     if operation not in OPERATIONS:
         raise ValueError(f"operation must be one of {tuple(OPERATIONS)}, got {operation!r}")
@@ -410,8 +496,15 @@ def benchmark(structure, operation: str, wi, second, wavelength=None,
         raise ValueError("colour_method='hero' is timed for operation='sample' with u of "
                          f"trailing length 4; got operation={operation!r}, u shape "
                          f"{second.shape}")
-    batch = _batch(np.broadcast_shapes(wi.shape[:-1], second.shape[:-1]),
-                   None if operation == "pdf" else wavelength)
+    shape = np.broadcast_shapes(wi.shape[:-1], second.shape[:-1])
+    wavelength = None if operation == "pdf" else wavelength
+    if len(_wavelength_parts(structure, shape, wavelength)) > 1:
+        raise ValueError(
+            f"wavelength: one dispatch evaluates 1 to "
+            f"{wavelengths_per_invocation(len(structure.layers))} multiplexed wavelengths for "
+            f"{len(structure.layers)} layers (llvmpipe's loop budget), got "
+            f"{np.broadcast_shapes(shape, wavelength.shape)[-1]}")
+    batch = _batch(shape, wavelength)
     kernel, inputs, outputs, params = _setup(structure, operation, wi, second, wavelength,
                                              batch, method, colour_method)
     return kernel.benchmark(inputs, outputs, params, repeats=repeats, count=batch.count)

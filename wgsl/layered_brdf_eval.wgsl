@@ -4,7 +4,10 @@
 //   sample:    eq 35 from (wi, u = operand.xyz) -> directions = (wo, pdf), value = weights
 //              (HERO: the colour from hero wavelengths offset by operand.w)
 //   density:   pdf(wi, wo)                                             -> value
-// value holds WAVELENGTHS floats per invocation (spectral) or 3 (RGB, WAVELENGTHS = 0).
+// value holds WAVELENGTHS floats per invocation (spectral) or 3 (RGB, WAVELENGTHS = 0); cut
+// is 1 where llvmpipe ended the invocation's loops early (wgbragg.gpu, "Loop budget"), which
+// the host refuses: the batching keeps the planned loops within budget, but a landmark
+// colour's loops grow with the mirror's thickness in a way the host does not model.
 //! include "harness.wgsl"
 //! include "numerics.wgsl"
 //! include "complex.wgsl"
@@ -35,7 +38,8 @@ struct Params {
 @group(0) @binding(4) var<storage, read> tables: array<f32>;
 @group(0) @binding(5) var<storage, read_write> value: array<f32>;
 @group(0) @binding(6) var<storage, read_write> directions: array<vec4<f32>>;
-@group(0) @binding(7) var<uniform> params: Params;
+@group(0) @binding(7) var<storage, read_write> cut: array<u32>;
+@group(0) @binding(8) var<uniform> params: Params;
 
 fn wavelength_at(index: u32, k: u32) -> f32 {
     return wavelengths[index * params.wavelength_stride + k];
@@ -75,11 +79,13 @@ fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>,
     let pair = layered_pair(s, incoming[index].xyz, operand[index].xyz);
     if (WAVELENGTHS == 0u) {
         store_rgb(index, layered_eval_rgb(s, pair));
-        return;
+    } else {
+        for (var k = 0u; k < WAVELENGTHS; k++) {
+            value[index * WAVELENGTHS + k] =
+                layered_eval_spectral(s, pair, wavelength_at(index, k));
+        }
     }
-    for (var k = 0u; k < WAVELENGTHS; k++) {
-        value[index * WAVELENGTHS + k] = layered_eval_spectral(s, pair, wavelength_at(index, k));
-    }
+    cut[index] = u32(loops_were_cut(params.count));
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -104,15 +110,17 @@ fn sample(@builtin(global_invocation_id) gid: vec3<u32>,
             weight += layered_eval_rgb(s, pair) * drawn.cos_over_pdf;
         }
         store_rgb(index, weight);
-        return;
-    }
-    for (var k = 0u; k < WAVELENGTHS; k++) {
-        var weight = drawn.dirac;
-        if (continuous) {
-            weight += layered_eval_spectral(s, pair, wavelength_at(index, k)) * drawn.cos_over_pdf;
+    } else {
+        for (var k = 0u; k < WAVELENGTHS; k++) {
+            var weight = drawn.dirac;
+            if (continuous) {
+                weight += layered_eval_spectral(s, pair, wavelength_at(index, k))
+                    * drawn.cos_over_pdf;
+            }
+            value[index * WAVELENGTHS + k] = weight;
         }
-        value[index * WAVELENGTHS + k] = weight;
     }
+    cut[index] = u32(loops_were_cut(params.count));
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -123,4 +131,5 @@ fn density(@builtin(global_invocation_id) gid: vec3<u32>,
         return;
     }
     value[index] = layered_pdf(params.structure, incoming[index].xyz, operand[index].xyz);
+    cut[index] = u32(loops_were_cut(params.count));
 }
