@@ -34,6 +34,13 @@ Russian roulette on the throughput starts after three reflections (unbiased), an
 ``max_bounces`` caps the number of reflections of a path (the coating's internal ones and the
 base's included), a truncation.
 
+Loop budget. llvmpipe ends an invocation's loops after a fixed number of iterations
+(:mod:`wgbragg.gpu`, "Loop budget"), and a walk's loops grow with its reflections and the
+layers it crosses. An invocation therefore runs as many paths as fit in
+:data:`wgbragg.gpu.SAFE_LOOP_ITERATIONS` when each takes the longest walk ``max_bounces``
+allows (:func:`walk_iterations`), and ``max_bounces`` is at most :func:`bounce_limit`, where
+one such walk fills it.
+
 Estimators
 ----------
 With ``wo`` given, the BRDF ``f(wi, wo)`` in 1/sr, without the coating's Dirac reflection, by
@@ -92,7 +99,8 @@ from . import colorimetry, gpu, kernels
 from ._validation import check_broadcast, check_directions, check_wavelength
 from .layered import LayeredBragg, _refract_in, coating_reflectance
 
-__all__ = ["MAX_WAVELENGTHS", "MODES", "PATH_WAVELENGTHS", "TRANSMISSIONS", "simulate"]
+__all__ = ["MAX_WAVELENGTHS", "MODES", "PATH_WAVELENGTHS", "TRANSMISSIONS", "bounce_limit",
+           "simulate", "walk_iterations"]
 
 MODES = ("all", "single")
 """``mode=``: every path, or the paths that reflect once (eq 34)."""
@@ -108,9 +116,11 @@ PATH_WAVELENGTHS = 4
 """Wavelengths a path carries: RGB hero wavelengths, or a group of the given ones."""
 
 _WORKGROUP_SIZE = 64
-_PATHS_PER_INVOCATION = 64   # next-event estimation: paths reduced per invocation
+# Most paths an invocation runs (fewer when their walks may be long): next-event estimation
+# reduces them in the invocation, so more paths write fewer statistics.
+_PATHS_PER_INVOCATION = 64
 _PARTICLES_PER_INVOCATION = 16
-# Invocations of one dispatch; more queries go in several dispatches.
+# Invocations of one dispatch; more queries, or more paths, go in several dispatches.
 _MAX_INVOCATIONS = 2**22
 
 _LAYER_DTYPE = gpu.struct_dtype([
@@ -121,8 +131,54 @@ _LAYER_DTYPE = gpu.struct_dtype([
 _PARAMS_DTYPE = gpu.struct_dtype([
     ("queries", "u32"), ("first_query", "u32"), ("groups", "u32"), ("batches", "u32"),
     ("paths", "u32"), ("seed", "u32"),
-    ("host", "f32"), ("max_reflections", "u32"), ("columns", "u32"), ("_pad", "u32"),
+    ("host", "f32"), ("max_reflections", "u32"), ("columns", "u32"),
+    ("per_invocation", "u32"), ("first_batch", "u32"), ("_pad", "u32"),
 ])
+
+
+def walk_iterations(layers: int, max_bounces: int) -> int:
+    """Loop iterations that one walk may take in the kernel, at most (llvmpipe's budget).
+
+    A walk makes up to ``max_bounces + 1`` reflections, each after crossing up to ``layers``
+    layers, and each crossing or reflection loops over the layers above for next-event
+    estimation and over four wavelengths for Yeh's formula: ``12 + 4 layers`` iterations,
+    a bound fitted with a margin of 1.4 to 1.8 to lavapipe's longest walks (paths trapped under
+    a coating of index 10 over transparent layers and a white base, naive transmission: 23,
+    42, 88 and 216 iterations a reflection at 1, 2, 4 and 8 layers).
+
+    Parameters
+    ----------
+    layers : int
+        Rough layers of the structure, >= 1.
+    max_bounces : int
+        As :func:`simulate`'s.
+
+    Returns
+    -------
+    int
+    """
+    return (max_bounces + 1) * (layers + 1) * (12 + 4 * layers)
+
+
+def bounce_limit(layers: int) -> int:
+    """Largest ``max_bounces`` of :func:`simulate` for a structure of ``layers`` rough layers:
+    one walk then fits in :data:`wgbragg.gpu.SAFE_LOOP_ITERATIONS` (:func:`walk_iterations`);
+    0 when not even one reflection does (63 layers or more).
+
+    Parameters
+    ----------
+    layers : int
+        >= 1.
+
+    Returns
+    -------
+    int
+        233 for 4 layers, 81 for 8; below the default 64 from 10 layers on.
+    """
+    return max(0, gpu.SAFE_LOOP_ITERATIONS // walk_iterations(layers, 0) - 1)
+
+
+_MAX_LAYERS = max(n for n in range(1, 1000) if bounce_limit(n) >= 1)
 
 
 def _check_integer(value, name: str, low: int, high: int) -> int:
@@ -193,6 +249,16 @@ def _layers(structure: LayeredBragg, wavelength, ballistic: bool):
     return records, tables
 
 
+def _combine(counts, means, squares):
+    """Chan et al.'s pairwise combination of Welford statistics: ``counts`` (b,) paths of
+    ``b`` batches with means and sums of squared deviations ``(q, b, c)``, to the total
+    count and ``(q, c)`` mean and sum of squared deviations."""
+    total = counts.sum()
+    mean = np.einsum("b,qbc->qc", counts, means) / total
+    spread = squares.sum(axis=1) + np.einsum("b,qbc->qc", counts, (means - mean[:, None]) ** 2)
+    return total, mean, spread
+
+
 def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all",
              transmission="ballistic", seed=0, return_error=False, max_bounces=64):
     """Monte Carlo simulation of light transport in a layered Bragg structure (sec. 4.2).
@@ -221,7 +287,8 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
     return_error : bool
         With ``wo``: also return the standard error of the estimate.
     max_bounces : int
-        Most reflections of a path (>= 1); longer paths are cut off.
+        Most reflections of a path, 1 to :func:`bounce_limit` of the structure's number of
+        layers (llvmpipe's loop budget: 233 for 4 layers); longer paths are cut off.
 
     Returns
     -------
@@ -240,11 +307,14 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
     ------
     ValueError
         For a parameter out of its range or of the wrong shape, named in the message.
+    wgbragg.gpu.LoopBudgetError
+        (a ValueError) Should llvmpipe end a walk early all the same (the kernel reports it).
 
     Notes
     -----
     The estimators are described in the module docstring. Statistics are accumulated in
-    float32 over the 64 paths of a GPU invocation (Welford's update) and combined in float64.
+    float32 over the paths of a GPU invocation (Welford's update; up to 64, fewer for long
+    walks) and combined in float64.
 
     Examples
     --------
@@ -268,7 +338,12 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
     wavelength = _check_wavelengths(wavelength_nm)
     paths = _check_integer(paths, "paths", 1, 2**31 - 1)
     seed = _check_integer(seed, "seed", 0, 2**32 - 1)
-    max_bounces = _check_integer(max_bounces, "max_bounces", 1, 2**31 - 1)
+    layers = len(structure.layers)
+    most_bounces = bounce_limit(layers)
+    if most_bounces < 1:
+        raise ValueError(f"structure: the GPU walk takes 1 to {_MAX_LAYERS} rough layers "
+                         f"(llvmpipe's loop budget), got {layers}")
+    max_bounces = _check_integer(max_bounces, "max_bounces", 1, most_bounces)
     if not isinstance(return_error, bool):
         raise ValueError(f"return_error must be a bool, got {return_error!r}")
     if return_error and (wo is None or paths < 2):
@@ -300,16 +375,17 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
     records, tables = _layers(structure, lanes, ballistic)
     kernel = gpu.compute_pipeline("simulate_layered.wgsl", constants={
         "WORKGROUP_SIZE": _WORKGROUP_SIZE,
-        "LAYERS": len(structure.layers),
+        "LAYERS": layers,
         "COATING": structure.has_coating,
         "LAMBERTIAN": not structure.absorbing_base,
         "BALLISTIC": ballistic,
         "SINGLE": mode == "single",
         "NEXT_EVENT": next_event,
         "RGB": lanes is None,
-        "PATHS": _PATHS_PER_INVOCATION if next_event else _PARTICLES_PER_INVOCATION,
     })
-    per_invocation = int(kernel.constants["PATHS"])
+    # bounce_limit guarantees that one walk fits.
+    per_invocation = min(_PATHS_PER_INVOCATION if next_event else _PARTICLES_PER_INVOCATION,
+                         gpu.SAFE_LOOP_ITERATIONS // walk_iterations(layers, max_bounces))
     batches = -(-paths // per_invocation)
 
     wi_flat = wi.reshape(-1, 3)
@@ -324,47 +400,62 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
     queries[:, 1, :3], queries[:, 2, :3] = _refract_in(wi_flat, n), _refract_in(wo_flat, n)
 
     params = np.zeros((), _PARAMS_DTYPE)
-    params["groups"], params["batches"], params["paths"] = groups, batches, paths
+    params["groups"], params["paths"] = groups, paths
     params["seed"], params["host"] = seed, n
     params["max_reflections"] = max_bounces - 1 if next_event else max_bounces
     params["columns"] = colorimetry.xyz_weights()[0].size if lanes is None else lanes.size
+    params["per_invocation"] = per_invocation
     inputs = [None, records, tables, _spectrum_rows(structure, lanes),
               colorimetry.hero_inverse_cdf() if lanes is None else np.zeros(1, np.float32)]
 
     if next_event:
-        per_query = groups * batches  # invocations, each writing a mean and an m2 (vec4)
-        chunk = max(1, _MAX_INVOCATIONS // per_query)
+        # Invocations write a mean and an m2 (vec4) each: a query's batches may need several
+        # dispatches, or a dispatch may hold several queries.
+        batch_step = min(batches, max(1, _MAX_INVOCATIONS // groups))
+        chunk = max(1, _MAX_INVOCATIONS // (groups * batch_step))
     else:
+        batch_step = batches
         limit = int(gpu.get_device().limits["max-storage-buffer-binding-size"])
-        if 16 * paths > limit:
+        if 16 * (paths + 1) > limit:
             raise ValueError(f"paths={paths} take more than {limit} bytes of weights per wi: "
                              "use fewer (and another seed for more)")
-        chunk = limit // (16 * paths)
+        chunk = (limit - 16) // (16 * paths)
+    counts = np.minimum(per_invocation, paths - per_invocation * np.arange(batches))
     results = []
     for start in range(0, len(queries), chunk):
         part = queries[start:start + chunk]
         params["queries"], params["first_query"] = len(part), start
         inputs[0] = part.reshape(-1, 4)
-        rows = 2 * len(part) * per_query if next_event else len(part) * paths
-        outputs = [((rows, 4), np.float32),
-                   ((1 if next_event else rows, 4), np.float32)]
-        count = len(part) * per_query if next_event else len(part) * batches
-        results.append(kernel.run(inputs, outputs, params, count=count))
+        pieces = []
+        for first_batch in range(0, batches, batch_step):
+            step = min(batch_step, batches - first_batch)
+            params["batches"], params["first_batch"] = step, first_batch
+            rows = 2 * len(part) * groups * step if next_event else len(part) * paths
+            outputs = [((rows, 4), np.float32),
+                       ((1 if next_event else rows + 1, 4), np.float32)]
+            count = len(part) * groups * step if next_event else len(part) * batches
+            values, directions = kernel.run(inputs, outputs, params, count=count)
+            gpu.check_loops(directions[-1:, 3],
+                            f"simulate on {layers} layers with max_bounces={max_bounces}")
+            if not next_event:
+                pieces.append((values, directions[:-1]))
+                continue
+            values = values.astype(np.float64).reshape(len(part), groups, step, 2, 4)
+            values = values.transpose(0, 2, 3, 1, 4).reshape(len(part), step, 2, 4 * groups)
+            pieces.append(_combine(counts[first_batch:first_batch + step],
+                                   values[..., 0, :channels], values[..., 1, :channels]))
+        results.append(pieces[0] if not next_event else _combine(
+            np.array([piece[0] for piece in pieces]),
+            np.stack([piece[1] for piece in pieces], axis=1),
+            np.stack([piece[2] for piece in pieces], axis=1)))
 
     if not next_event:
         directions = np.concatenate([d for _, d in results])[:, :3].astype(np.float64)
         weights = np.concatenate([v for v, _ in results])[:, :channels].astype(np.float64)
         return (directions.reshape(*shape, paths, 3), weights.reshape(*shape, paths, channels))
 
-    values = np.concatenate([v for v, _ in results]).astype(np.float64)
-    values = values.reshape(-1, groups, batches, 2, 4).transpose(0, 2, 3, 1, 4)
-    values = values.reshape(-1, batches, 2, 4 * groups)[..., :channels]
-    counts = np.full(batches, per_invocation, np.float64)
-    counts[-1] = paths - per_invocation * (batches - 1)
-    means, squares = values[:, :, 0], values[:, :, 1]
-    # Chan et al.'s pairwise combination of the invocations' Welford statistics.
-    mean = np.einsum("b,qbc->qc", counts, means) / paths
-    spread = squares.sum(axis=1) + np.einsum("b,qbc->qc", counts, (means - mean[:, None]) ** 2)
+    mean = np.concatenate([piece[1] for piece in results])
+    spread = np.concatenate([piece[2] for piece in results])
     scale = ((1.0 - coating_reflectance(wi_flat[:, 2], n))
              * (1.0 - coating_reflectance(wo_flat[:, 2], n)) / (n * n))
     scale = np.where(up, scale, 0.0)[:, None]

@@ -1,9 +1,11 @@
 // Entry point: position-free Monte Carlo simulation of a layered Bragg structure (Fourneau,
 // Pacanowski & Barla 2024, sec. 4.2; Guo, Hasan & Zhao 2018). wgbragg/layered_simulation.py
-// states the estimator; this file holds the walk. One invocation runs PATHS paths of one
-// query (wi, wo) and one group of four wavelengths and, with NEXT_EVENT, writes the paths'
-// mean and sum of squared deviations (Welford) per wavelength or channel; without it, each
-// path's exit direction and weight.
+// states the estimator; this file holds the walk. One invocation runs params.per_invocation
+// paths of one query (wi, wo) and one group of four wavelengths and, with NEXT_EVENT, writes
+// the paths' mean and sum of squared deviations (Welford) per wavelength or channel; without
+// it, each path's exit direction and weight. The host sizes per_invocation and max_reflections
+// so that an invocation's walks fit in llvmpipe's loop budget (wgbragg.gpu, "Loop budget");
+// should they not, the flag at the end of `directions` tells it.
 //
 // A path carries four wavelengths, one vec4: a group of the given ones, or in RGB mode hero
 // wavelengths stratified in the inverse CDF of the summed XYZ density, one offset per path.
@@ -28,7 +30,6 @@ override SINGLE: bool = false;
 // true: the BRDF at wo by next-event estimation; false: exit particles.
 override NEXT_EVENT: bool = true;
 override RGB: bool = true;
-override PATHS: u32 = 64u;
 
 const FIRST_NM: f32 = 360.0;
 // Russian roulette from this many reflections on: earlier vertices carry most of the estimate.
@@ -49,12 +50,14 @@ struct SimulationParams {
     queries: u32,          // in this dispatch
     first_query: u32,      // index of its first: keys the random numbers
     groups: u32,           // of four wavelengths
-    batches: u32,          // invocations per query and group
+    batches: u32,          // invocations per query and group in this dispatch
     paths: u32,            // per query
     seed: u32,
     host: f32,             // n1, the coating's index
     max_reflections: u32,  // reflections a walk may make before it stops
     columns: u32,          // wavelengths per table row: 471 (RGB, 1 nm) or 4 groups
+    per_invocation: u32,   // paths an invocation runs (fewer in a query's last batch)
+    first_batch: u32,      // index of this dispatch's first batch in its queries
     _pad: u32,
 }
 
@@ -68,7 +71,9 @@ struct SimulationParams {
 @group(0) @binding(4) var<storage, read> inverse_cdf: array<f32>;  // [HERO_SEGMENTS + 1] nm (RGB)
 // NEXT_EVENT: [query][group][batch][mean, m2][4]; else [query][path][4] (one group).
 @group(0) @binding(5) var<storage, read_write> values: array<vec4<f32>>;
-@group(0) @binding(6) var<storage, read_write> directions: array<vec4<f32>>;  // [query][path]
+// Without NEXT_EVENT [query][path] (w = 0); then one more element, whose w is 1 if llvmpipe
+// ended some invocation's loops early (the only element with NEXT_EVENT).
+@group(0) @binding(6) var<storage, read_write> directions: array<vec4<f32>>;
 @group(0) @binding(7) var<uniform> params: SimulationParams;
 
 // The state of the path being walked.
@@ -310,8 +315,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
     }
     let query = g / (params.groups * params.batches);
     group = (g / params.batches) % params.groups;
-    let first = (g % params.batches) * PATHS;
-    let count = min(PATHS, params.paths - first);
+    let first = (params.first_batch + g % params.batches) * params.per_invocation;
+    let count = min(params.per_invocation, params.paths - first);
     let wi = queries[3u * query].xyz;
     let i = queries[3u * query + 1u].xyz;
     let o = queries[3u * query + 2u].xyz;
@@ -335,5 +340,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
     if (NEXT_EVENT) {
         values[2u * g] = mean;
         values[2u * g + 1u] = m2;
+    }
+    // Every writer stores the same value, so the race is harmless.
+    if (loops_were_cut(count)) {
+        directions[arrayLength(&directions) - 1u].w = 1.0;
     }
 }
