@@ -71,7 +71,15 @@ the Bragg paper (sec. 7), a mapped material must be a single layer over an absor
 nothing sees the transmission through it, whose filter would otherwise have to be integrated
 at every point.
 
-Limits: area lights are not seen directly by the camera or by mirror bounces.
+Limits: area lights are not seen directly by the camera or by mirror bounces. On llvmpipe
+(lavapipe), which ends an invocation's loops after 65535 iterations (:mod:`wgbragg.gpu`, "Loop
+budget"), a path's loops must stay within that budget: its bounces, its shadow rays to every
+light, the BVH traversal of each ray (which grows with the mesh, and with many long thin
+triangles) and, with period maps in RGB mode, the landmark colour at each vertex (which grows
+with the period). Scenes whose lights alone exceed it are refused with a ``ValueError``
+(:func:`max_lights`); otherwise the kernels report cut loops and :meth:`Renderer.render` and
+:meth:`Renderer.primary_hits` raise :class:`wgbragg.gpu.LoopBudgetError` instead of returning a
+wrong image: render fewer lights, fewer bounces or a coarser mesh.
 """
 
 from __future__ import annotations
@@ -124,13 +132,15 @@ from .thin_film_colour_gpu import (
 )
 
 __all__ = ["MAX_BOUNCES", "PARAMS_DTYPE", "PATHS_PER_DISPATCH", "Renderer",
-           "display_transform", "save_png"]
+           "display_transform", "max_lights", "save_png"]
 
 WORKGROUP_SIZE = 64
 MAX_BOUNCES = 8
 """Default :class:`Renderer` ``max_bounces``."""
 PATHS_PER_DISPATCH = 65536
-"""Paths a submission of :meth:`Renderer.render` traces at least, whatever the image size."""
+"""Paths a submission of :meth:`Renderer.render` traces at least, for an image of at least 2
+pixels (one pixel takes :data:`wgbragg.gpu.SAFE_LOOP_ITERATIONS` samples a submission: the
+kernel that sums them loops over them in one invocation)."""
 _SECONDS_BAR = "{desc}: {n:.1f}/{total:.1f} s |{bar}| {postfix}"
 _STACK_SIZE = 32  # STACK_SIZE of render_scene.wgsl
 _INTERIOR = 0x40000000  # INTERIOR of render_scene.wgsl
@@ -437,6 +447,30 @@ def _light_counts(scene: Scene) -> tuple[int, int]:
             sum(isinstance(light, AreaLight) for light in scene.lights))
 
 
+def max_lights(max_bounces: int, convex_alone: bool = False) -> int:
+    """Most point and area lights a scene may have under llvmpipe's loop budget.
+
+    A path shades up to ``max_bounces`` vertices (one for a convex object alone), each looping
+    over every light and tracing a shadow ray to it, whose BVH traversal takes at least one
+    loop iteration more (none for a convex object alone): at most
+    :data:`wgbragg.gpu.SAFE_LOOP_ITERATIONS` in all. The traversals usually take more, which
+    the kernels detect (see the module docstring).
+
+    Parameters
+    ----------
+    max_bounces : int
+        As :class:`Renderer`'s.
+    convex_alone : bool
+        The scene is a single built-in sphere or plane.
+
+    Returns
+    -------
+    int
+    """
+    vertices, per_light = (1, 1) if convex_alone else (max_bounces, 2)
+    return gpu.SAFE_LOOP_ITERATIONS // (vertices * per_light)
+
+
 def _lights(scene: Scene) -> np.ndarray:
     """The ``lights`` buffer: point lights (position, intensity), then area lights (corner,
     edge_u, edge_v, radiance)."""
@@ -480,8 +514,9 @@ class Renderer:
     ValueError
         For a size, seed or mode out of range, an unreadable EXR environment or map texture,
         maps on a material that is not a single layer over an absorbing base, a scene
-        whose BVH is too deep for the GPU traversal stack, or a filtered ``ibl`` mode with
-        spectral transport or a smooth coating.
+        whose BVH is too deep for the GPU traversal stack, more lights than
+        :func:`max_lights` allows, or a filtered ``ibl`` mode with spectral transport or a
+        smooth coating.
 
     Attributes
     ----------
@@ -516,7 +551,11 @@ class Renderer:
         self._seed = seed
         self._max_bounces = max_bounces
         self._accum = gpu.DeviceArray.empty((width * height, 4), np.float32)
-        self._batch = max(1, PATHS_PER_DISPATCH // (width * height))
+        # accumulate sums a pixel's samples of a submission in one invocation's loop.
+        self._batch = max(1, min(PATHS_PER_DISPATCH // (width * height),
+                                 gpu.SAFE_LOOP_ITERATIONS))
+        # render.wgsl's loops_cut: 1 once llvmpipe ended some invocation's loops early.
+        self._loops_cut = gpu.DeviceArray.empty(1, np.uint32)
         # vec3 in a storage array: 16 bytes a path.
         self._paths = gpu.DeviceArray.empty((width * height * self._batch, 4), np.float32)
         self._geometry_of = None
@@ -563,6 +602,12 @@ class Renderer:
         ibl = scene.settings.ibl if ibl is None else ibl
         if ibl not in IBL_MODES:
             raise ValueError(f"ibl must be one of {IBL_MODES}, got {ibl!r}")
+        most = max_lights(self._max_bounces, _convex_alone(scene))
+        if len(scene.lights) > most:
+            raise ValueError(
+                f"lights: a scene rendered with max_bounces={self._max_bounces} takes 0 to "
+                f"{most} point and area lights (llvmpipe's loop budget, see max_lights), got "
+                f"{len(scene.lights)}: merge lights or lower max_bounces")
         geometry_key = (scene.objects, tuple(scene.materials))
         shading = self._shading(scene, mode, colour_method, ibl)
         if geometry_key != self._geometry_of:
@@ -749,7 +794,7 @@ class Renderer:
         """GPU memory the scene holds: geometry, BVH, materials and their tables, lights and
         the accumulation buffers, in bytes (pipelines and the uniform not counted)."""
         return (sum(array.nbytes for array in self._inputs) + self._accum.nbytes
-                + self._paths.nbytes)
+                + self._paths.nbytes + self._loops_cut.nbytes)
 
     def _make_params(self) -> np.ndarray:
         cam = self.scene.camera
@@ -782,15 +827,32 @@ class Renderer:
             params = self._params.copy()
             params["samples"] = samples
             count = self.width * self.height * (samples if entry == "render" else 1)
-            self._dispatches[key] = kernel.bind(self._inputs, [self._accum, self._paths],
-                                                params, count=count)
+            self._dispatches[key] = kernel.bind(
+                self._inputs, [self._accum, self._paths, self._loops_cut], params, count=count)
         return self._dispatches[key]
+
+    def _check_loops(self, flag) -> None:
+        """Raise :class:`gpu.LoopBudgetError` (and forget the samples) if the last submission
+        reported loops that llvmpipe ended early."""
+        if not flag[0]:
+            return
+        gpu.get_device().queue.write_buffer(self._loops_cut.resource, 0,
+                                            np.zeros(1, np.uint32))
+        self.reset()
+        raise gpu.LoopBudgetError(
+            f"render: the GPU ({gpu.adapter_info()['name']}) ended a path's loops early "
+            f"(llvmpipe allows {gpu.LOOP_BUDGET} loop iterations per invocation), so the image "
+            f"would be wrong; its loops grow with max_bounces ({self._max_bounces}), the lights "
+            f"({len(self.scene.lights)}), the BVH traversals ({self.triangles} triangles) and "
+            "in-kernel layer colours (period maps): lower them")
 
     def _add_samples(self, samples: int) -> None:
         gpu.submit([self._dispatch("render", samples), self._dispatch("accumulate", samples)])
         self.passes += samples
-        # A tiny readback waits for the submission, so that progress and timing follow the GPU.
-        gpu.get_device().queue.read_buffer(self._accum.resource, 0, 16)
+        # The flag's readback waits for the submission, so that progress and timing follow
+        # the GPU.
+        flag = gpu.get_device().queue.read_buffer(self._loops_cut.resource, 0, 4)
+        self._check_loops(np.frombuffer(flag, np.uint32))
 
     def render(self, spp: int | None = None, progress: bool = False,
                seconds: float | None = None) -> np.ndarray:
@@ -820,6 +882,9 @@ class Renderer:
         ------
         ValueError
             Unless exactly one of ``spp`` and ``seconds`` is given, in range.
+        wgbragg.gpu.LoopBudgetError
+            (a ValueError) When llvmpipe ended a path's loops early (see the module
+            docstring); the accumulated samples are then forgotten.
         """
         if (spp is None) == (seconds is None):
             raise ValueError("give exactly one of spp and seconds")
@@ -870,8 +935,15 @@ class Renderer:
             Distance along the unit ray direction; inf for a miss.
         face : numpy.ndarray, shape (height, width), int64
             Index into ``bvh.faces`` of the face hit; -1 for a miss.
+
+        Raises
+        ------
+        wgbragg.gpu.LoopBudgetError
+            When llvmpipe ended a traversal early (see the module docstring).
         """
-        (result,) = gpu.submit([self._dispatch("primary_hits")], read=[self._accum])
+        result, flag = gpu.submit([self._dispatch("primary_hits")],
+                                  read=[self._accum, self._loops_cut])
+        self._check_loops(flag)
         self.reset()
         face = result[:, 1].astype(np.int64)
         hit = face >= 0

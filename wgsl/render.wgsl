@@ -3,6 +3,9 @@
 //   accumulate:    each pixel's paths added to accum (rgb, and their number in w)
 //   primary_hits:  the closest hit of each pixel-centre camera ray, accum = (t, face, 0, 0),
 //                  face -1 and t = 3.4e38 for a miss (to check the traversal against numpy)
+// Each sets loops_cut[0] = 1 where llvmpipe ended an invocation's loops early (wgbragg.gpu,
+// "Loop budget"): a path's loops (bounces, lights, BVH traversals, in-kernel colours) add up
+// to what the host cannot foresee, so it checks the flag after every submission.
 // Light transport: next-event estimation towards the environment (combined with BRDF
 // sampling by the power heuristic), point lights and area lights (shadow rays, which only
 // next-event estimation reaches: neither kind is part of the geometry), Russian roulette
@@ -119,7 +122,8 @@ struct Params {
 @group(0) @binding(21) var<storage, read_write> accum: array<vec4<f32>>;
 // The radiance of each path of a render dispatch, for accumulate.
 @group(0) @binding(22) var<storage, read_write> paths: array<vec3<f32>>;
-@group(0) @binding(23) var<uniform> params: Params;
+@group(0) @binding(23) var<storage, read_write> loops_cut: array<u32>;
+@group(0) @binding(24) var<uniform> params: Params;
 
 // ----------------------------------------------------------------------------- spectra
 
@@ -591,6 +595,14 @@ fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u3
     return radiance;
 }
 
+// Flags the dispatch when llvmpipe ended this invocation's loops early. Every writer stores
+// the same value, so the race is harmless.
+fn report_cut_loops() {
+    if (loops_were_cut(params.count)) {
+        loops_cut[0] = 1u;
+    }
+}
+
 // One path per invocation: pixel index % count, the pixel's sample (its count so far in
 // accum.w) plus index / count. Looping over samples in one invocation would be cheaper, but
 // llvmpipe ends a loop after 65535 iterations counted over the whole invocation, and BVH
@@ -612,6 +624,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>,
     }
     let c = params.camera;
     paths[index] = to_rgb(path_radiance(c.origin, camera_direction(c, pixel), &state));
+    report_cut_loops();
 }
 
 // Each pixel's paths of a render dispatch added to its running sum.
@@ -627,6 +640,7 @@ fn accumulate(@builtin(global_invocation_id) gid: vec3<u32>,
         total += paths[index + k * params.count];
     }
     accum[index] += vec4<f32>(total, f32(params.samples));
+    report_cut_loops();
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -640,4 +654,5 @@ fn primary_hits(@builtin(global_invocation_id) gid: vec3<u32>,
     let c = params.camera;
     let hit = trace(c.origin, camera_direction(c, pixel), FAR, false);
     accum[index] = vec4<f32>(hit.t, f32(hit.face), 0.0, 0.0);
+    report_cut_loops();
 }
