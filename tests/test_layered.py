@@ -355,6 +355,8 @@ def test_bad_structures_raise(filters, make, match):
     (lambda s: s.brdf([0.0, 0.0, 1.0], [0.0, 0.0, 1.0], method="exact"), "method"),
     (lambda s: s.brdf([0.0, 0.0, 1.0], [0.0, 0.0, 1.0], backend="cuda"), "backend"),
     (lambda s: s.brdf([0.0, 0.0, 1.0], [0.0, 0.0, 1.0], colour_method="x"), "colour_method"),
+    (lambda s: s.brdf([0.0, 0.0, 1.0], [0.0, 0.0, 1.0], 500.0, colour_method="averaged"),
+     "RGB results only"),
     (lambda s: s.sample([0.0, 0.0, 1.0], [0.5, 0.5]), "length 3"),
     (lambda s: s.sample([0.0, 0.0, 1.0], [0.5, 0.5, 1.5]), r"\[0, 1\]"),
     (lambda s: s.sample([1.0, 0.0, 0.0], [0.5, 0.5, 0.5]), "above the horizon"),

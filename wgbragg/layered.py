@@ -520,10 +520,11 @@ class LayeredBragg:
             are linear between 1 nm nodes) and, for factored RGB without LUT, a colour method
             of :data:`wgbragg.layered_gpu.FACTORED_COLOUR_METHODS`.
         colour_method : str, optional
-            RGB only. ``"integrated"`` (default): the colour of the spectral BRDF, integrated on
-            1 nm nodes (exact). A colour method of :meth:`BraggMirror.rgb` (e.g.
-            ``"averaged"``): the *factored* RGB of an RGB renderer, the colours of the factors
-            of eq 34 multiplied per channel, each layer's reflectance colour by that method.
+            RGB only (refused with ``wavelength_nm``). ``"integrated"`` (default): the colour
+            of the spectral BRDF, integrated on 1 nm nodes (exact). A colour method of
+            :meth:`BraggMirror.rgb` (e.g. ``"averaged"``): the *factored* RGB of an RGB
+            renderer, the colours of the factors of eq 34 multiplied per channel, each
+            layer's reflectance colour by that method.
 
         Returns
         -------
@@ -545,6 +546,9 @@ class LayeredBragg:
         wavelength = None if wavelength_nm is None else check_wavelength(wavelength_nm)
         check_broadcast(**{"wi": wi.shape[:-1], "wo": wo.shape[:-1],
                            "wavelength_nm": () if wavelength is None else wavelength.shape})
+        if wavelength is not None and colour_method is not None:
+            raise ValueError("colour_method applies to RGB results only: leave it None with "
+                             f"wavelength_nm, got {colour_method!r}")
         colour_method = self._colour_method(colour_method, backend)
         if colour_method == HERO:
             raise ValueError("colour_method='hero' draws its wavelengths from a sample's random "
