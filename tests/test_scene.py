@@ -360,6 +360,8 @@ def test_a_byte_order_mark_is_read_and_deep_nesting_refused(tmp_path):
      "range = [300.0, 200.0]", "materials.blue.period_map.range", "lo <= hi"),
     ("alpha = 0.1", 'alpha = 0.1\n[materials.blue.delta_map]\nprocedural = "stripes"\n'
      "range = [0.2, 1.2]", "materials.blue.delta_map.range[1]", "in [0, 1]"),
+    ("alpha = 0.1", 'alpha = 0.1\n[materials.blue.delta_map]\nprocedural = "noise"\n'
+     "range = [0.2, 0.8]\nscale = 2e7", "materials.blue.delta_map.scale", "in (0, 1.67772e+07]"),
 ])
 def test_out_of_range_numbers_are_refused(tmp_path, old, new, key, accepted):
     message = refused(tmp_path, MINIMAL.replace(old, new, 1))

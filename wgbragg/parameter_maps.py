@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from . import gpu
-from .scene import PROCEDURAL_MAPS, ParameterMap
+from .scene import MAX_MAP_SCALE, PROCEDURAL_MAPS, ParameterMap
 
 __all__ = [
     "MAP_KINDS",
@@ -73,8 +73,6 @@ MAP_RECORD_DTYPE = gpu.struct_dtype(
 # Pillow decodes only these: formats whose plug-ins parse data and never call out to programs.
 _FORMATS = ("PNG", "JPEG", "TIFF")
 _REC709 = np.array([0.2126, 0.7152, 0.0722])
-# Keeps the noise lattice within u32; float32 resolves no phase within a tile beyond it anyway.
-_MAX_SCALE = 2.0**24
 _FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
@@ -222,7 +220,7 @@ def pack_maps(maps) -> tuple[np.ndarray, np.ndarray]:
             continue
         try:
             _check_map(pmap)
-            if pmap.scale > _MAX_SCALE:
+            if pmap.scale > MAX_MAP_SCALE:
                 raise ValueError(f"scale must be <= 2**24 on the GPU, got {pmap.scale}")
             if max(abs(float(b)) for b in pmap.range) > _FLOAT32_MAX:
                 raise ValueError(f"range must be within float32 on the GPU, got {pmap.range}")

@@ -94,6 +94,7 @@ from .transmission_filter import check_filter_alpha
 __all__ = [
     "ENVIRONMENT_TYPES",
     "IBL_MODES",
+    "MAX_MAP_SCALE",
     "MESH_SUFFIXES",
     "MODES",
     "PRESETS",
@@ -130,6 +131,10 @@ TEXTURE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
 
 PROCEDURAL_MAPS = ("stripes", "radial", "noise")
 """Procedural maps m(u, v) in [0, 1] over an object's texture coordinates."""
+
+MAX_MAP_SCALE = 2.0**24
+"""Largest ``scale`` of a procedural map a scene file takes, as the GPU does: it keeps the noise
+lattice within u32, and float32 resolves no phase within a tile beyond it anyway."""
 
 ENVIRONMENT_TYPES = ("uniform", "sky", "studio", "exr")
 """``type`` of the environment."""
@@ -310,7 +315,8 @@ class ParameterMap:
     range : tuple of 2 floats
         ``(lo, hi)``, in the parameter's unit (nm for a period), ``lo <= hi``.
     scale : float
-        Frequency of a procedural map in repetitions per unit of ``u`` or ``v`` (> 0).
+        Frequency of a procedural map in repetitions per unit of ``u`` or ``v``, in
+        (0, :data:`MAX_MAP_SCALE`] (a scene file refuses more; so does the GPU).
     """
 
     texture: Path | None
@@ -772,8 +778,8 @@ def _map(ctx: _Context, table: dict, key: str, name: str, high: float) -> Parame
     lo, hi = (_real(ctx, b, f"{key}.range[{i}]", 0.0, high) for i, b in enumerate(bounds))
     if lo > hi:
         raise ctx.error(f"{key}.range", f"must be [lo, hi] with lo <= hi, got [{lo}, {hi}]")
-    scale = _real(ctx, item.get("scale", 1.0), f"{key}.scale", 0.0, math.inf,
-                  closed=(False, False))
+    scale = _real(ctx, item.get("scale", 1.0), f"{key}.scale", 0.0, MAX_MAP_SCALE,
+                  closed=(False, True))
     return ParameterMap(texture, procedural, (lo, hi), scale)
 
 
