@@ -85,7 +85,7 @@ import numpy as np
 from tqdm import tqdm
 
 from . import gpu
-from ._validation import _as_float_array, check_backend
+from ._validation import _as_float_array, check_backend, check_integer
 from .environment_map import LUMINANCE_WEIGHTS, EnvironmentMap
 from .microfacet import ggx_D, ggx_G1
 from .procedural_environment import ProceduralEnvironment
@@ -235,13 +235,6 @@ def window_angle(level) -> float:
     if level == COSINE:
         return 0.5 * math.pi
     return min(0.5 * math.pi, 2.0 * math.atan(10.0 * level))
-
-
-def _check_size(name: str, value, low: int, high: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not (
-            low <= value <= high):
-        raise ValueError(f"{name} must be an integer in [{low}, {high}], got {value!r}")
-    return int(value)
 
 
 def _check_sizes(sizes) -> tuple[tuple[int, int], tuple[int, int]]:
@@ -417,8 +410,8 @@ def resample_environment(source, width: int, height: int) -> np.ndarray:
         If ``source`` is of another type, or a size is out of range.
     """
     _check_source(source)
-    width = _check_size("width", width, 2, _LARGEST_WIDTH)
-    height = _check_size("height", height, 1, _LARGEST_HEIGHT)
+    width = check_integer("width", width, 2, _LARGEST_WIDTH)
+    height = check_integer("height", height, 1, _LARGEST_HEIGHT)
     if isinstance(source, EnvironmentMap):
         return _resample_map(source, width, height)
     return _rasterize(source, width, height)

@@ -91,12 +91,11 @@ Number Generation", HMC-CS-2014-0905, 2014.
 
 from __future__ import annotations
 
-import numbers
 
 import numpy as np
 
 from . import colorimetry, gpu, kernels
-from ._validation import check_broadcast, check_directions, check_wavelength
+from ._validation import check_broadcast, check_directions, check_integer, check_wavelength
 from .layered import LayeredBragg, _refract_in, coating_reflectance
 
 __all__ = ["MAX_WAVELENGTHS", "MODES", "PATH_WAVELENGTHS", "TRANSMISSIONS", "bounce_limit",
@@ -179,13 +178,6 @@ def bounce_limit(layers: int) -> int:
 
 
 _MAX_LAYERS = max(n for n in range(1, 1000) if bounce_limit(n) >= 1)
-
-
-def _check_integer(value, name: str, low: int, high: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not (
-            low <= value <= high):
-        raise ValueError(f"{name} must be an integer in [{low}, {high}], got {value!r}")
-    return int(value)
 
 
 def _check_wavelengths(wavelength_nm) -> np.ndarray | None:
@@ -336,14 +328,14 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
     if transmission not in TRANSMISSIONS:
         raise ValueError(f"transmission must be one of {TRANSMISSIONS}, got {transmission!r}")
     wavelength = _check_wavelengths(wavelength_nm)
-    paths = _check_integer(paths, "paths", 1, 2**31 - 1)
-    seed = _check_integer(seed, "seed", 0, 2**32 - 1)
+    paths = check_integer("paths", paths, 1, 2**31 - 1)
+    seed = check_integer("seed", seed, 0, 2**32 - 1)
     layers = len(structure.layers)
     most_bounces = bounce_limit(layers)
     if most_bounces < 1:
         raise ValueError(f"structure: the GPU walk takes 1 to {_MAX_LAYERS} rough layers "
                          f"(llvmpipe's loop budget), got {layers}")
-    max_bounces = _check_integer(max_bounces, "max_bounces", 1, most_bounces)
+    max_bounces = check_integer("max_bounces", max_bounces, 1, most_bounces)
     if not isinstance(return_error, bool):
         raise ValueError(f"return_error must be a bool, got {return_error!r}")
     if return_error and (wo is None or paths < 2):
