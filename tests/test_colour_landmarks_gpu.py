@@ -143,6 +143,11 @@ def test_landmarks_match_numpy(mirror, pol):
     # numpy took 8, dE 0.17, until both snapped edge phases (PHASE_SNAP; the snap itself is
     # tested in test_colour_methods.py).
     (BraggMirror(1.0, 1.5, 375.0, 125.0, 10), 1.2740904),
+    # Short periods, N >= 16: zones of wide oscillations integrated through the exact R.
+    (BraggMirror(1.0, 2.5, 30.0, 10.0, 20), 1.0471976),
+    (BraggMirror(1.0, 1.5, 40.0, 40.0, 16), 0.0),
+    (BraggMirror(1.0, 1.5, 60.0, 20.0, 50), 1.3089969),
+    (BraggMirror(1.0, 2.5, 0.82 * 183.0, 0.18 * 183.0, 16), 1.4826),  # one exact, one averaged
 ])
 def test_averaged_zones_match_numpy_in_xyz(mirror, theta):
     """The zones, panel counts and the edge-clustering map agree between the twins, so the

@@ -10,9 +10,9 @@ registry of the thin-film methods (:mod:`wgbragg.thin_film_colour`).
   most :data:`PANEL_NM` wide) in a variable that clusters the nodes quadratically at band
   edges, where the averaged spectrum has a square-root edge and would otherwise need graded
   pieces. Both polarisations are smooth inside a zone and share its nodes. Modes, Airy and
-  zero points are not needed. About 40 to 60 nodes, O(1) in N. Below
-  :data:`AVERAGING_MIN_PERIODS` the oscillations are too few to average, and the exact R is
-  integrated with :data:`PANELS_PER_OSCILLATION` panels per oscillation.
+  zero points are not needed. About 40 to 60 nodes, O(1) in N. Where the oscillations are too
+  few to average (below :data:`AVERAGING_MIN_PERIODS`, or wider than a panel: short periods),
+  the exact R is integrated with :data:`PANELS_PER_OSCILLATION` panels per oscillation.
 """
 
 from __future__ import annotations
@@ -49,18 +49,19 @@ PANEL_NM = 40.0
 """Widest Gauss panel (nm) of "averaged": the CMF x D65 density needs ~13 nm node spacing."""
 
 PANELS_PER_OSCILLATION = 3.0
-"""Gauss panels per oscillation of an exact spectrum (below :data:`AVERAGING_MIN_PERIODS`): the
+"""Gauss panels per oscillation of an exact spectrum (see :func:`_exact_zones`): the
 edge-clustering map stretches panels up to 2x away from the edges it serves, and two per
 oscillation cost up to 3 dE2000 at grazing angles (N = 10), three 1.4."""
 
 PANEL_MARGIN = 0.05
 """Panels of an exact spectrum: ``ceil(PANELS_PER_OSCILLATION x oscillations - PANEL_MARGIN)``."""
 
+PHASE_SNAP = 0.15
+"""Bloch phases (rad) this close to 0 or pi at a band edge count as at it (see
+:func:`_snap_edge_phases`)."""
+
 ANGLES_PER_BLOCK = 256
 """Angles whose landmarks and nodes the numpy methods hold at once (about 160 KB each)."""
-
-PHASE_SNAP = 0.15
-"""Bloch phases (rad) this close to 0 or pi count as at a band edge (see :func:`_zones`)."""
 
 # Three-point Gauss-Legendre rule on [0, 1].
 _GAUSS_NODES = 0.5 + 0.5 * np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)])
@@ -233,32 +234,53 @@ def _zones(mirror, theta):
                                               2.0 * np.pi / omega, s, polarization)
             # From sin^2, accurate at band edges (arccos(x) is not, in the float32 twin).
             phase[row] = np.arctan2(np.sqrt(np.maximum(sin2, 0.0)), x)
-    # At a band edge the phase is 0 or pi, but grows like the square root of the distance: the
-    # float32 twin's edges (4e-7 relative) put it up to 0.05 away, enough to change a panel
-    # count, so both twins snap it there.
-    def snapped(phase):
-        return np.where(phase < PHASE_SNAP, 0.0, np.where(phase > np.pi - PHASE_SNAP, np.pi, phase))
-
-    share = np.abs(snapped(phase_hi) - snapped(phase_lo)).max(axis=0) / np.pi
+    share = np.abs(_snap_edge_phases(phase_hi, ~last)
+                   - _snap_edge_phases(phase_lo, ~first)).max(axis=0) / np.pi
     keep = hi - lo > 0.0  # coincident edges: a closed gap, or s and p at normal incidence
     return owner[keep], lo[keep], hi[keep], ~first[keep], ~last[keep], share[keep]
+
+
+def _exact_zones(mirror, omega_lo, omega_hi, pass_band_share):
+    """Zones integrated through the exact spectrum: all below :data:`AVERAGING_MIN_PERIODS`,
+    and those whose oscillations are on average wider than a panel (:data:`PANEL_NM`). Short
+    periods put only a few percent of a pass band in view, so N = 100 can leave a handful of
+    oscillations across the visible range: the eye sees them, and their phase average is 10 to
+    25 dE2000 off. The exact spectrum then needs ``3 x 470 / PANEL_NM`` panels at most. A zone
+    of share 0 is a band gap, where both spectra are exact, or lies between two edges whose
+    phases were snapped: its oscillations are unknown, so it stays averaged."""
+    width_nm = 2.0 * np.pi / omega_lo - 2.0 * np.pi / omega_hi
+    oscillations = mirror.N * pass_band_share
+    return (mirror.N < AVERAGING_MIN_PERIODS) | ((pass_band_share > 0.0)
+                                                 & (width_nm > PANEL_NM * oscillations))
+
+
+def _snap_edge_phases(phase, at_edge):
+    """Bloch phases ``phase`` (rows s, p) at zone ends, set to 0 or pi where within
+    :data:`PHASE_SNAP` of it at a band edge (``at_edge``).
+
+    At its edge a phase grows like the square root of the distance: the float32 twin's edges
+    (4e-7 relative) put it up to 0.05 rad off, enough to change a panel count. The range's ends
+    are left as they are: short periods keep the phase below PHASE_SNAP across the whole
+    visible range, and snapping there would hide N x PHASE_SNAP / pi oscillations.
+    """
+    near_pi = phase > np.pi - PHASE_SNAP
+    snap = at_edge & (near_pi | (phase < PHASE_SNAP))
+    return np.where(snap, np.where(near_pi, np.pi, 0.0), phase)
 
 
 def _panel_count(mirror, omega_lo, omega_hi, pass_band_share):
     width_nm = 2.0 * np.pi / omega_lo - 2.0 * np.pi / omega_hi
     count = np.maximum(1, np.ceil(width_nm / PANEL_NM)).astype(int)
-    if mirror.N < AVERAGING_MIN_PERIODS:
-        # The margin keeps a whole pass band (share 1 up to rounding: phases snapped to 0 and
-        # pi) at the same count in both twins.
-        oscillations = mirror.N * pass_band_share
-        count = np.maximum(count, np.ceil(PANELS_PER_OSCILLATION * oscillations
-                                          - PANEL_MARGIN).astype(int))
-    return count
+    # The margin keeps a whole pass band (share 1 up to rounding: phases snapped to 0 and pi)
+    # at the same count in both twins.
+    oscillations = mirror.N * pass_band_share
+    per_oscillation = np.ceil(PANELS_PER_OSCILLATION * oscillations - PANEL_MARGIN).astype(int)
+    exact = _exact_zones(mirror, omega_lo, omega_hi, pass_band_share)
+    return np.where(exact, np.maximum(count, per_oscillation), count)
 
 
 def _averaged_unpolarized(mirror, theta):
     """XYZ at each angle of the 1-D ``theta`` (none totally reflected)."""
-    method = "exact" if mirror.N < AVERAGING_MIN_PERIODS else "phase-averaged"
     owner, lo, hi, lower_edge, upper_edge, share = _zones(mirror, theta)
     panels = _panel_count(mirror, lo, hi, share)
     nodes = 3 * panels
@@ -271,9 +293,12 @@ def _averaged_unpolarized(mirror, theta):
     wavelength = 2.0 * np.pi / omega
     # d lambda = 2 pi / omega^2 d omega.
     weight = _GAUSS_WEIGHTS[point] / panels[zone] * span * ds * wavelength / omega
-    values = yeh_reflectance(mirror.n1, mirror.n2, mirror.d1, mirror.d2, mirror.N,
-                             wavelength, theta[owner][zone], "unpolarized", host=mirror.host,
-                             method=method)
+    exact = _exact_zones(mirror, lo, hi, share)[zone]
+    values = np.empty(wavelength.size)
+    for method, where in (("exact", exact), ("phase-averaged", ~exact)):
+        values[where] = yeh_reflectance(mirror.n1, mirror.n2, mirror.d1, mirror.d2, mirror.N,
+                                        wavelength[where], theta[owner][zone][where],
+                                        "unpolarized", host=mirror.host, method=method)
     density = colorimetry.xyz_density(wavelength)
     # The zone's mean R times its exact box integral, plus the rule on R minus that mean:
     # the rule's error on the D65 x CMF wiggles then scales with the variation of R rather

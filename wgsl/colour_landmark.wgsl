@@ -104,38 +104,42 @@ fn averaged_pass_band_reflectance(m: BraggMirror, g: CellGeometry, polarization:
 }
 
 // R of one polarisation at a node of "averaged", from its frame and the node's mode_phases:
-// exact below AVERAGING_MIN_PERIODS, else averaged in pass bands.
-fn mode_node_reflectance(f: ModeFrame, phases: vec4<f32>, t: f32, periods: u32) -> f32 {
+// exact in an exact zone (colour_methods._exact_zones), else averaged in pass bands.
+fn mode_node_reflectance(f: ModeFrame, phases: vec4<f32>, t: f32, periods: u32,
+                         exact: bool) -> f32 {
     let terms = mode_terms_at(f, phases);
-    if (periods >= AVERAGING_MIN_PERIODS && terms.sin2 > 0.0) {
+    if (!exact && terms.sin2 > 0.0) {
         let w = min(abs(terms.W), MAX_AMPLITUDE);
         return clamp(1.0 - sqrt(terms.sin2 / (w * w + terms.sin2)), 0.0, 1.0);
     }
     return matched_reflectance(terms, 0.5 * t, periods);  // delta1 + delta2 = pi t
 }
 
-fn geometry_node_reflectance(c: ColourSetup, g: CellGeometry, polarization: u32) -> f32 {
-    if (c.mirror.periods < AVERAGING_MIN_PERIODS) {
+fn geometry_node_reflectance(c: ColourSetup, g: CellGeometry, polarization: u32,
+                             exact: bool) -> f32 {
+    if (exact) {
         return yeh_polarized(c.mirror, g, polarization, c.host_matched);
     }
     return averaged_pass_band_reflectance(c.mirror, g, polarization, c.host_matched);
 }
 
 // Unpolarised R at one quadrature node of "averaged".
-fn node_reflectance(c: ColourSetup, omega: f32) -> f32 {
+fn node_reflectance(c: ColourSetup, omega: f32, exact: bool) -> f32 {
     if (c.fast) {
         let t = omega * c.frame.n_plus * (1.0 / PI);
         let phases = mode_phases(c.frame, t);
-        return 0.5 * (mode_node_reflectance(c.frame, phases, t, c.mirror.periods)
-            + mode_node_reflectance(c.frame_p, phases, t, c.mirror.periods));
+        return 0.5 * (mode_node_reflectance(c.frame, phases, t, c.mirror.periods, exact)
+            + mode_node_reflectance(c.frame_p, phases, t, c.mirror.periods, exact));
     }
     let g = geometry_at(c.mirror, c.angle, TWO_PI / omega);
-    return 0.5 * (geometry_node_reflectance(c, g, 0u) + geometry_node_reflectance(c, g, 1u));
+    return 0.5 * (geometry_node_reflectance(c, g, 0u, exact)
+        + geometry_node_reflectance(c, g, 1u, exact));
 }
 
 // Bloch phases K Lambda in [0, pi] of s and p at omega (0 or pi inside band gaps), from
-// sin^2 K Lambda, which keeps its relative accuracy at band edges where acos(x) would not.
-fn bloch_phases(c: ColourSetup, omega: f32) -> vec2<f32> {
+// sin^2 K Lambda, which keeps its relative accuracy at band edges where acos(x) would not. At
+// a band edge (at_edge) snapped as colour_methods._snap_edge_phases.
+fn bloch_phases(c: ColourSetup, omega: f32, at_edge: bool) -> vec2<f32> {
     var s_terms: CellTerms;
     var p_terms: CellTerms;
     if (c.fast) {
@@ -149,11 +153,9 @@ fn bloch_phases(c: ColourSetup, omega: f32) -> vec2<f32> {
     }
     let sine = sqrt(max(vec2<f32>(s_terms.sin2, p_terms.sin2), vec2<f32>(0.0)));
     let phase = atan2(sine, vec2<f32>(s_terms.x, p_terms.x));
-    // colour_methods._zones: snapped to the band edge's value within PHASE_SNAP.
     let near_pi = phase > vec2<f32>(PI - PHASE_SNAP);
-    let snapped = select(phase, select(vec2<f32>(0.0), vec2<f32>(PI), near_pi),
-                         near_pi | (phase < vec2<f32>(PHASE_SNAP)));
-    return snapped;
+    let snap = vec2<bool>(at_edge) & (near_pi | (phase < vec2<f32>(PHASE_SNAP)));
+    return select(phase, select(vec2<f32>(0.0), vec2<f32>(PI), near_pi), snap);
 }
 
 // Eq 11: the envelope |C|^2 / (|C|^2 + sin^2 K Lambda), 1 inside band gaps.
@@ -228,9 +230,12 @@ fn averaged_zone(c: ColourSetup, lo: f32, hi: f32, lower_edge: bool, upper_edge:
     if (!(lambda_hi > lambda_lo)) {
         return vec3<f32>(0.0);
     }
-    var panels = u32(max(ceil((TWO_PI / lo - TWO_PI / hi) * (1.0 / PANEL_NM)), 1.0));
-    if (c.mirror.periods < AVERAGING_MIN_PERIODS) {
-        let oscillations = f32(c.mirror.periods) * share;
+    let width_nm = TWO_PI / lo - TWO_PI / hi;
+    var panels = u32(max(ceil(width_nm * (1.0 / PANEL_NM)), 1.0));
+    let oscillations = f32(c.mirror.periods) * share;
+    let exact = c.mirror.periods < AVERAGING_MIN_PERIODS
+        || (share > 0.0 && width_nm > PANEL_NM * oscillations);
+    if (exact) {
         panels = max(panels, u32(max(ceil(PANELS_PER_OSCILLATION * oscillations - PANEL_MARGIN),
                                          0.0)));
     }
@@ -249,7 +254,7 @@ fn averaged_zone(c: ColourSetup, lo: f32, hi: f32, lower_edge: bool, upper_edge:
         // The rule's weight times d lambda = 2 pi / omega^2 d omega = lambda^2 / (2 pi) d omega.
         let weight = select(GAUSS_OUTER, GAUSS_INNER, k == 1u) * inv_panels * span * map.y
             * wavelength * wavelength * (1.0 / TWO_PI);
-        let r = weight * node_reflectance(c, omega);
+        let r = weight * node_reflectance(c, omega, exact);
         let density = density_xyz(wavelength);
         rule += r * density;
         rule_white += weight * density;
@@ -321,28 +326,19 @@ struct Zones {
     xyz: vec3<f32>,
     lo: f32,              // the open zone's start, rad/nm
     lo_edge: bool,        // whether that is a band edge (else the range's start)
-    lo_phases: vec2<f32>, // bloch_phases there, if the spectrum is exact (else 0)
+    lo_phases: vec2<f32>, // bloch_phases there
 }
 
 fn zones_start(c: ColourSetup) -> Zones {
-    var zones = Zones(vec3<f32>(0.0), OMEGA_LO, false, vec2<f32>(0.0));
-    if (c.mirror.periods < AVERAGING_MIN_PERIODS) {
-        zones.lo_phases = bloch_phases(c, OMEGA_LO);
-    }
-    return zones;
+    return Zones(vec3<f32>(0.0), OMEGA_LO, false, bloch_phases(c, OMEGA_LO, false));
 }
 
 // Integrates the open zone up to omega (a band edge iff is_edge) and opens the next there.
 fn zone_close(c: ColourSetup, zones: ptr<function, Zones>, omega: f32, is_edge: bool) {
-    // Only the panel count of an exact spectrum needs the share of a pass band (see
-    // colour_methods._zones).
-    var share = 0.0;
-    var phases = vec2<f32>(0.0);
-    if (c.mirror.periods < AVERAGING_MIN_PERIODS) {
-        phases = bloch_phases(c, omega);
-        let sweep = abs(phases - (*zones).lo_phases);
-        share = max(sweep.x, sweep.y) * (1.0 / PI);
-    }
+    // The share of a pass band: see colour_methods._zones.
+    let phases = bloch_phases(c, omega, is_edge);
+    let sweep = abs(phases - (*zones).lo_phases);
+    let share = max(sweep.x, sweep.y) * (1.0 / PI);
     (*zones).xyz += averaged_zone(c, (*zones).lo, omega, (*zones).lo_edge, is_edge, share);
     (*zones).lo = omega;
     (*zones).lo_edge = true;
