@@ -45,6 +45,7 @@ bench: setup
 	$(PY) tools/bench_layered.py
 	$(PY) tools/bench_render.py
 	$(PY) tools/bench_ibl.py
+	$(PY) tools/bench_viewer.py
 
 clean:
 	rm -rf $(VENV) out build dist .pytest_cache .ruff_cache .hypothesis

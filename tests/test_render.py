@@ -483,6 +483,38 @@ def test_update_renders_as_a_new_renderer_would(device, tmp_path):
     assert renderer.mode == "spectral" and renderer.passes == 4
 
 
+@pytest.mark.parametrize("mode", ["rgb", "spectral"])
+def test_an_edit_rebuilds_only_the_edited_layers_tables(device, monkeypatch, mode):
+    """The renderer keeps the layers an edited material shares with what it showed, and the
+    tables they hold: a Bragg edit re-bakes one layer's (the viewer's table budget), and the
+    image is a fresh renderer's."""
+    import dataclasses
+
+    from wgbragg import RoughBraggLayer
+    from wgbragg.scene import LayeredBraggMaterial
+
+    scene = load_preset("teapot")
+    name, material = next((n, m) for n, m in scene.materials.items()
+                          if isinstance(m, LayeredBraggMaterial) and len(m.layers) > 1)
+    renderer = Renderer(scene, size=(8, 8), seed=3, mode=mode)
+    top = dataclasses.replace(material.layers[0], d1_nm=material.layers[0].d1_nm + 5.0)
+    edited = dataclasses.replace(scene, materials={
+        **scene.materials, name: dataclasses.replace(material, layers=(top, *material.layers[1:]))})
+    built = []
+    table = RoughBraggLayer.transmissivity_table
+
+    def counted(layer, *args, **kwargs):
+        built.append(layer.mirror.d1)
+        return table(layer, *args, **kwargs)
+
+    monkeypatch.setattr(RoughBraggLayer, "transmissivity_table", counted)
+    renderer.update(edited, mode)
+    assert built == [top.d1_nm]
+    monkeypatch.undo()
+    fresh = Renderer(edited, size=(8, 8), seed=3, mode=mode).render(4)
+    np.testing.assert_allclose(renderer.render(4), fresh, rtol=1e-6, atol=1e-7)
+
+
 def test_colour_method_selects_the_layer_colours(device):
     scene = load_preset("fig7")
     images = {method: Renderer(scene, size=(8, 8), seed=1, mode="rgb",

@@ -384,18 +384,21 @@ class LayeredBragg:
         return np.radians(np.arange(0.0, 90.0 + LUT_RESOLUTION_DEG / 2, LUT_RESOLUTION_DEG))
 
     def _reflectance_lut(self, layer_index: int, backend: str) -> np.ndarray:
-        """Unpolarized R over (theta_d grid, 360-830 nm at 1 nm)."""
+        """Unpolarized R over (theta_d grid, 360-830 nm at 1 nm), kept by the layer."""
+        layer = self.layers[layer_index]
+
         def build():
-            m = self.layers[layer_index].mirror
             grid, wavelength = self._lut_grid(), colorimetry.xyz_weights()[0]
-            return m.reflectance(wavelength[None, :], grid[:, None], "unpolarized", backend)
-        return self._cached(("r", layer_index, backend), build)
+            return layer.mirror.reflectance(wavelength[None, :], grid[:, None], "unpolarized",
+                                            backend)
+        return layer._kept(("reflectance", backend), build)
 
     def _reflectance_rgb_lut(self, layer_index: int, backend: str, colour_method: str):
-        def build():
-            m = self.layers[layer_index].mirror
-            return m.rgb(self._lut_grid(), method=colour_method, backend=backend)
-        return self._cached(("rgb", layer_index, backend, colour_method), build)
+        """Linear sRGB of the layer's mirror over the theta_d grid, kept by the layer."""
+        layer = self.layers[layer_index]
+        return layer._kept(("reflectance_rgb", backend, colour_method),
+                           lambda: layer.mirror.rgb(self._lut_grid(), method=colour_method,
+                                                    backend=backend))
 
     @staticmethod
     def _lerp_rows(table: np.ndarray, theta: np.ndarray, step: float) -> tuple:

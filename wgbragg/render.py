@@ -665,6 +665,9 @@ class Renderer:
             materials["ibl_level"] = [first for first, _ in material_levels]
             materials["ibl_layers"] = [layers for _, layers in material_levels]
         structures, kept, films = [], {}, []
+        # An edited material keeps the layers (and their tables) it shares with the last update.
+        known_layers = {spec: layer for material, structure in self._structures.values()
+                        for spec, layer in zip(material.layers, structure.layers, strict=True)}
         # Record 0: no map (period 0 tells the kernel to keep the layers' own).
         maps, constant_values = [None], [0.0]
         for k, name in enumerate(names):
@@ -683,7 +686,8 @@ class Renderer:
             materials[k]["kind"] = 1
             materials[k]["structure"] = len(structures)
             known = self._structures.get(id(material))
-            structure = known[1] if known and known[0] is material else material.to_structure()
+            structure = known[1] if known and known[0] is material else material.to_structure(
+                known_layers=known_layers)
             kept[id(material)] = (material, structure)
             structures.append(structure)
             if material.period_map is None and material.delta_map is None:

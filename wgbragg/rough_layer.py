@@ -156,15 +156,22 @@ class RoughBraggLayer:
             return self.filter.integrate(self._transmittance(wavelength)).T
         return self._table_gpu(wavelength)
 
+    def _kept(self, key, build) -> np.ndarray:
+        """``build()`` (an array, made read-only), kept per layer under ``key`` (in the
+        instance dict, as the cached ``filter``). What depends on the layer alone lives here,
+        so that structures which share the layer share it: a renderer rebuilds only the
+        edited layer's tables."""
+        tables = self.__dict__.setdefault("_tables", {})
+        if key not in tables:
+            table = build()
+            table.setflags(write=False)
+            tables[key] = table
+        return tables[key]
+
     def _visible_table(self, backend: str) -> np.ndarray:
         """The 1 nm table, kept per layer and backend: RGB, probabilities and weights all
-        start from it (in the instance dict, as the cached ``filter``)."""
-        tables = self.__dict__.setdefault("_visible_tables", {})
-        if backend not in tables:
-            table = self.transmissivity_table(None, backend)
-            table.setflags(write=False)
-            tables[backend] = table
-        return tables[backend]
+        start from it."""
+        return self._kept(("visible", backend), lambda: self.transmissivity_table(None, backend))
 
     def _table_wavelengths(self, wavelength_nm) -> np.ndarray:
         if wavelength_nm is None:

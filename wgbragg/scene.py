@@ -350,8 +350,8 @@ class LayeredBraggMaterial:
     delta_map: ParameterMap | None = None
     base_interreflection: bool = False
 
-    def to_structure(self, period_nm: float | None = None,
-                     delta: float | None = None) -> LayeredBragg:
+    def to_structure(self, period_nm: float | None = None, delta: float | None = None,
+                     known_layers=None) -> LayeredBragg:
         """The :class:`wgbragg.LayeredBragg` of this material.
 
         Building it is cheap: the layers' transmission filters are baked or loaded only when
@@ -362,12 +362,19 @@ class LayeredBraggMaterial:
         period_nm, delta : float, optional
             The period (nm) and ``d1 / period`` of every layer at one point, as read from the
             maps; by default each layer's own (the uniform material).
+        known_layers : mapping, optional
+            :class:`BraggLayerSpec` -> :class:`wgbragg.RoughBraggLayer` built before: a layer
+            of this material found there is reused, with the tables it keeps (uniform
+            material only).
 
         Returns
         -------
         LayeredBragg
         """
-        return LayeredBragg([spec.to_layer(period_nm, delta) for spec in self.layers],
+        known = {} if known_layers is None or period_nm is not None or delta is not None \
+            else known_layers
+        return LayeredBragg([known.get(spec) or spec.to_layer(period_nm, delta)
+                             for spec in self.layers],
                             base_albedo=self.base_albedo,
                             base_interreflection=self.base_interreflection)
 

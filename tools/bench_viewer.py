@@ -1,0 +1,240 @@
+"""Interactive budgets of the viewer (``demo.py``): what an edit and a preview frame cost.
+
+Measured through :class:`wgbragg.viewer.Viewer` exactly as its window drives it (the figures
+are those of :attr:`Viewer.budgets`, wall clock), on the ``teapot`` preset:
+
+- **tables re-baked after a Bragg edit**, in RGB and in spectral mode: ``edits`` edits of the
+  top layer's period, each to a period not shown before and followed by one frame; the tables
+  the renderer re-baked (:attr:`Budgets.table_ms`: transmissivity tables and reflectance LUTs)
+  and the whole update (:attr:`Budgets.update_ms`), median and maximum. The first edit, which
+  also compiles what the frame after it needs, is not counted;
+- **the transmission filter after a roughness edit**: of a roughness this process has not used,
+  baked into an empty cache folder (:attr:`Budgets.filter_s`), then the same roughness again
+  (in memory);
+- **preview frames** while interacting: frames per second of ``frames`` frames after two
+  untimed ones (render, readback and display transform), with the filtered image-based
+  lighting preview and with the path-traced one, and the resolution divisor each chose: in a
+  first interaction (the divisor a guess, as the cost per pixel is not known yet) and in the
+  next (the divisor chosen from the cost the first measured: what a user sees from then on).
+
+The targets are the viewer's own constants: :data:`wgbragg.viewer.TABLE_BUDGET_MS`,
+:data:`~wgbragg.viewer.FILTER_BUDGET_S` and :data:`~wgbragg.viewer.PREVIEW_BUDGET_FPS`.
+It prints a markdown section and writes it into ``docs/benchmarks.md`` between
+``<!-- bench_viewer:begin -->`` and ``<!-- bench_viewer:end -->`` (full mode).
+
+Usage::
+
+    python tools/bench_viewer.py               # full run (a minute or two)
+    python tools/bench_viewer.py --quick       # tiny image (seconds), print only
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import dataclasses
+import os
+import shlex
+import statistics
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+from tqdm import tqdm
+
+_TOOLS = str(Path(__file__).resolve().parent)
+if _TOOLS not in sys.path:
+    sys.path.insert(0, _TOOLS)
+
+import _docs  # noqa: E402
+from _docs import human_time  # noqa: E402
+from _docs import markdown_table as _table  # noqa: E402
+
+__all__ = ["BEGIN_MARKER", "END_MARKER", "FULL", "QUICK", "Config", "main", "run_benchmarks"]
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_OUTPUT = REPO_ROOT / "docs" / "benchmarks.md"
+BEGIN_MARKER, END_MARKER = _docs.markers("bench_viewer")
+MODES = ("rgb", "spectral")
+# A roughness no preset uses, so that its filter is baked, not found.
+FRESH_ALPHA = 0.23
+
+
+@dataclasses.dataclass(frozen=True)
+class Config:
+    """Image side (pixels), counted Bragg edits per mode and timed preview frames."""
+
+    name: str
+    size: int
+    edits: int
+    frames: int
+
+
+FULL = Config("full", size=256, edits=20, frames=30)
+QUICK = Config("quick", size=16, edits=2, frames=2)
+
+
+@contextlib.contextmanager
+def _empty_cache():
+    """``$WGBRAGG_CACHE`` pointed at an empty folder for the duration."""
+    saved = os.environ.get("WGBRAGG_CACHE")
+    with tempfile.TemporaryDirectory() as folder:
+        os.environ["WGBRAGG_CACHE"] = folder
+        try:
+            yield
+        finally:
+            if saved is None:
+                del os.environ["WGBRAGG_CACHE"]
+            else:
+                os.environ["WGBRAGG_CACHE"] = saved
+
+
+def _bragg_edits(viewer, edits: int) -> tuple[list[float], list[float]]:
+    """(table ms, update ms) of ``edits`` period edits, after one uncounted."""
+    start = viewer.layers[0].period_nm
+    tables, updates = [], []
+    for k in range(edits + 1):
+        viewer.set_layer(0, period_nm=start + 3.0 * (k + 1))
+        viewer.frame()
+        if k > 0:
+            tables.append(viewer.budgets.table_ms)
+            updates.append(viewer.budgets.update_ms)
+    return tables, updates
+
+
+def _interaction(viewer, frames: int) -> tuple[float, int]:
+    """(frames per second, resolution divisor) of one interaction's preview frames."""
+    viewer.interacting = True
+    for _ in range(2):
+        viewer.frame()
+    start = time.perf_counter()
+    for _ in range(frames):
+        viewer.frame()
+    fps = frames / (time.perf_counter() - start)
+    viewer.interacting = False
+    return fps, viewer.budgets.preview_scale
+
+
+def run_benchmarks(cfg: Config, progress: bool = True) -> dict:
+    from wgbragg.viewer import Viewer
+
+    meter = _docs.LoadMeter()
+    results = {"edits": {}, "previews": {}}
+    size = (cfg.size, cfg.size)
+    bar = tqdm(total=len(MODES) + 3, desc="viewer", disable=not progress)
+    for mode in MODES:
+        viewer = Viewer("teapot", size=size, mode=mode)
+        viewer.frame()
+        results["edits"][mode] = _bragg_edits(viewer, cfg.edits)
+        bar.update()
+    with _empty_cache():
+        viewer.set_layer(0, alpha=FRESH_ALPHA)
+        baked = (viewer.budgets.filter_s, viewer.budgets.filter_source)
+        viewer.set_layer(0, alpha=viewer.layers[0].alpha * 0.5)
+        viewer.set_layer(0, alpha=FRESH_ALPHA)
+        results["filter"] = [baked, (viewer.budgets.filter_s, viewer.budgets.filter_source)]
+    bar.update()
+    for label, filtered in (("filtered image-based lighting", True), ("path-traced", False)):
+        viewer = Viewer("teapot", size=size, mode="rgb", preview_ibl=filtered)
+        results["previews"][label] = [_interaction(viewer, cfg.frames) for _ in range(2)]
+        bar.update()
+    bar.close()
+    results["environment"] = _docs.run_facts()
+    results["environment"]["background_cores"] = meter.background_cores()
+    return results
+
+
+def _ms(milliseconds: float) -> str:
+    return human_time(milliseconds / 1e3)
+
+
+def _yes(flag: bool) -> str:
+    return "yes" if flag else "no"
+
+
+def render_section(results: dict, cfg: Config, command: str) -> str:
+    from wgbragg.viewer import FILTER_BUDGET_S, PREVIEW_BUDGET_FPS, TABLE_BUDGET_MS
+
+    env = results["environment"]
+    busy = env.get("background_cores")
+    lines = [
+        BEGIN_MARKER,
+        "## Viewer budgets (`tools/bench_viewer.py`)",
+        "",
+        "_Generated by the command below; do not edit between the markers._",
+        "",
+        f"- Command: `{command}`",
+        f"- Date: {env['date']}",
+        f"- Adapter: {env['adapter']}",
+        f"- CPU: {env['cpu']}, {env['cores']} cores available",
+        "- Other processes on the machine during the run: "
+        + ("unknown" if busy is None else f"{busy:.2f} cores busy on average (from /proc/stat)"),
+        f"- `Viewer('teapot', size=({cfg.size}, {cfg.size}))` driven through its API as the "
+        "window drives it; times are `Viewer.budgets` (wall clock).",
+        *(["- Quick mode: tiny image for the tests; the numbers mean nothing."]
+          if cfg.name == "quick" else []),
+        "",
+        "### Tables re-baked after a Bragg edit",
+        "",
+    ]
+    rows = []
+    for mode, (tables, updates) in results["edits"].items():
+        rows.append([mode, str(len(tables)), _ms(statistics.median(tables)), _ms(max(tables)),
+                     _ms(statistics.median(updates)), _ms(max(updates))])
+    lines += _table(["mode", "edits", "tables, median", "tables, max",
+                     "whole update, median", "whole update, max"], rows)
+    lines += ["", "Each edit sets the top layer's period to one not shown before (3 nm "
+              "steps) and renders one frame; the first edit is not counted.", ""]
+    lines += ["### Transmission filter after a roughness edit", ""]
+    lines += _table(["roughness", "source", "time"], [
+        [f"{FRESH_ALPHA:g}", source, human_time(seconds)]
+        for seconds, source in results["filter"]])
+    lines += ["", "### Preview frames while interacting", ""]
+    lines += _table(["preview", "first interaction: frames/s", "divisor",
+                     "next interaction: frames/s", "divisor"], [
+        [label, f"{first[0]:.1f}", str(first[1]), f"{later[0]:.1f}", str(later[1])]
+        for label, (first, later) in results["previews"].items()])
+    worst_tables = max(max(tables) for tables, _ in results["edits"].values())
+    medians = [statistics.median(tables) for tables, _ in results["edits"].values()]
+    baked_s = results["filter"][0][0]
+    filtered_fps, filtered_scale = next(iter(results["previews"].values()))[1]
+    lines += ["", "### Targets", ""]
+    lines += _table(["target", "measured", "met"], [
+        [f"tables of an edited Bragg layer re-baked in <= {TABLE_BUDGET_MS:g} ms",
+         f"median {', '.join(_ms(m) for m in medians)} (RGB, spectral), max "
+         f"{_ms(worst_tables)}", _yes(max(medians) <= TABLE_BUDGET_MS)],
+        [f"transmission filter of a new roughness in <= {FILTER_BUDGET_S:g} s",
+         f"{human_time(baked_s)} (baked)", _yes(baked_s <= FILTER_BUDGET_S)],
+        [f"preview >= {PREVIEW_BUDGET_FPS:g} frames/s", f"{filtered_fps:.1f} frames/s "
+         f"(filtered lighting, divisor {filtered_scale}, from the second interaction on)",
+         _yes(filtered_fps >= PREVIEW_BUDGET_FPS)],
+    ])
+    lines += ["", "The table target is judged by the median over the edits: single edits run "
+              "longer while other processes share the cores.", END_MARKER]
+    return "\n".join(lines)
+
+
+def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(prog="bench_viewer.py",
+                                     description="Interactive budgets of the viewer.")
+    _docs.add_section_arguments(parser, DEFAULT_OUTPUT,
+                                "tiny image (seconds); writes nothing unless --output")
+    return parser.parse_args(argv)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run, print the section and write it (docs/benchmarks.md in full mode)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = parse_args(argv)
+    cfg = QUICK if args.quick else FULL
+    results = run_benchmarks(cfg, progress=not args.no_progress)
+    section = render_section(results, cfg,
+                             shlex.join(["python", "tools/bench_viewer.py", *argv]))
+    _docs.publish(section, _docs.section_output(args, DEFAULT_OUTPUT), BEGIN_MARKER, END_MARKER)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
