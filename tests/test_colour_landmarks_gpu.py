@@ -148,6 +148,9 @@ def test_landmarks_match_numpy(mirror, pol):
     (BraggMirror(1.0, 1.5, 40.0, 40.0, 16), 0.0),
     (BraggMirror(1.0, 1.5, 60.0, 20.0, 50), 1.3089969),
     (BraggMirror(1.0, 2.5, 0.82 * 183.0, 0.18 * 183.0, 16), 1.4826),  # one exact, one averaged
+    (BraggMirror(1.0, 1.5, 375.0, 125.0, 20), 0.9773844),  # exact from the range's start
+    (BraggMirror(1.0, 1.02, 16.0, 3.0, 10**6), 1.2217305),  # unsnapped range ends: averaged
+    (BraggMirror(1.0, 1.5, 30.0, 90.0, 20), 0.10471976),  # an edge just below 360 nm
 ])
 def test_averaged_zones_match_numpy_in_xyz(mirror, theta):
     """The zones, panel counts and the edge-clustering map agree between the twins, so the

@@ -16,9 +16,10 @@ exact in-cell quadratic they give :func:`colorimetry.cumulative_xyz`, the boxes 
 
 Speed and accuracy against the "reference" kernel: ``tools/bench_rgb.py``
 (docs/benchmarks.md). "averaged" evaluates R of both polarisations at three Gauss nodes per
-panel, 40 to 60 nodes for N >= 16 (``colour_methods.PANELS_PER_OSCILLATION`` panels per
-oscillation where the exact spectrum is integrated: below N = 16, and where oscillations are
-wider than a panel); "approx" one envelope value per landmark interval.
+panel: 40 to 60 nodes where every zone is averaged, and ``colour_methods.PANELS_PER_OSCILLATION``
+panels per oscillation where the exact spectrum is integrated (below N = 16, and where
+oscillations are wider than a panel: up to about 110 nodes); "approx" one envelope value per
+landmark interval.
 """
 
 from __future__ import annotations

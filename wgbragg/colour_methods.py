@@ -10,9 +10,10 @@ registry of the thin-film methods (:mod:`wgbragg.thin_film_colour`).
   most :data:`PANEL_NM` wide) in a variable that clusters the nodes quadratically at band
   edges, where the averaged spectrum has a square-root edge and would otherwise need graded
   pieces. Both polarisations are smooth inside a zone and share its nodes. Modes, Airy and
-  zero points are not needed. About 40 to 60 nodes, O(1) in N. Where the oscillations are too
-  few to average (below :data:`AVERAGING_MIN_PERIODS`, or wider than a panel: short periods),
-  the exact R is integrated with :data:`PANELS_PER_OSCILLATION` panels per oscillation.
+  zero points are not needed. About 40 to 60 nodes where every zone is averaged, O(1) in N.
+  Where the oscillations are too few to average (below :data:`AVERAGING_MIN_PERIODS`, or
+  wider than a panel: short periods, up to about 110 nodes), the exact R is integrated with
+  :data:`PANELS_PER_OSCILLATION` panels per oscillation (:func:`_quadrature`).
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ PANEL_NM = 40.0
 """Widest Gauss panel (nm) of "averaged": the CMF x D65 density needs ~13 nm node spacing."""
 
 PANELS_PER_OSCILLATION = 3.0
-"""Gauss panels per oscillation of an exact spectrum (see :func:`_exact_zones`): the
+"""Gauss panels per oscillation of an exact spectrum (see :func:`_quadrature`): the
 edge-clustering map stretches panels up to 2x away from the edges it serves, and two per
 oscillation cost up to 3 dE2000 at grazing angles (N = 10), three 1.4."""
 
@@ -240,49 +241,80 @@ def _zones(mirror, theta):
     return owner[keep], lo[keep], hi[keep], ~first[keep], ~last[keep], share[keep]
 
 
-def _exact_zones(mirror, omega_lo, omega_hi, pass_band_share):
-    """Zones integrated through the exact spectrum: all below :data:`AVERAGING_MIN_PERIODS`,
-    and those whose oscillations are on average wider than a panel (:data:`PANEL_NM`). Short
-    periods put only a few percent of a pass band in view, so N = 100 can leave a handful of
-    oscillations across the visible range: the eye sees them, and their phase average is 10 to
-    25 dE2000 off. The exact spectrum then needs ``3 x 470 / PANEL_NM`` panels at most. A zone
-    of share 0 is a band gap, where both spectra are exact, or lies between two edges whose
-    phases were snapped: its oscillations are unknown, so it stays averaged."""
-    width_nm = 2.0 * np.pi / omega_lo - 2.0 * np.pi / omega_hi
-    oscillations = mirror.N * pass_band_share
-    return (mirror.N < AVERAGING_MIN_PERIODS) | ((pass_band_share > 0.0)
-                                                 & (width_nm > PANEL_NM * oscillations))
-
-
 def _snap_edge_phases(phase, at_edge):
-    """Bloch phases ``phase`` (rows s, p) at zone ends, set to 0 or pi where within
-    :data:`PHASE_SNAP` of it at a band edge (``at_edge``).
+    """Bloch phases at zone ends, with those at band edges snapped to the edge's value.
 
+    Parameters
+    ----------
+    phase : numpy.ndarray, shape (2, zones)
+        ``K Lambda`` of s (row 0) and p (row 1) at one end of each zone, rad in [0, pi].
+    at_edge : numpy.ndarray of bool, shape (zones,)
+        Whether that end is a band edge (of either polarisation) rather than a range end.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``phase`` with every value within :data:`PHASE_SNAP` of 0 or pi at an edge set to it.
+
+    Notes
+    -----
     At its edge a phase grows like the square root of the distance: the float32 twin's edges
-    (4e-7 relative) put it up to 0.05 rad off, enough to change a panel count. The range's ends
-    are left as they are: short periods keep the phase below PHASE_SNAP across the whole
-    visible range, and snapping there would hide N x PHASE_SNAP / pi oscillations.
+    (4e-7 relative) put it up to 0.05 rad off, enough to change a panel count. Both
+    polarisations are snapped at either one's edge (where s and p edges nearly coincide both
+    are near 0 or pi). The range's ends are left as they are: a phase can lie within the snap
+    distance there with no edge (a short period at oblique incidence, where ``K Lambda`` stays
+    below 0.15 rad across the visible range, or an edge just outside it), and snapping would
+    hide up to ``N x PHASE_SNAP / pi`` oscillations of the zone.
     """
     near_pi = phase > np.pi - PHASE_SNAP
     snap = at_edge & (near_pi | (phase < PHASE_SNAP))
     return np.where(snap, np.where(near_pi, np.pi, 0.0), phase)
 
 
-def _panel_count(mirror, omega_lo, omega_hi, pass_band_share):
+def _quadrature(mirror, omega_lo, omega_hi, pass_band_share):
+    """How each zone is integrated: its Gauss panels, and whether through the exact R.
+
+    Parameters
+    ----------
+    mirror : BraggMirror
+    omega_lo, omega_hi : numpy.ndarray
+        The zones' ends, ``2 pi / lambda`` in rad/nm.
+    pass_band_share : numpy.ndarray
+        Their shares of a pass band (:func:`_zones`): the exact spectrum oscillates
+        ``N x share`` times in a zone.
+
+    Returns
+    -------
+    panels : numpy.ndarray of int
+        At least one per :data:`PANEL_NM` of width; in exact zones also
+        :data:`PANELS_PER_OSCILLATION` per oscillation.
+    exact : numpy.ndarray of bool
+        Zones integrated through the exact spectrum: all below :data:`AVERAGING_MIN_PERIODS`,
+        and those whose oscillations are on average wider than a panel. Short periods put only
+        a small part of a pass band in view, so N = 100 can leave a handful of oscillations
+        across the visible range: the eye sees them, and their phase average is 10 to 25
+        dE2000 off. Such zones need at most ``3 x 470 / PANEL_NM`` panels in all (plus one
+        per zone for rounding), whatever N. A zone of share 0 is a band gap, where both
+        spectra are exact, or lies between two edges whose phases were snapped: its
+        oscillations are unknown, so it stays averaged. Where a zone crosses the threshold
+        (along an angle sweep) the colour steps by up to 0.3 dE2000, and the twins may fall on
+        either side of it.
+    """
     width_nm = 2.0 * np.pi / omega_lo - 2.0 * np.pi / omega_hi
+    oscillations = mirror.N * pass_band_share
+    exact = (mirror.N < AVERAGING_MIN_PERIODS) | ((pass_band_share > 0.0)
+                                                  & (width_nm > PANEL_NM * oscillations))
     count = np.maximum(1, np.ceil(width_nm / PANEL_NM)).astype(int)
     # The margin keeps a whole pass band (share 1 up to rounding: phases snapped to 0 and pi)
     # at the same count in both twins.
-    oscillations = mirror.N * pass_band_share
     per_oscillation = np.ceil(PANELS_PER_OSCILLATION * oscillations - PANEL_MARGIN).astype(int)
-    exact = _exact_zones(mirror, omega_lo, omega_hi, pass_band_share)
-    return np.where(exact, np.maximum(count, per_oscillation), count)
+    return np.where(exact, np.maximum(count, per_oscillation), count), exact
 
 
 def _averaged_unpolarized(mirror, theta):
     """XYZ at each angle of the 1-D ``theta`` (none totally reflected)."""
     owner, lo, hi, lower_edge, upper_edge, share = _zones(mirror, theta)
-    panels = _panel_count(mirror, lo, hi, share)
+    panels, exact_zone = _quadrature(mirror, lo, hi, share)
     nodes = 3 * panels
     zone, step = _ranges(np.zeros(lo.size, dtype=int), nodes)
     panel, point = np.divmod(step, 3)
@@ -293,7 +325,7 @@ def _averaged_unpolarized(mirror, theta):
     wavelength = 2.0 * np.pi / omega
     # d lambda = 2 pi / omega^2 d omega.
     weight = _GAUSS_WEIGHTS[point] / panels[zone] * span * ds * wavelength / omega
-    exact = _exact_zones(mirror, lo, hi, share)[zone]
+    exact = exact_zone[zone]
     values = np.empty(wavelength.size)
     for method, where in (("exact", exact), ("phase-averaged", ~exact)):
         values[where] = yeh_reflectance(mirror.n1, mirror.n2, mirror.d1, mirror.d2, mirror.N,

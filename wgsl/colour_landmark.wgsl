@@ -104,7 +104,7 @@ fn averaged_pass_band_reflectance(m: BraggMirror, g: CellGeometry, polarization:
 }
 
 // R of one polarisation at a node of "averaged", from its frame and the node's mode_phases:
-// exact in an exact zone (colour_methods._exact_zones), else averaged in pass bands.
+// exact in an exact zone (colour_methods._quadrature), else averaged in pass bands.
 fn mode_node_reflectance(f: ModeFrame, phases: vec4<f32>, t: f32, periods: u32,
                          exact: bool) -> f32 {
     let terms = mode_terms_at(f, phases);
@@ -221,7 +221,8 @@ fn zone_map(u: f32, lower_edge: bool, upper_edge: bool) -> vec2<f32> {
 }
 
 // "averaged" over the zone [lo, hi] (rad/nm) between band edges or range ends, which holds
-// `share` of a pass band: the panels of colour_methods._panel_count, three Gauss nodes each.
+// `share` of a pass band: the panels and exact flag of colour_methods._quadrature, three
+// Gauss nodes a panel.
 fn averaged_zone(c: ColourSetup, lo: f32, hi: f32, lower_edge: bool, upper_edge: bool,
                  share: f32) -> vec3<f32> {
     // Empty, or narrower than float32 resolves in wavelength: s and p edges a few ulps apart.
