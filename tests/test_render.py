@@ -485,14 +485,16 @@ def test_update_renders_as_a_new_renderer_would(device, tmp_path):
 
 @pytest.mark.parametrize("mode", ["rgb", "spectral"])
 def test_an_edit_rebuilds_only_the_edited_layers_tables(device, monkeypatch, mode):
-    """The renderer keeps the layers an edited material shares with what it showed, and the
-    tables they hold: a Bragg edit re-bakes one layer's (the viewer's table budget), and the
-    image is a fresh renderer's."""
+    """Renderers share the layers of the materials they show, and the tables the layers keep:
+    a Bragg edit re-bakes the edited layer's transmissivity table and reflectance LUT once
+    (the viewer's table budget), for every renderer, and the image is as before."""
+    import collections
     import dataclasses
 
-    from wgbragg import RoughBraggLayer
+    from wgbragg import BraggMirror, RoughBraggLayer
     from wgbragg.scene import LayeredBraggMaterial
 
+    monkeypatch.setattr(render_module, "_shared_layers", collections.OrderedDict())
     scene = load_preset("teapot")
     name, material = next((n, m) for n, m in scene.materials.items()
                           if isinstance(m, LayeredBraggMaterial) and len(m.layers) > 1)
@@ -500,19 +502,24 @@ def test_an_edit_rebuilds_only_the_edited_layers_tables(device, monkeypatch, mod
     top = dataclasses.replace(material.layers[0], d1_nm=material.layers[0].d1_nm + 5.0)
     edited = dataclasses.replace(scene, materials={
         **scene.materials, name: dataclasses.replace(material, layers=(top, *material.layers[1:]))})
-    built = []
-    table = RoughBraggLayer.transmissivity_table
+    built = {"transmissivity": [], "lut": []}
 
-    def counted(layer, *args, **kwargs):
-        built.append(layer.mirror.d1)
-        return table(layer, *args, **kwargs)
+    def counting(cls, method, kind):
+        original = getattr(cls, method)
 
-    monkeypatch.setattr(RoughBraggLayer, "transmissivity_table", counted)
+        def counted(self, *args, **kwargs):
+            built[kind].append((self.mirror if kind == "transmissivity" else self).d1)
+            return original(self, *args, **kwargs)
+        monkeypatch.setattr(cls, method, counted)
+
+    counting(RoughBraggLayer, "transmissivity_table", "transmissivity")
+    counting(BraggMirror, "rgb" if mode == "rgb" else "reflectance", "lut")
     renderer.update(edited, mode)
-    assert built == [top.d1_nm]
+    assert built == {"transmissivity": [top.d1_nm], "lut": [top.d1_nm]}
+    fresh = Renderer(edited, size=(8, 8), seed=3, mode=mode)
+    assert built == {"transmissivity": [top.d1_nm], "lut": [top.d1_nm]}
     monkeypatch.undo()
-    fresh = Renderer(edited, size=(8, 8), seed=3, mode=mode).render(4)
-    np.testing.assert_allclose(renderer.render(4), fresh, rtol=1e-6, atol=1e-7)
+    np.testing.assert_allclose(renderer.render(4), fresh.render(4), rtol=1e-6, atol=1e-7)
 
 
 def test_colour_method_selects_the_layer_colours(device):

@@ -118,6 +118,22 @@ def _interaction(viewer, frames: int) -> tuple[float, int]:
 
 
 def run_benchmarks(cfg: Config, progress: bool = True) -> dict:
+    """Measure every budget.
+
+    Parameters
+    ----------
+    cfg : Config
+        :data:`FULL` or :data:`QUICK`.
+    progress : bool
+        Show a tqdm bar on stderr.
+
+    Returns
+    -------
+    dict
+        ``"edits"``: mode -> (table ms, update ms) lists; ``"filter"``: [(seconds, source)]
+        baked then found; ``"previews"``: label -> [(frames/s, divisor)] of the first and the
+        next interaction; ``"environment"``: the run's facts.
+    """
     from wgbragg.viewer import Viewer
 
     meter = _docs.LoadMeter()
@@ -155,6 +171,8 @@ def _yes(flag: bool) -> str:
 
 
 def render_section(results: dict, cfg: Config, command: str) -> str:
+    """The markdown section of ``results`` (from :func:`run_benchmarks` with ``cfg``, run by
+    ``command``), markers included."""
     from wgbragg.viewer import FILTER_BUDGET_S, PREVIEW_BUDGET_FPS, TABLE_BUDGET_MS
 
     env = results["environment"]

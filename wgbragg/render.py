@@ -84,6 +84,7 @@ wrong image: render fewer lights, fewer bounces or a coarser mesh.
 
 from __future__ import annotations
 
+import collections
 import math
 import numbers
 import time
@@ -110,6 +111,7 @@ from .scene import (
     MAX_IMAGE_SIDE,
     MODES,
     AreaLight,
+    BraggLayerSpec,
     LambertianMaterial,
     LayeredBraggMaterial,
     PointLight,
@@ -141,6 +143,10 @@ PATHS_PER_DISPATCH = 65536
 """Paths a submission of :meth:`Renderer.render` traces at least, for an image of at least 2
 pixels (one pixel takes :data:`wgbragg.gpu.SAFE_LOOP_ITERATIONS` samples a submission: the
 kernel that sums them loops over them in one invocation)."""
+SHARED_LAYERS = 32
+"""Rough Bragg layers the renderers of a process share by their spec, each with the tables it
+keeps (about 1 MB): an edit re-bakes only the layer it changed, once for all renderers."""
+_shared_layers: collections.OrderedDict = collections.OrderedDict()
 _SECONDS_BAR = "{desc}: {n:.1f}/{total:.1f} s |{bar}| {postfix}"
 _STACK_SIZE = 32  # STACK_SIZE of render_scene.wgsl
 _INTERIOR = 0x40000000  # INTERIOR of render_scene.wgsl
@@ -258,6 +264,17 @@ def _check_mapped(name: str, material) -> None:
             f"base (no base_albedo), got {len(material.layers)} layer(s) and base_albedo = "
             f"{material.base_albedo!r}: the transmission through a varying layer would need "
             "its filter integrated at every point (Bragg paper, sec. 7)")
+
+
+def _shared_layer(spec: BraggLayerSpec):
+    """The layer of ``spec`` (:data:`SHARED_LAYERS` most recently used kept)."""
+    layer = _shared_layers.pop(spec, None)
+    if layer is None:
+        layer = spec.to_layer()
+    _shared_layers[spec] = layer
+    if len(_shared_layers) > SHARED_LAYERS:
+        _shared_layers.popitem(last=False)
+    return layer
 
 
 def _layered_buffers(structures: list, spectral: bool, colour_method: str, lut: bool = True):
@@ -665,9 +682,6 @@ class Renderer:
             materials["ibl_level"] = [first for first, _ in material_levels]
             materials["ibl_layers"] = [layers for _, layers in material_levels]
         structures, kept, films = [], {}, []
-        # An edited material keeps the layers (and their tables) it shares with the last update.
-        known_layers = {spec: layer for material, structure in self._structures.values()
-                        for spec, layer in zip(material.layers, structure.layers, strict=True)}
         # Record 0: no map (period 0 tells the kernel to keep the layers' own).
         maps, constant_values = [None], [0.0]
         for k, name in enumerate(names):
@@ -687,7 +701,7 @@ class Renderer:
             materials[k]["structure"] = len(structures)
             known = self._structures.get(id(material))
             structure = known[1] if known and known[0] is material else material.to_structure(
-                known_layers=known_layers)
+                layer_for=_shared_layer)
             kept[id(material)] = (material, structure)
             structures.append(structure)
             if material.period_map is None and material.delta_map is None:

@@ -351,7 +351,8 @@ class LayeredBraggMaterial:
     base_interreflection: bool = False
 
     def to_structure(self, period_nm: float | None = None, delta: float | None = None,
-                     known_layers=None) -> LayeredBragg:
+                     layer_for: Callable[[BraggLayerSpec], RoughBraggLayer] | None = None,
+                     ) -> LayeredBragg:
         """The :class:`wgbragg.LayeredBragg` of this material.
 
         Building it is cheap: the layers' transmission filters are baked or loaded only when
@@ -362,19 +363,21 @@ class LayeredBraggMaterial:
         period_nm, delta : float, optional
             The period (nm) and ``d1 / period`` of every layer at one point, as read from the
             maps; by default each layer's own (the uniform material).
-        known_layers : mapping, optional
-            :class:`BraggLayerSpec` -> :class:`wgbragg.RoughBraggLayer` built before: a layer
-            of this material found there is reused, with the tables it keeps (uniform
-            material only).
+        layer_for : callable, optional
+            The :class:`wgbragg.RoughBraggLayer` of a :class:`BraggLayerSpec`, for the uniform
+            material (``period_nm`` and ``delta`` None): a cache, say, through which
+            structures share layers and the tables they keep. By default
+            :meth:`BraggLayerSpec.to_layer`.
 
         Returns
         -------
         LayeredBragg
         """
-        known = {} if known_layers is None or period_nm is not None or delta is not None \
-            else known_layers
-        return LayeredBragg([known.get(spec) or spec.to_layer(period_nm, delta)
-                             for spec in self.layers],
+        if layer_for is None or period_nm is not None or delta is not None:
+            layers = [spec.to_layer(period_nm, delta) for spec in self.layers]
+        else:
+            layers = [layer_for(spec) for spec in self.layers]
+        return LayeredBragg(layers,
                             base_albedo=self.base_albedo,
                             base_interreflection=self.base_interreflection)
 
