@@ -92,6 +92,15 @@ def test_header_facts(bench, runs):
 # --------------------------------------------------------------------------- the tables
 
 
+def _assert_stats_rows(bench, body, methods):
+    """One row per method, in order, each cell a consistent mean / p95 / max."""
+    assert [row[0] for row in body] == [bench.method_label(m) for m in methods]
+    for row in body:
+        for cell in row[1:]:
+            mean, p95, top = bench.parse_stats(cell)
+            assert 0.0 <= mean <= top and 0.0 <= p95 <= top, row
+
+
 def test_time_table_has_every_method(bench, runs):
     (text, _), _, _ = runs
     rows = markdown_table(bench_section(bench, text), "### Time per colour")
@@ -129,13 +138,9 @@ def test_delta_e_table_has_every_method(bench, runs):
     header, body = rows[0], rows[1:]
     assert header[1:] == [f"N = {n}" for n in bench.QUICK.counts] + ["N ≥ 10", "all N"]
     methods, _ = _methods()
-    assert [row[0] for row in body] == [bench.method_label(m) for m in methods]
-    for row in body:
-        for cell in row[1:]:
-            mean, p95, top = bench.parse_stats(cell)
-            assert 0.0 <= mean <= top and 0.0 <= p95 <= top, row
-        if row[0] == "reference":
-            assert bench.parse_stats(row[-1]) == (0.0, 0.0, 0.0)
+    _assert_stats_rows(bench, body, methods)
+    reference = body[methods.index("reference")]
+    assert bench.parse_stats(reference[-1]) == (0.0, 0.0, 0.0)
 
 
 def test_gpu_agreement_table(bench, runs):
@@ -158,11 +163,7 @@ def test_converged_table(bench, runs):
     section = bench_section(bench, text)
     body = markdown_table(section, "### dE2000 against the converged integral")[1:]
     methods, _ = _methods()
-    assert [row[0] for row in body] == [bench.method_label(m) for m in methods]
-    for row in body:
-        for cell in row[1:]:
-            mean, p95, top = bench.parse_stats(cell)
-            assert 0.0 <= mean <= top and 0.0 <= p95 <= top, row
+    _assert_stats_rows(bench, body, methods)
 
 
 def test_short_period_table(bench, runs):
@@ -173,11 +174,7 @@ def test_short_period_table(bench, runs):
     header, body = rows[0], rows[1:]
     assert header[1:] == [f"N = {n}" for n in bench.QUICK.short_counts] + ["all N"]
     methods, _ = _methods()
-    assert [row[0] for row in body] == [bench.method_label(m) for m in methods]
-    for row in body:
-        for cell in row[1:]:
-            mean, p95, top = bench.parse_stats(cell)
-            assert 0.0 <= mean <= top and 0.0 <= p95 <= top, row
+    _assert_stats_rows(bench, body, methods)
     averaged = body[methods.index("averaged")]
     assert bench.parse_stats(averaged[-1])[2] <= 0.5
 
