@@ -9,12 +9,15 @@ is replaced atomically, so a reader or an interrupted run never sees half a docu
 
 from __future__ import annotations
 
+import argparse
 import datetime
 import math
 import os
 import platform
+import shlex
+import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +36,7 @@ __all__ = [
     "parse_time",
     "publish",
     "run_facts",
+    "section_main",
     "update_document",
     "write_section",
 ]
@@ -261,3 +265,38 @@ def publish(section: str, path: Path | None, begin: str, end: str) -> None:
     if path is not None:
         write_section(path, section, begin, end)
         print(f"wrote {path}", file=sys.stderr)
+
+
+def section_main(argv: Sequence[str] | None, script: str, description: str, quick_help: str,
+                 default_output: Path, markers: tuple[str, str],
+                 measure: Callable[[bool, bool, str], str]) -> int:
+    """The ``main`` of a benchmark that owns one section of the document.
+
+    Parameters
+    ----------
+    argv : sequence of str or None
+        Arguments without the program name; default ``sys.argv[1:]``.
+    script : str
+        The file name under ``tools/``, quoted in the section's command line.
+    description, quick_help : str
+        The command line's help texts (see :func:`add_section_arguments`).
+    default_output : Path
+        Where full runs write (:func:`section_output`).
+    markers : (str, str)
+        The section's begin and end markers.
+    measure : callable
+        ``measure(quick, progress, command)`` runs the benchmark and returns its section.
+
+    Returns
+    -------
+    int
+        Exit status.
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = argparse.ArgumentParser(prog=script, description=description)
+    add_section_arguments(parser, default_output, quick_help)
+    args = parser.parse_args(argv)
+    command = shlex.join(["python", f"tools/{script}", *argv])
+    section = measure(args.quick, not args.no_progress, command)
+    publish(section, section_output(args, default_output), *markers)
+    return 0

@@ -50,10 +50,8 @@ Usage::
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import functools
-import shlex
 import sys
 import time
 import warnings
@@ -543,23 +541,16 @@ def render_section(results: Results, command: str) -> str:
     return "\n".join(lines)
 
 
-def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(
-        prog="bench_layered.py",
-        description="Efficiency of the single-reflection model against simulations.")
-    _docs.add_section_arguments(parser, DEFAULT_OUTPUT,
-                                "a tiny sphere (seconds); writes nothing unless --output")
-    return parser.parse_args(argv)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Run, print the section and write it (docs/benchmarks.md in full mode)."""
-    argv = list(sys.argv[1:] if argv is None else argv)
-    args = parse_args(argv)
-    results = run_benchmarks(QUICK if args.quick else FULL, progress=not args.no_progress)
-    section = render_section(results, shlex.join(["python", "tools/bench_layered.py", *argv]))
-    _docs.publish(section, _docs.section_output(args, DEFAULT_OUTPUT), BEGIN_MARKER, END_MARKER)
-    return 0
+
+    def measure(quick: bool, progress: bool, command: str) -> str:
+        return render_section(run_benchmarks(QUICK if quick else FULL, progress), command)
+
+    return _docs.section_main(
+        argv, Path(__file__).name, "Efficiency of the single-reflection model against simulations.",
+        "a tiny sphere (seconds); writes nothing unless --output", DEFAULT_OUTPUT,
+        (BEGIN_MARKER, END_MARKER), measure)
 
 
 if __name__ == "__main__":

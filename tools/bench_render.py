@@ -30,9 +30,7 @@ Usage::
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
-import shlex
 import sys
 import tempfile
 import time
@@ -309,24 +307,17 @@ def render_section(results: dict, cfg: Config, command: str) -> str:
     return "\n".join(lines)
 
 
-def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(prog="bench_render.py",
-                                     description="Throughput of the GPU renderer.")
-    _docs.add_section_arguments(parser, DEFAULT_OUTPUT,
-                                "tiny images (seconds); writes nothing unless --output")
-    return parser.parse_args(argv)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Run, print the section and write it (docs/benchmarks.md in full mode)."""
-    argv = list(sys.argv[1:] if argv is None else argv)
-    args = parse_args(argv)
-    cfg = QUICK if args.quick else FULL
-    results = run_benchmarks(cfg, progress=not args.no_progress)
-    section = render_section(results, cfg,
-                             shlex.join(["python", "tools/bench_render.py", *argv]))
-    _docs.publish(section, _docs.section_output(args, DEFAULT_OUTPUT), BEGIN_MARKER, END_MARKER)
-    return 0
+
+    def measure(quick: bool, progress: bool, command: str) -> str:
+        cfg = QUICK if quick else FULL
+        return render_section(run_benchmarks(cfg, progress), cfg, command)
+
+    return _docs.section_main(
+        argv, Path(__file__).name, "Throughput of the GPU renderer.",
+        "tiny images (seconds); writes nothing unless --output", DEFAULT_OUTPUT,
+        (BEGIN_MARKER, END_MARKER), measure)
 
 
 if __name__ == "__main__":

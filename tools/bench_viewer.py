@@ -30,11 +30,9 @@ Usage::
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import dataclasses
 import os
-import shlex
 import statistics
 import sys
 import tempfile
@@ -237,24 +235,17 @@ def render_section(results: dict, cfg: Config, command: str) -> str:
     return "\n".join(lines)
 
 
-def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(prog="bench_viewer.py",
-                                     description="Interactive budgets of the viewer.")
-    _docs.add_section_arguments(parser, DEFAULT_OUTPUT,
-                                "tiny image (seconds); writes nothing unless --output")
-    return parser.parse_args(argv)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Run, print the section and write it (docs/benchmarks.md in full mode)."""
-    argv = list(sys.argv[1:] if argv is None else argv)
-    args = parse_args(argv)
-    cfg = QUICK if args.quick else FULL
-    results = run_benchmarks(cfg, progress=not args.no_progress)
-    section = render_section(results, cfg,
-                             shlex.join(["python", "tools/bench_viewer.py", *argv]))
-    _docs.publish(section, _docs.section_output(args, DEFAULT_OUTPUT), BEGIN_MARKER, END_MARKER)
-    return 0
+
+    def measure(quick: bool, progress: bool, command: str) -> str:
+        cfg = QUICK if quick else FULL
+        return render_section(run_benchmarks(cfg, progress), cfg, command)
+
+    return _docs.section_main(
+        argv, Path(__file__).name, "Interactive budgets of the viewer.",
+        "tiny image (seconds); writes nothing unless --output", DEFAULT_OUTPUT,
+        (BEGIN_MARKER, END_MARKER), measure)
 
 
 if __name__ == "__main__":
