@@ -308,6 +308,18 @@ def test_device_arrays_round_trip():
         gpu.DeviceArray.upload(np.ones(3))
 
 
+def test_buffers_beyond_the_device_limit_are_refused_naming_them():
+    """The largest storage binding (128 MiB on lavapipe) was a wgpu validation traceback."""
+    largest = gpu.max_buffer_bytes()
+    assert largest == min(gpu.get_device().limits["max-storage-buffer-binding-size"],
+                          gpu.get_device().limits["max-buffer-size"])
+    with pytest.raises(ValueError, match=rf"array of shape \({largest // 16 + 1}, 4\): "
+                                         rf"{largest + 16} bytes exceed .*\({largest} bytes"):
+        gpu.DeviceArray.empty((largest // 16 + 1, 4), np.float32)
+    with pytest.raises(ValueError, match=rf"the texels: {largest + 4} bytes exceed"):
+        gpu.DeviceArray.upload(np.zeros(largest // 4 + 1, np.float32), what="the texels")
+
+
 def test_texture_inputs(tmp_shaders):
     (tmp_shaders / "texture_copy.wgsl").write_text(TEXTURE_COPY)
     kernel = gpu.compute_pipeline("texture_copy.wgsl")

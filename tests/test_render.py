@@ -7,6 +7,7 @@ minute and a half on lavapipe with 2 cores."""
 
 from __future__ import annotations
 
+import math
 import warnings
 
 import colour
@@ -227,6 +228,17 @@ def test_an_exr_environment_file_must_be_readable(tmp_path):
 def test_bad_arguments_name_the_parameter(argument, value):
     with pytest.raises(ValueError, match=argument):
         Renderer(load_preset("furnace"), **{argument: value})
+
+
+def test_sizes_beyond_the_devices_largest_buffer_are_refused(device):
+    """2900 x 2900 passes the scene's 2**27 pixels but not lavapipe's 128 MiB storage
+    binding: it was a wgpu validation traceback."""
+    from wgbragg import gpu
+
+    most = gpu.max_buffer_bytes() // 16
+    side = math.isqrt(most) + 1
+    with pytest.raises(ValueError, match=rf"size must hold at most {most} pixels on this GPU"):
+        Renderer(load_preset("furnace"), size=(side, side))
 
 
 def test_display_transform():

@@ -104,6 +104,7 @@ __all__ = [
     "compute_pipeline",
     "get_device",
     "load_shader",
+    "max_buffer_bytes",
     "pipeline_cache_info",
     "select_adapter",
     "shader_dir",
@@ -225,9 +226,12 @@ def _adapter_and_device() -> tuple[Any, wgpu.GPUDevice]:
     features = [f for f in _OPTIONAL_FEATURES if f in adapter.features]
     # The WebGPU default caps workgroups at 256 invocations; software rasterisers such as
     # lavapipe pay a fixed cost per workgroup, so ask for what the adapter really allows.
+    # Buffers too: the WebGPU defaults (128 MiB a binding, 256 MiB a buffer) are below what
+    # real GPUs hold.
     limits = {
         name: adapter.limits[name]
-        for name in ("max-compute-invocations-per-workgroup", "max-compute-workgroup-size-x")
+        for name in ("max-compute-invocations-per-workgroup", "max-compute-workgroup-size-x",
+                     "max-storage-buffer-binding-size", "max-buffer-size")
         if name in adapter.limits
     }
     device = adapter.request_device_sync(required_features=features, required_limits=limits)
@@ -248,6 +252,27 @@ def get_device() -> wgpu.GPUDevice:
         If no adapter exists, or ``WGBRAGG_ADAPTER`` matches none.
     """
     return _adapter_and_device()[1]
+
+
+def max_buffer_bytes() -> int:
+    """The largest storage buffer a kernel can bind on this device, in bytes.
+
+    It bounds every per-pixel or per-invocation array: 128 MiB on lavapipe (8,388,608 vec4
+    pixels), more on most real GPUs. :class:`DeviceArray` refuses larger ones with a
+    ValueError, and the public entry points that size buffers from user input check it first,
+    naming their parameter.
+    """
+    limits = get_device().limits
+    return int(min(limits["max-storage-buffer-binding-size"], limits["max-buffer-size"]))
+
+
+def _check_buffer_size(nbytes: int, what: str) -> None:
+    largest = max_buffer_bytes()
+    if nbytes > largest:
+        raise ValueError(
+            f"{what}: {nbytes} bytes exceed this GPU's largest storage buffer ({largest} bytes,"
+            f" {adapter_info()['name']}); split the work or reduce its size"
+        )
 
 
 def adapter_info() -> dict[str, Any]:
@@ -783,7 +808,7 @@ class Kernel:
         if not isinstance(output, DeviceArray):
             try:
                 return DeviceArray.empty(*output)
-            except TypeError as exc:
+            except (TypeError, ValueError) as exc:
                 raise TypeError(f"{self.source.name}: output {i}: {exc}") from None
         if output.is_texture:
             raise TypeError(f"{self.source.name}: output {i} is a storage buffer, got {output!r}")
@@ -965,16 +990,20 @@ class DeviceArray:
         return math.prod(self.shape) * self.dtype.itemsize
 
     @classmethod
-    def upload(cls, array: np.ndarray, *, texture: bool = False) -> DeviceArray:
+    def upload(cls, array: np.ndarray, *, texture: bool = False,
+               what: str = "array") -> DeviceArray:
         """Copy ``array`` to a new storage buffer, or to an ``rgba32float`` texture.
 
         Parameters
         ----------
         array : numpy.ndarray
-            For a buffer: a dtype the harness allows. For a texture: float32 of shape
-            ``(height, width, 4)``, both at most the device's ``max-texture-dimension-2d``.
+            For a buffer: a dtype the harness allows, at most :func:`max_buffer_bytes`. For a
+            texture: float32 of shape ``(height, width, 4)``, both at most the device's
+            ``max-texture-dimension-2d``.
         texture : bool
             Make a texture (for ``texture_2d<f32>`` inputs) instead of a buffer.
+        what : str
+            What the array holds, for error messages.
 
         Returns
         -------
@@ -983,7 +1012,8 @@ class DeviceArray:
         device = get_device()
         array = np.asarray(array)
         if not texture:
-            data = _as_bytes(array, "array", 4)
+            data = _as_bytes(array, what, 4)
+            _check_buffer_size(data.nbytes, what)
             usage = wgpu.BufferUsage.STORAGE | wgpu.BufferUsage.COPY_DST | wgpu.BufferUsage.COPY_SRC
             buffer = device.create_buffer_with_data(data=data, usage=usage)
             return cls(buffer, array.shape, _check_dtype(array.dtype, "array"), False)
@@ -1028,9 +1058,11 @@ class DeviceArray:
         """
         shape = (int(shape),) if isinstance(shape, int | np.integer) else tuple(shape)
         dtype = _check_dtype(dtype, "array")
+        size = _padded_size(math.prod(shape) * dtype.itemsize)
+        _check_buffer_size(size, f"array of shape {shape}")
         usage = wgpu.BufferUsage
         buffer = get_device().create_buffer(
-            size=_padded_size(math.prod(shape) * dtype.itemsize),
+            size=size,
             usage=usage.STORAGE | usage.COPY_DST | usage.COPY_SRC,
         )
         return cls(buffer, shape, dtype, False)

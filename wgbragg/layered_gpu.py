@@ -360,6 +360,31 @@ def _setup(structure, operation: str, first, second, wavelength, batch: _Batch, 
 def _run(structure, operation, first, second, wavelength, batch, method, colour_method):
     if batch.count == 0:
         return np.zeros(0, np.float32), np.zeros((0, 4), np.float32)
+    # Per invocation: two vec4 directions, its wavelengths (unless shared) and its values.
+    channels = 1 if operation == "pdf" else (batch.wavelengths or 3)
+    per_invocation = 4 * max(4, channels, batch.stride)
+    step = max(1, gpu.max_buffer_bytes() // per_invocation)
+    if batch.count <= step:
+        return _dispatch(structure, operation, first, second, wavelength, batch, method,
+                         colour_method)
+    # More than the device's largest buffer holds: dispatch consecutive invocations apart.
+    first, second = _vec4(first, batch.invocations), _vec4(second, batch.invocations)
+    values, drawn = [], []
+    for start in range(0, batch.count, step):
+        stop = min(start + step, batch.count)
+        part = dataclasses.replace(
+            batch, invocations=(stop - start,), count=stop - start,
+            wavelength=(batch.wavelength[start * batch.stride:stop * batch.stride]
+                        if batch.stride else batch.wavelength))
+        value, drawn_part = _dispatch(structure, operation, first[start:stop],
+                                      second[start:stop], wavelength, part, method,
+                                      colour_method)
+        values.append(value)
+        drawn.append(drawn_part)
+    return np.concatenate(values), np.concatenate(drawn)
+
+
+def _dispatch(structure, operation, first, second, wavelength, batch, method, colour_method):
     kernel, inputs, outputs, params = _setup(structure, operation, first, second, wavelength,
                                              batch, method, colour_method)
     value, drawn, cut = kernel.run(inputs, outputs, params, count=batch.count)

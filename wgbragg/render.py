@@ -556,6 +556,12 @@ class Renderer:
                  mode: str | None = None, max_bounces: int = MAX_BOUNCES,
                  colour_method: str = "averaged", ibl: str | None = None):
         width, height = _check_size(scene.settings.size if size is None else size)
+        largest = gpu.max_buffer_bytes() // _PIXEL_BYTES
+        if width * height > largest:
+            raise ValueError(
+                f"size must hold at most {largest} pixels on this GPU ({_PIXEL_BYTES} bytes a "
+                f"pixel in its largest storage buffer, {gpu.max_buffer_bytes()} bytes), got "
+                f"{width} x {height}")
         mode = scene.settings.mode if mode is None else mode
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
@@ -663,8 +669,10 @@ class Renderer:
         nodes["count"] = _node_counts(bvh)
         nodes["left_or_first"] = np.where(bvh.node_count > 0, bvh.node_first, bvh.node_left)
         inputs = [
-            gpu.DeviceArray.upload(np.column_stack([vertices, uv[:, 0]]).astype(np.float32)),
-            gpu.DeviceArray.upload(np.column_stack([normals, uv[:, 1]]).astype(np.float32)),
+            gpu.DeviceArray.upload(np.column_stack([vertices, uv[:, 0]]).astype(np.float32),
+                                   what="the scene's vertices"),
+            gpu.DeviceArray.upload(np.column_stack([normals, uv[:, 1]]).astype(np.float32),
+                                   what="the scene's normals"),
             gpu.DeviceArray.upload(np.ascontiguousarray(faces[bvh.triangle_order], np.uint32)),
             gpu.DeviceArray.upload(nodes),
         ]
@@ -757,9 +765,9 @@ class Renderer:
             gpu.DeviceArray.upload(tables),
             gpu.DeviceArray.upload(_lights(scene)),
             gpu.DeviceArray.upload(_spectra() if spectral else np.zeros((1, 4), np.float32)),
-            gpu.DeviceArray.upload(environment_texels),
+            gpu.DeviceArray.upload(environment_texels, what="environment.path: its texels"),
             gpu.DeviceArray.upload(map_records),
-            gpu.DeviceArray.upload(map_texels),
+            gpu.DeviceArray.upload(map_texels, what="the materials' texture maps"),
             *(array if isinstance(array, gpu.DeviceArray) else gpu.DeviceArray.upload(array)
               for array in (_film_buffers(films, ibl == "kneiphof") if films else _no_films())),
             *self._prefiltered_buffers(scene, environment_map, levels),
@@ -1023,6 +1031,10 @@ def display_transform(image: np.ndarray, exposure: float = 0.0) -> np.ndarray:
     encoded = np.where(mapped <= 0.0031308, 12.92 * mapped,
                        1.055 * np.power(mapped, 1.0 / 2.4) - 0.055)
     return np.round(encoded * 255.0).astype(np.uint8)
+
+
+# The accumulation buffer's vec4<f32> a pixel: the largest per-pixel storage buffer.
+_PIXEL_BYTES = 16
 
 
 def _check_size(size) -> tuple[int, int]:

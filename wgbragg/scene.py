@@ -152,8 +152,10 @@ MAX_IMAGE_SIDE = 16384
 """Largest image width or height in pixels (the largest 2D texture a wgpu device must offer)."""
 
 MAX_IMAGE_PIXELS = 2**27
-"""Largest width x height: the renderer's float32 RGBA accumulation buffer (16 bytes a pixel)
-must stay below wgpu's 2 GiB buffer limit (11585 x 11585 at most when square)."""
+"""Largest width x height of a scene file: the renderer's float32 RGBA accumulation buffer (16
+bytes a pixel) must stay below wgpu's 2 GiB buffer limit (11585 x 11585 at most when square).
+A device may hold less: the renderer refuses sizes beyond its largest storage buffer
+(:func:`wgbragg.gpu.max_buffer_bytes`; 8,388,608 pixels on lavapipe)."""
 
 MAX_RADIANCE = 1e9
 """Largest radiance, intensity or environment intensity (relative units): float32 sums over
