@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import os
 import pickle
 import sys
@@ -143,6 +144,11 @@ DAMAGE = {
         lambda p: _rewrite_meta(p, arrays={**_meta(p)["arrays"],
                                            "values": {"dtype": "<f8", "shape": [10**9, 10**3]}}),
         "larger than the file"),
+    # JSON's Infinity: int() raised OverflowError, past the LutError that re-bakes the file.
+    "infinite declared shape": (
+        lambda p: _rewrite_meta(p, arrays={**_meta(p)["arrays"],
+                                           "values": {"dtype": "<f8", "shape": [math.inf, 3]}}),
+        "bad description of array 'values'"),
 }
 
 

@@ -366,7 +366,7 @@ def _expected(described: dict, path: Path) -> dict[str, tuple[tuple[int, ...], n
         try:
             dtype = np.dtype(entry["dtype"])
             shape = tuple(int(n) for n in entry["shape"])
-        except (TypeError, KeyError, ValueError) as error:
+        except (TypeError, KeyError, ValueError, OverflowError) as error:
             raise LutError(path, f"bad description of array {name!r} ({error!r})") from error
         if dtype.kind not in _NUMERIC_KINDS or any(n < 0 for n in shape):
             raise LutError(path, f"bad description of array {name!r}: {entry}")
