@@ -1,5 +1,7 @@
 """The ``wgbragg`` command line: outputs, figures and error handling (demo.py: test_viewer.py)."""
 
+import math
+
 import numpy as np
 import pytest
 from PIL import Image
@@ -85,6 +87,15 @@ def test_map_writes_a_png_atomically(tmp_path, capsys):
          "--phi-deg must be a finite number of degrees"),
         (["bake", "--cache", "{tmp}/file.txt/cache", "--alpha", "0.3"],
          "is not a writable folder"),
+        # Amounts too, before the scene is built (it could bake filters for seconds).
+        (["render", "--scene", "furnace", "--spp", "0", "-o", "{tmp}/ok.png"],
+         "--spp must be an integer >= 1, got 0"),
+        (["render", "--scene", "furnace", "--size", "0x4", "-o", "{tmp}/ok.png"],
+         "--size must be (width, height)"),
+        (["scatterogram", "--exposure", "0", "-o", "{tmp}/s.png"],
+         "--exposure must be finite and > 0, got 0.0"),
+        (["scatterogram", "--size", "4097", "-o", "{tmp}/s.png"],
+         "--size must be an integer in [16, 4096], got 4097"),
     ],
 )
 def test_file_mistakes_are_clear_errors_before_any_work(argv, message, tmp_path, capsys,
@@ -97,6 +108,7 @@ def test_file_mistakes_are_clear_errors_before_any_work(argv, message, tmp_path,
     def forbidden(*args, **kwargs):
         raise AssertionError("the work started before the output path was checked")
 
+    monkeypatch.setattr(render.Renderer, "__init__", forbidden)
     monkeypatch.setattr(render.Renderer, "render", forbidden)
     monkeypatch.setattr(maps, "reflectance_map", forbidden)
     monkeypatch.setattr(scatterogram, "scatterogram", forbidden)
@@ -108,3 +120,23 @@ def test_file_mistakes_are_clear_errors_before_any_work(argv, message, tmp_path,
     assert error.startswith("wgbragg: error:") and message in error, error
     assert error.count("\n") == 1
     assert sorted(tmp_path.rglob("*")) == before
+
+
+@pytest.mark.gpu
+def test_render_sizes_beyond_the_device_are_refused_before_the_scene(tmp_path, capsys,
+                                                                    monkeypatch):
+    """2900 x 2900 fits a scene file but not lavapipe's 128 MiB storage binding: a wgpu
+    traceback after the scene was built, before."""
+    from wgbragg import gpu, render
+    from wgbragg.scene import MAX_IMAGE_PIXELS
+
+    most = gpu.max_buffer_bytes() // 16
+    if most >= MAX_IMAGE_PIXELS:
+        pytest.skip("this device binds every size a scene allows")
+    monkeypatch.setattr(render.Renderer, "__init__", lambda *a, **k: pytest.fail("built"))
+    side = math.isqrt(most) + 1
+    argv = ["render", "--scene", "furnace", "--size", f"{side}x{side}", "-o",
+            str(tmp_path / "x.png")]
+    assert main(argv) == 2
+    assert f"--size must hold at most {most} pixels on this GPU" in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())

@@ -327,6 +327,22 @@ def test_cached_explicit_folder_wins_over_environment(cache, tmp_path):
     assert not cache.exists()
 
 
+def test_a_cache_that_cannot_be_written_is_refused_before_the_bake(cache, tmp_path):
+    """$WGBRAGG_CACHE naming a file was an OSError ('File exists') after the bake."""
+    cache.write_text("not a folder")
+    baked = []
+
+    def bake():
+        baked.append(1)
+        return _arrays()
+
+    with pytest.raises(ValueError, match=r"\$WGBRAGG_CACHE is a file, not a folder"):
+        luts.cached(KIND, PARAMETERS, bake)
+    with pytest.raises(ValueError, match=r"^cache is a file, not a folder"):
+        luts.cached(KIND, PARAMETERS, bake, cache=cache)
+    assert not baked
+
+
 def test_cached_rejects_bad_bake(cache):
     with pytest.raises(ValueError, match="bake must be callable"):
         luts.cached(KIND, PARAMETERS, _arrays())

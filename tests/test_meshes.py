@@ -146,6 +146,9 @@ def test_mesh_arrays_are_read_only_and_typed():
         (lambda: TriangleMesh(np.eye(3), np.zeros((0, 3), int), np.eye(3)), "faces"),
         (lambda: TriangleMesh(np.eye(3), [[0, 1, 2]], np.zeros((3, 3))), "normals"),
         (lambda: TriangleMesh(np.eye(3) * np.nan, [[0, 1, 2]], np.eye(3)), "vertices"),
+        # Finite in float64, infinite in the renderer's float32: the triangle vanished.
+        (lambda: TriangleMesh(np.eye(3) * 1e39, [[0, 1, 2]], np.eye(3)),
+         r"vertices must lie within \[-1e\+09, 1e\+09\], got 1e\+39"),
         (lambda: TriangleMesh(np.eye(3), [[0, 1, 2]], np.eye(3), np.eye(3)), "uv"),
         (lambda: TriangleMesh(np.eye(3), [[0, 1, 2]], np.eye(3), np.zeros((2, 2))), "uv"),
         (lambda: TriangleMesh(np.eye(3), [[0, 1, 2]], np.eye(3), np.full((3, 2), np.inf)), "uv"),
@@ -308,6 +311,14 @@ def test_obj_normals_from_the_file_are_kept(tmp_path):
     )
     loaded = load_mesh(path)
     np.testing.assert_allclose(loaded.normals, [[0.6, 0, 0.8]] * 3, atol=1e-7)
+
+
+def test_normals_of_any_length_are_made_unit():
+    """The squares of 1e200 overflowed to zero normals, those of 1e-200 underflowed."""
+    normals = np.array([[0.0, 1e200, 1e200], [3e-200, 0.0, 4e-200], [0.0, 0.0, 2.0]])
+    mesh = TriangleMesh(np.eye(3), [[0, 1, 2]], normals)
+    np.testing.assert_allclose(mesh.normals, [[0, 0.5**0.5, 0.5**0.5], [0.6, 0, 0.8], [0, 0, 1]],
+                               rtol=1e-15)
 
 
 def test_scene_transforms_are_applied(tmp_path):

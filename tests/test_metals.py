@@ -54,8 +54,9 @@ def test_out_of_range_and_bad_tables():
         with pytest.raises(ValueError):
             SpectralIndex("x", *args)
     # The float32-safe bounds of a constant base hold for a tabulated one too.
-    for n, k in (([1.0, 1e20], [0.0, 0.0]), ([1.0, 1.0], [0.0, 1e20]), ([1.0, np.nan], [0, 0])):
-        with pytest.raises(ValueError, match=r"n must be in \(0, 100\] and k in \[0, 10000\]"):
+    for n, k in (([1.0, 1e20], [0.0, 0.0]), ([1.0, 1.0], [0.0, 1e20]), ([1.0, np.nan], [0, 0]),
+                 ([1.0, 0.005], [0.0, 0.0])):
+        with pytest.raises(ValueError, match=r"n must be in \[0.01, 100\] and k in \[0, 10000\]"):
             SpectralIndex("x", [400.0, 500.0], n, k)
 
 

@@ -52,6 +52,9 @@ DENSE_MIRRORS = [
     (1.59, 1.67, 81.6, 78.4, 1.0, (1, 2, 5, 8, 20, 100)),  # Appendix D, jewel beetle
     (1.5, 1.0, 100.0, 200.0, 1.2, (1, 2, 5, 20, 100)),  # evanescent n2 under another host
     (1.3, 2.5, 300.0, 20.0, 2.0, (1, 2, 5, 20, 100)),  # total reflection beyond 40.5 deg
+    # The index floor (_validation.MIN_INDEX): evanescent layers whose q / n^2 are largest.
+    (1.0, 0.01, 100.0, 100.0, None, (1, 10)),
+    (0.01, 1.5, 100.0, 100.0, 1.0, (1, 10)),
 ]
 DENSE_CASES = [
     pytest.param(n1, n2, d1, d2, host, N, id=f"{n1}-{n2}-{d1}-{d2}-host{host}-N{N}")
@@ -325,6 +328,10 @@ FILMS = [
     ThinFilm(n_film=1.5, d=0.0, n_base=0.2, k_base=3.5, host=1.0),  # no film
     ThinFilm(n_film=1.5, d=0.0, n_base=1.5, k_base=0.0, host=1.5),  # nothing at all
     ThinFilm(n_film=2.4, d=10000.0, n_base=1.5, k_base=0.0, host=1.0),  # thick film
+    # The index floor (_validation.MIN_INDEX): below it the p terms lost every digit.
+    ThinFilm(n_film=2.0, d=300.0, n_base=0.01, k_base=0.0, host=1.0),
+    ThinFilm(n_film=0.01, d=300.0, n_base=1.5, k_base=0.0, host=1.0),
+    ThinFilm(n_film=1.5, d=300.0, n_base=1.5, k_base=0.0, host=0.01),
 ]
 
 

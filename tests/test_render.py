@@ -7,6 +7,7 @@ minute and a half on lavapipe with 2 cores."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 
@@ -220,6 +221,32 @@ def test_an_exr_environment_file_must_be_readable(tmp_path):
         Renderer(scene, size=(4, 4))
 
 
+@pytest.mark.parametrize(("pixel", "message"), [
+    (-1.0, r"environment\.path .*env\.exr: radiance must be finite and >= 0"),
+    (3e38, r"environment\.path .*env\.exr: its largest radiance times environment\.intensity "
+           r"must be at most 1e\+09, got 3e\+38"),
+])
+def test_an_exr_environment_the_renderer_cannot_use_is_refused_naming_it(tmp_path, pixel,
+                                                                         message):
+    """Both named neither the file nor the key; radiance near float32's limit rendered
+    infinite pixels."""
+    radiance = np.ones((4, 8, 3), np.float32)
+    radiance[1, 2, 0] = pixel
+    write_exr(tmp_path / "env.exr", radiance)
+    scene = _scene(tmp_path, 'type = "exr"\npath = "env.exr"')
+    with pytest.raises(ValueError, match=message):
+        Renderer(scene, size=(4, 4))
+
+
+def test_a_tiny_camera_up_gives_the_frame_of_its_direction(device):
+    scene = load_preset("furnace")
+    camera = scene.camera
+    tiny = dataclasses.replace(scene, camera=dataclasses.replace(
+        camera, up=tuple(1e-200 * x for x in camera.up)))
+    np.testing.assert_array_equal(Renderer(tiny, size=(4, 4))._make_params(),
+                                  Renderer(scene, size=(4, 4))._make_params())
+
+
 @pytest.mark.parametrize(("argument", "value"),
                          [("size", (0, 4)), ("size", 5), ("size", (1, 2, 3)),
                           ("size", (True, True)), ("size", (4.0, 4)),
@@ -329,6 +356,27 @@ def test_cli_renders_spectral_for_a_time_with_an_exr(device, tmp_path, capsys):
 def test_cli_refuses_spp_and_seconds_together(capsys):
     assert main(["render", "--scene", "furnace", "--spp", "2", "--seconds", "1"]) == 2
     assert "--spp or --seconds" in capsys.readouterr().err
+
+
+def test_cli_writes_both_files_or_neither_from_a_broken_render(device, tmp_path, capsys,
+                                                              monkeypatch):
+    """A NaN out of a kernel is a bug to report. With --exr (which stores only finite images)
+    the PNG was written before the EXR was refused; now nothing is, and without --exr the
+    PNG shows it black and the run says how many pixels broke."""
+    def broken(self, *args, **kwargs):
+        image = np.full((self.height, self.width, 3), 0.5)
+        image[0, 0, 1] = np.nan
+        return image
+
+    monkeypatch.setattr(Renderer, "render", broken)
+    argv = ["render", "--scene", "furnace", "--size", "4x4", "--no-progress", "-o",
+            str(tmp_path / "x.png")]
+    assert main([*argv, "--exr", str(tmp_path / "x.exr")]) == 2
+    assert "1 of 16 pixels are not finite" in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())
+    assert main(argv) == 0
+    assert "warning: 1 of 16 pixels are not finite" in capsys.readouterr().err
+    assert [p.name for p in tmp_path.iterdir()] == ["x.png"]
 
 
 def test_cli_refuses_a_file_and_a_preset_together(tmp_path, capsys):

@@ -327,8 +327,8 @@ def test_a_byte_order_mark_is_read_and_deep_nesting_refused(tmp_path):
 
 
 @pytest.mark.parametrize(("old", "new", "key", "accepted"), [
-    ("n2 = 1.5", "n2 = 0.0", "materials.blue.layers[0].n2", "refractive index in [1e-30, 100]"),
-    ("n2 = 1.5", "n2 = 1e20", "materials.blue.layers[0].n2", "refractive index in [1e-30, 100]"),
+    ("n2 = 1.5", "n2 = 0.0", "materials.blue.layers[0].n2", "refractive index in [0.01, 100]"),
+    ("n2 = 1.5", "n2 = 1e20", "materials.blue.layers[0].n2", "refractive index in [0.01, 100]"),
     ("n1 = 1.0", "n1 = 0.9", "materials.blue.layers[0].n1", "must be >= 1"),
     ("d1_nm = 250.0", "d1_nm = -1.0", "materials.blue.layers[0].d1_nm",
      "thickness in [0, 1e+06] nm"),
@@ -408,6 +408,10 @@ def test_a_mesh_needs_a_path_and_only_a_mesh_takes_one(tmp_path):
     message = refused(tmp_path, MINIMAL.replace('shape = "sphere"',
                                                 'shape = "sphere"\npath = "m.obj"'))
     assert "objects[0].path: only mesh objects take a path" in message
+    # The file system refuses the name itself: an OSError without the key, before.
+    message = refused(tmp_path, MINIMAL.replace('shape = "sphere"',
+                                                f'shape = "mesh"\npath = "{"m" * 300}.obj"'))
+    assert "objects[0].path: cannot be read: File name too long" in message
 
 
 def test_degenerate_geometry_is_refused(tmp_path):
@@ -418,6 +422,13 @@ def test_degenerate_geometry_is_refused(tmp_path):
              "edge_v = [2.0, 0.0, 0.0]\nradiance = 1.0\n")
     message = refused(tmp_path, MINIMAL + light)
     assert "lights[0].edge_v: must not be zero or parallel to edge_u" in message
+    # Nearly parallel, relative to their lengths: the camera's frame was NaN, every ray lost.
+    message = refused(tmp_path, MINIMAL.replace("[camera]", "[camera]\nup = [0.0, 1e-200, 1.0]"))
+    assert "camera.up: must not be zero or parallel to look_at - position" in message
+    message = refused(tmp_path, MINIMAL + light.replace("[2.0, 0.0, 0.0]", "[2.0, 1e-9, 0.0]"))
+    assert "lights[0].edge_v: must not be zero or parallel to edge_u" in message
+    tiny = MINIMAL.replace("[camera]", "[camera]\nup = [0.0, 1e-200, 1e-200]")
+    assert load_scene(write(tmp_path, tiny)).camera.up == (0.0, 1e-200, 1e-200)
 
 
 # ------------------------------------------------------------------------- loading runs nothing

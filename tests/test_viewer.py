@@ -94,7 +94,7 @@ def viewer():
     (lambda v: v.colour_strip(0, samples=1), "samples must be >= 2"),
     (lambda v: v.edit(material_type="metal"), "material_type must be one of"),
     (lambda v: v.set_film(thickness_nm=-1.0), "thickness_nm must be a thickness in [0, "),
-    (lambda v: v.set_film(n_film=0.0), "n_film must be a refractive index in [1e-30, "),
+    (lambda v: v.set_film(n_film=0.0), "n_film must be a refractive index in [0.01, "),
     (lambda v: v.set_film(alpha=0.001), "alpha must be in [0.01, 1]"),
     (lambda v: v.set_film(base="Pt"), "base must be None or one of ('Ag', 'Al', 'Au', 'Cu')"),
     (lambda v: v.set_film(base="Au", n_base=1.5), "a metal base replaces n_base and k_base"),

@@ -18,6 +18,7 @@ import warnings
 import numpy as np
 
 from ._io import check_output_folder, check_output_path
+from .scatterogram import SIZE_RANGE
 
 __all__ = ["main"]
 
@@ -139,6 +140,12 @@ def _scatterogram(args) -> int:
 
     check_output_path(args.output, "--output", ".png")
     theta = _radians("--theta-deg", args.theta_deg, below_high=True)
+    # Before the work, as the output path: the scatterogram itself checks them only after it.
+    if not SIZE_RANGE[0] <= args.size <= SIZE_RANGE[1]:
+        raise ValueError(f"--size must be an integer in [{SIZE_RANGE[0]}, {SIZE_RANGE[1]}], "
+                         f"got {args.size}")
+    if args.exposure is not None and not (np.isfinite(args.exposure) and args.exposure > 0.0):
+        raise ValueError(f"--exposure must be finite and > 0, got {args.exposure}")
     if not np.isfinite(args.phi_deg):
         raise ValueError(f"--phi-deg must be a finite number of degrees, got {args.phi_deg}")
     if args.preset is not None:
@@ -161,6 +168,15 @@ def _scatterogram(args) -> int:
     return 0
 
 
+def _check_render_size(size: tuple[int, int]) -> None:
+    from .render import check_size
+
+    try:
+        check_size(size)
+    except ValueError as error:
+        raise ValueError(f"--{error}") from None
+
+
 def _size(text: str) -> tuple[int, int]:
     width, _, height = text.lower().partition("x")
     try:
@@ -178,10 +194,14 @@ def _render(args) -> int:
         raise ValueError("give either a scene file or --scene NAME, not both or neither")
     if args.spp is not None and args.seconds is not None:
         raise ValueError("give either --spp or --seconds, not both")
-    # Before the render: a bad output path must not cost its minutes.
+    # Before the render: a bad output path or amount must not cost its minutes.
     check_output_path(args.output, "--output", ".png")
     if args.exr is not None:
         check_output_path(args.exr, "--exr", ".exr")
+    if args.spp is not None and args.spp < 1:
+        raise ValueError(f"--spp must be an integer >= 1, got {args.spp}")
+    if args.size is not None:
+        _check_render_size(args.size)
     scene = load_preset(args.scene) if args.scene else load_scene(args.scene_file)
     renderer = Renderer(scene, size=args.size, mode=args.mode, ibl=args.ibl)
     start = time.perf_counter()
@@ -191,6 +211,15 @@ def _render(args) -> int:
         spp = scene.settings.spp if args.spp is None else args.spp
         image = renderer.render(spp, progress=args.progress)
     seconds = time.perf_counter() - start
+    broken = int(np.count_nonzero(~np.isfinite(image).all(axis=-1)))
+    if broken:
+        # A kernel bug: say so, and write both files or neither.
+        message = (f"{broken} of {renderer.width * renderer.height} pixels are not finite "
+                   f"(NaN or infinite): please report the scene")
+        if args.exr is not None:
+            raise ValueError(f"{message}; --exr stores only finite images, nothing written")
+        print(f"wgbragg: warning: {message}; they show black in {args.output}",
+              file=sys.stderr)
     save_png(image, args.output, scene.settings.exposure)
     written = [str(args.output)]
     if args.exr is not None:
@@ -254,7 +283,8 @@ def build_parser() -> argparse.ArgumentParser:
     scatter.add_argument("--theta-deg", type=float, default=0.0,
                          help="polar angle of the light, degrees in [0, 90)")
     scatter.add_argument("--phi-deg", type=float, default=0.0, help="azimuth of the light")
-    scatter.add_argument("--size", type=int, default=256, help="image size in pixels")
+    scatter.add_argument("--size", type=int, default=256,
+                         help="image size in pixels, in [%d, %d]" % SIZE_RANGE)
     scatter.add_argument("--exposure", type=float, default=None,
                          help="radiance scale (default: the brightest value maps to 1)")
     scatter.add_argument("--backend", choices=("gpu", "numpy"), default="numpy")

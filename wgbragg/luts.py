@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from ._io import atomic_path
+from ._io import atomic_path, check_output_folder
 from ._validation import check_backend, check_count, check_real
 
 __all__ = [
@@ -557,6 +557,9 @@ def cached(kind: str, parameters: dict, bake: Callable[[], dict], *, cache=None,
             if progress is not None:
                 progress(CacheEvent(kind, dict(parameters), path, "loaded"))
             return arrays
+    # Before the bake: a cache that cannot be written must not cost its minutes.
+    check_output_folder(path.parent, "cache" if cache is not None else (
+        "$WGBRAGG_CACHE" if os.environ.get("WGBRAGG_CACHE") else "the cache folder"))
     arrays = _normalise_arrays(bake(), name="bake()")
     save_lut(path, kind, parameters, arrays)
     if progress is not None:

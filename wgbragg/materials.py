@@ -67,7 +67,7 @@ class BraggMirror:
     Parameters
     ----------
     n1, n2 : float
-        Real refractive indices of the two layers of a cell, in [1e-30, 100].
+        Real refractive indices of the two layers of a cell, in [0.01, 100].
     d1, d2 : float
         Their thicknesses in nm, in [0, 1e6].
     N : int
@@ -201,14 +201,14 @@ class ThinFilm:
     Parameters
     ----------
     n_film : float
-        Real index of the film, in [1e-30, 100].
+        Real index of the film, in [0.01, 100].
     d : float
         Film thickness in nm, in [0, 1e6].
     n_base, k_base : float
-        Real part, in [1e-30, 100], and extinction coefficient, in [0, 1e4], of a base of
+        Real part, in [0.01, 100], and extinction coefficient, in [0, 1e4], of a base of
         constant index: a dielectric when ``k_base = 0``, a conductor otherwise.
     host : float
-        Real index of the incident medium, in [1e-30, 100].
+        Real index of the incident medium, in [0.01, 100].
     base : str or SpectralIndex, optional
         A dispersive base instead of ``n_base, k_base`` (leave those at their defaults): the
         name of a bundled metal (``"Ag"``, ``"Al"``, ``"Au"``, ``"Cu"``, see

@@ -34,6 +34,7 @@ from scipy.spatial import cKDTree
 from ._teapot_data import TEAPOT_PATCHES, TEAPOT_POINTS
 
 __all__ = [
+    "MAX_COORDINATE",
     "MESH_SUFFIXES",
     "TriangleMesh",
     "area_weighted_normals",
@@ -44,6 +45,10 @@ __all__ = [
 ]
 
 MESH_SUFFIXES = (".obj", ".ply", ".glb", ".gltf", ".stl")
+
+MAX_COORDINATE = 1e9
+"""Largest |coordinate| of a mesh vertex, and of positions, translations, directions and angles
+in a scene (:mod:`wgbragg.scene`): float32 products of them stay finite."""
 
 # Welding tolerance relative to the bounding-box diagonal.
 _WELD_TOLERANCE = 1e-9
@@ -56,7 +61,7 @@ class TriangleMesh:
     Parameters
     ----------
     vertices : array_like, shape (V, 3)
-        Positions in scene units, finite.
+        Positions in scene units, within [-:data:`MAX_COORDINATE`, :data:`MAX_COORDINATE`].
     faces : array_like, shape (F, 3), integer
         Vertex indices, counter-clockwise seen from outside, F >= 1.
     normals : array_like, shape (V, 3)
@@ -78,6 +83,11 @@ class TriangleMesh:
 
     def __post_init__(self):
         vertices = _finite_rows("vertices", self.vertices)
+        if np.abs(vertices).max() > MAX_COORDINATE:
+            # Scaled by an object's scale (up to 1e6), float32 still holds them; 1e39 was inf
+            # there, and its triangles vanished from the image without a word.
+            raise ValueError(f"vertices must lie within [-{MAX_COORDINATE:g}, "
+                             f"{MAX_COORDINATE:g}], got {np.abs(vertices).max():g}")
         normals = _finite_rows("normals", self.normals)
         if normals.shape != vertices.shape:
             raise ValueError(
@@ -91,9 +101,12 @@ class TriangleMesh:
                     f"uv must have one row per vertex ({len(vertices)}), got {len(uv)}"
                 )
             arrays["uv"] = uv
-        length = np.linalg.norm(normals, axis=1)
-        if np.any(length == 0.0):
+        # Scaled first: the squares of 1e200 overflow, those of 1e-200 underflow.
+        largest = np.abs(normals).max(axis=1)
+        if np.any(largest == 0.0):
             raise ValueError("normals must be non-zero vectors")
+        normals = normals / largest[:, None]
+        length = np.linalg.norm(normals, axis=1)
         faces = np.asarray(self.faces)
         if faces.ndim != 2 or faces.shape[1] != 3 or len(faces) == 0:
             raise ValueError(f"faces must have shape (F, 3) with F >= 1, got {faces.shape}")

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validation import MAX_EXTINCTION, MAX_INDEX, check_wavelength
+from ._validation import MAX_EXTINCTION, MAX_INDEX, MIN_INDEX, check_wavelength
 
 __all__ = ["METALS", "SpectralIndex", "metal"]
 
@@ -127,7 +127,7 @@ class SpectralIndex:
     name : str
         Short label, e.g. ``"Au"``.
     wavelength_nm, n, k : array_like
-        Rows, wavelengths strictly increasing in nm; ``n > 0``, ``k >= 0``.
+        Rows, wavelengths strictly increasing in nm; ``n`` in [0.01, 100], ``k >= 0``.
     source : str
         Citation of the data.
 
@@ -152,8 +152,10 @@ class SpectralIndex:
             raise ValueError("wavelength_nm, n and k must have the same length >= 2")
         if not np.all(np.isfinite(wavelength)) or np.any(np.diff(wavelength) <= 0):
             raise ValueError("wavelength_nm must be finite and strictly increasing")
-        if not (np.all((n > 0) & (n <= MAX_INDEX)) and np.all((k >= 0) & (k <= MAX_EXTINCTION))):
-            raise ValueError(f"n must be in (0, {MAX_INDEX:g}] and k in [0, {MAX_EXTINCTION:g}]")
+        if not (np.all((n >= MIN_INDEX) & (n <= MAX_INDEX))
+                and np.all((k >= 0) & (k <= MAX_EXTINCTION))):
+            raise ValueError(f"n must be in [{MIN_INDEX:g}, {MAX_INDEX:g}] and k in "
+                             f"[0, {MAX_EXTINCTION:g}]")
         for name, array in zip(("wavelength_nm", "n", "k"), arrays, strict=True):
             array.setflags(write=False)
             object.__setattr__(self, name, array)

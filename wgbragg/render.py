@@ -109,6 +109,7 @@ from .scene import (
     MAX_EXPOSURE,
     MAX_IMAGE_PIXELS,
     MAX_IMAGE_SIDE,
+    MAX_RADIANCE,
     MODES,
     AreaLight,
     BraggLayerSpec,
@@ -555,13 +556,7 @@ class Renderer:
     def __init__(self, scene: Scene, size: tuple[int, int] | None = None, seed: int = 0,
                  mode: str | None = None, max_bounces: int = MAX_BOUNCES,
                  colour_method: str = "averaged", ibl: str | None = None):
-        width, height = _check_size(scene.settings.size if size is None else size)
-        largest = gpu.max_buffer_bytes() // _PIXEL_BYTES
-        if width * height > largest:
-            raise ValueError(
-                f"size must hold at most {largest} pixels on this GPU ({_PIXEL_BYTES} bytes a "
-                f"pixel in its largest storage buffer, {gpu.max_buffer_bytes()} bytes), got "
-                f"{width} x {height}")
+        width, height = check_size(scene.settings.size if size is None else size)
         mode = scene.settings.mode if mode is None else mode
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
@@ -732,9 +727,7 @@ class Renderer:
         environment_map = None
         environment_texels = np.zeros((1, 4), np.float32)
         if scene.environment.type == "exr":
-            environment_map = EnvironmentMap(read_exr(scene.environment.path),
-                                             scene.environment.intensity)
-            environment_texels = environment_map.packed()
+            environment_map, environment_texels = _exr_environment(scene.environment)
         constants = {"WORKGROUP_SIZE": WORKGROUP_SIZE, "MAX_BOUNCES": self._max_bounces,
                      "LAYERED": bool(structures), "SPECTRAL": spectral,
                      "ENVIRONMENT_MAP": environment_map is not None,
@@ -825,10 +818,8 @@ class Renderer:
     def _make_params(self) -> np.ndarray:
         cam = self.scene.camera
         origin = np.asarray(cam.position, np.float64)
-        forward = np.asarray(cam.look_at, np.float64) - origin
-        forward /= np.linalg.norm(forward)
-        right = np.cross(forward, cam.up)
-        right /= np.linalg.norm(right)
+        forward = _unit(np.asarray(cam.look_at, np.float64) - origin)
+        right = _unit(np.cross(forward, _unit(np.asarray(cam.up, np.float64))))
         up = np.cross(right, forward)
         half = math.tan(math.radians(cam.fov_deg) / 2.0)
         params = np.zeros((), PARAMS_DTYPE)
@@ -1033,12 +1024,42 @@ def display_transform(image: np.ndarray, exposure: float = 0.0) -> np.ndarray:
     return np.round(encoded * 255.0).astype(np.uint8)
 
 
+def _exr_environment(environment) -> tuple[EnvironmentMap, np.ndarray]:
+    """The scene's EXR environment and its packed table; a file the renderer cannot use is
+    refused naming it, and radiances held to the scene's own bound (:data:`MAX_RADIANCE`):
+    beyond it float32 paths overflow to infinite pixels."""
+    path = environment.path
+    try:
+        environment_map = EnvironmentMap(read_exr(path), environment.intensity)
+        peak = environment.intensity * float(environment_map.radiance.max())
+        if peak > MAX_RADIANCE:
+            raise ValueError(f"its largest radiance times environment.intensity must be at "
+                             f"most {MAX_RADIANCE:g}, got {peak:g}")
+        return environment_map, environment_map.packed()
+    except ValueError as error:
+        message = str(error)
+        raise ValueError(message if str(path) in message
+                         else f"environment.path {path}: {message}") from None
+
+
+def _unit(vector: np.ndarray) -> np.ndarray:
+    # Scaled first: the squares of a 1e-200 vector underflow.
+    vector = vector / np.abs(vector).max()
+    return vector / np.linalg.norm(vector)
+
+
 # The accumulation buffer's vec4<f32> a pixel: the largest per-pixel storage buffer.
 _PIXEL_BYTES = 16
 
 
-def _check_size(size) -> tuple[int, int]:
-    """(width, height): two integers in [1, MAX_IMAGE_SIDE], at most MAX_IMAGE_PIXELS."""
+def check_size(size) -> tuple[int, int]:
+    """(width, height) of a render, checked before any work.
+
+    Two integers in [1, MAX_IMAGE_SIDE] with width x height at most MAX_IMAGE_PIXELS, and at
+    most what the device's largest storage buffer holds at 16 bytes a pixel
+    (:func:`wgbragg.gpu.max_buffer_bytes`; 8,388,608 pixels on lavapipe). Raises ValueError
+    naming ``size`` otherwise.
+    """
     accepted = (f"size must be (width, height), two integers in [1, {MAX_IMAGE_SIDE}] with "
                 f"width x height <= {MAX_IMAGE_PIXELS}")
     if not isinstance(size, (tuple, list)) or len(size) != 2 or not all(
@@ -1047,6 +1068,12 @@ def _check_size(size) -> tuple[int, int]:
         raise ValueError(f"{accepted}, got {size!r}")
     if size[0] * size[1] > MAX_IMAGE_PIXELS:
         raise ValueError(f"{accepted}, got {size[0]} x {size[1]}")
+    largest = gpu.max_buffer_bytes() // _PIXEL_BYTES
+    if size[0] * size[1] > largest:
+        raise ValueError(
+            f"size must hold at most {largest} pixels on this GPU ({_PIXEL_BYTES} bytes a pixel "
+            f"in its largest storage buffer, {gpu.max_buffer_bytes()} bytes), got "
+            f"{size[0]} x {size[1]}")
     return int(size[0]), int(size[1])
 
 

@@ -27,6 +27,7 @@ __all__ = [
     "CIRCLES_DEG",
     "JEWEL_BEETLE_ALPHA",
     "JEWEL_BEETLE_AREAS",
+    "SIZE_RANGE",
     "Scatterogram",
     "jewel_beetle",
     "save_scatterogram",
@@ -46,6 +47,9 @@ JEWEL_BEETLE_ALPHA = 0.05
 
 CIRCLES_DEG = (5.0, 30.0, 60.0, 90.0)
 """Polar angles marked by circles on a scatterogram (Fig. 9)."""
+
+SIZE_RANGE = (16, 4096)
+"""Smallest and largest image side (pixels) of a scatterogram."""
 
 
 def jewel_beetle(area: str):
@@ -130,7 +134,7 @@ def scatterogram(structure, theta_i=0.0, phi_i=0.0, size=256, method="single-ref
     if phi.ndim != 0 or not np.isfinite(phi):
         raise ValueError(f"phi_i must be one finite angle in radians, got {phi_i!r}")
     theta, phi_i = float(theta), float(phi)
-    size = check_integer("size", size, 16, 4096)
+    size = check_integer("size", size, *SIZE_RANGE)
     wi = np.array([np.sin(theta) * np.cos(phi_i), np.sin(theta) * np.sin(phi_i), np.cos(theta)])
     directions, inside = _hemisphere_directions(size)
     radiance = np.zeros((size, size, 3))

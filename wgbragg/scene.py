@@ -87,7 +87,7 @@ from ._validation import (
 from .layered import LayeredBragg
 from .materials import BraggMirror, ThinFilm
 from .metals import METALS
-from .meshes import MESH_SUFFIXES
+from .meshes import MAX_COORDINATE, MESH_SUFFIXES
 from .rough_layer import RoughBraggLayer
 from .transmission_filter import check_filter_alpha
 
@@ -157,13 +157,13 @@ bytes a pixel) must stay below wgpu's 2 GiB buffer limit (11585 x 11585 at most 
 A device may hold less: the renderer refuses sizes beyond its largest storage buffer
 (:func:`wgbragg.gpu.max_buffer_bytes`; 8,388,608 pixels on lavapipe)."""
 
+# Smallest sine of the angle between camera.up and the view direction, and between an area
+# light's edges: their cross products then keep 10 digits.
+_MIN_SINE = 1e-6
+
 MAX_RADIANCE = 1e9
 """Largest radiance, intensity or environment intensity (relative units): float32 sums over
 paths and samples stay finite far beyond any image's needs."""
-
-MAX_COORDINATE = 1e9
-"""Positions, translations, directions and angles in a scene lie in [-1e9, 1e9] (float32
-products of them stay finite)."""
 
 MAX_OBJECT_SCALE = 1e6
 """An object's ``scale`` lies in [1 / MAX_OBJECT_SCALE, MAX_OBJECT_SCALE] per axis: float32
@@ -392,7 +392,7 @@ class ThinFilmMaterial:
     Parameters
     ----------
     n_film : float
-        Real index of the film, in [1e-30, 100].
+        Real index of the film, in [0.01, 100].
     thickness_nm : float
         Film thickness in nm, in [0, 1e6]; with a ``thickness_map``, the map's value replaces
         it.
@@ -640,8 +640,10 @@ def _camera(ctx: _Context, value) -> Camera:
     view = tuple(b - a for a, b in zip(camera.position, camera.look_at, strict=True))
     if not any(view):
         raise ctx.error("camera.look_at", "must differ from camera.position")
-    if not any(_cross(view, camera.up)):
-        raise ctx.error("camera.up", "must not be zero or parallel to look_at - position")
+    # Relative to the vectors' lengths: an up 1e-200 off the view was a NaN frame.
+    if not _transverse(view, camera.up):
+        raise ctx.error("camera.up", f"must not be zero or parallel to look_at - position "
+                                     f"(the sine of their angle must be >= {_MIN_SINE:g})")
     return camera
 
 
@@ -842,8 +844,9 @@ def _light(ctx: _Context, value, key: str) -> PointLight | AreaLight:
         edge_v=_vector(ctx, table["edge_v"], f"{key}.edge_v"),
         radiance=_radiometric(ctx, table["radiance"], f"{key}.radiance"),
     )
-    if not any(_cross(light.edge_u, light.edge_v)):
-        raise ctx.error(f"{key}.edge_v", "must not be zero or parallel to edge_u (no area)")
+    if not _transverse(light.edge_u, light.edge_v):
+        raise ctx.error(f"{key}.edge_v", f"must not be zero or parallel to edge_u (no area; "
+                                         f"the sine of their angle must be >= {_MIN_SINE:g})")
     return light
 
 
@@ -1021,10 +1024,23 @@ def _file(ctx: _Context, value, key: str, suffixes: tuple[str, ...]) -> Path:
     path = ctx.folder / _string(ctx, value, key)
     if path.suffix.lower() not in suffixes:
         raise ctx.error(key, f"must name a file of type {', '.join(suffixes)}, got {value!r}")
-    if not path.is_file():
+    try:
+        found = path.is_file()
+    except OSError as error:  # a name too long for the file system, say
+        raise ctx.error(key, f"cannot be read: {error.strerror}: {path}") from None
+    if not found:
         raise ctx.error(key, f"no such file: {path} (paths resolve against the scene file's "
                              f"folder {ctx.folder})")
     return path.resolve()
+
+
+def _transverse(a: tuple[float, ...], b: tuple[float, ...]) -> bool:
+    """Whether neither vector is zero and the sine of their angle is at least
+    :data:`_MIN_SINE` (lengths scaled out: tiny vectors do not underflow)."""
+    if not (any(a) and any(b)):
+        return False
+    unit_a, unit_b = (tuple(x / math.hypot(*v) for x in v) for v in (a, b))
+    return math.hypot(*_cross(unit_a, unit_b)) >= _MIN_SINE
 
 
 def _cross(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, float, float]:

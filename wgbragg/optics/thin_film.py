@@ -96,8 +96,8 @@ def thin_film_reflectance(n_host, n_film, d_film_nm, n_base, wavelength_nm, thet
     Raises
     ------
     ValueError
-        Naming the parameter: real ``n_host`` and ``n_film`` must be in [1e-30, 100],
-        ``d_film_nm`` in [0, 1e6] nm, ``n_base`` ``n + i k`` with ``n`` in [1e-30, 100] and
+        Naming the parameter: real ``n_host`` and ``n_film`` must be in [0.01, 100],
+        ``d_film_nm`` in [0, 1e6] nm, ``n_base`` ``n + i k`` with ``n`` in [0.01, 100] and
         ``k`` in [0, 1e4]; ``wavelength_nm``, ``theta`` and ``polarization`` as in
         :func:`~wgbragg.optics.yeh_reflectance`.
     """

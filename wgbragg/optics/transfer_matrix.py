@@ -23,7 +23,7 @@ def transfer_matrix_reflectance(indices, thicknesses_nm, wavelength_nm, theta,
     Parameters
     ----------
     indices : sequence of complex
-        Indices ``n + i k`` (``n`` in [1e-30, 100], ``k`` in [0, 1e4]) from the incident medium
+        Indices ``n + i k`` (``n`` in [0.01, 100], ``k`` in [0, 1e4]) from the incident medium
         (first, real) to the substrate (last).
     thicknesses_nm : sequence of float
         Thicknesses of the inner layers in nm, in [0, 1e6]: ``len(indices) - 2`` values, or

@@ -239,7 +239,7 @@ def yeh_reflectance(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization=
     ----------
     n1, n2 : float
         Real indices of the two layers of a cell (the cell starts with ``n1``), in
-        [1e-30, 100].
+        [0.01, 100].
     d1_nm, d2_nm : float
         Layer thicknesses in nm, in [0, 1e6].
     N : int
@@ -267,8 +267,8 @@ def yeh_reflectance(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization=
     ------
     ValueError
         Naming the parameter, for values outside the ranges of :class:`wgbragg.BraggMirror`
-        and :meth:`~wgbragg.BraggMirror.reflectance` (indices also below 1e-30, where the p
-        admittances leave float64).
+        and :meth:`~wgbragg.BraggMirror.reflectance` (indices also below 0.01, the range of
+        the float32 twin).
 
     References
     ----------
