@@ -284,6 +284,23 @@ def test_averaged_matches_the_converged_integral(mirror, degrees):
     assert delta_e_2000(mirror.rgb(theta, method="averaged"), converged) <= 0.15
 
 
+@pytest.mark.parametrize(("mirror", "theta"), [
+    # Brewster's angle: a node at a p band edge, where C = 0 too.
+    (BraggMirror(1.0144732001868666, 1.0, 561.4886022923857, 1986.001046149856, 10**4),
+     math.atan(1.0 / 1.0144732001868666)),
+    # Nearly index-matched: edges 1e-18 rad/nm apart, a zone of no width in nm.
+    (BraggMirror(1.7018249096366564, 1.7018249106366565, 0.001, 2190.884061250851, 5),
+     math.radians(21.0)),
+], ids=["brewster-edge", "zone-of-no-width"])
+@pytest.mark.gpu
+def test_averaged_is_finite_where_its_zones_degenerate(mirror, theta):
+    """Both were NaN (0 / 0) in the numpy twin; the float32 twin agrees with it now."""
+    numpy_xyz = mirror.xyz(theta, method="averaged")
+    assert np.all(np.isfinite(numpy_xyz))
+    assert delta_e_2000(mirror.rgb(theta, method="averaged"),
+                        mirror.rgb(theta, method="averaged", backend="gpu")) <= 0.01
+
+
 @pytest.mark.parametrize("snap", [True, False])
 def test_edge_phases_are_snapped_against_float32_edges(monkeypatch, snap):
     """A band edge found in float32 (4e-7 relative) puts the Bloch phase there up to 0.05 rad

@@ -623,6 +623,17 @@ def test_phase_average_is_exact_inside_band_gaps():
         np.testing.assert_array_equal(averaged[gap], exact[gap])
 
 
+def test_phase_average_at_a_band_edge_under_brewster_is_exact():
+    """p at Brewster's angle: C = 0, and where sin^2 K Lambda is 0 too the mean was 0 / 0."""
+    n1, n2, d1, d2 = 1.0144732001868666, 1.0, 561.4886022923857, 1986.001046149856
+    brewster, wavelength = math.atan(n2 / n1), 514.24326811702133
+    assert bloch_dispersion(n1, n2, d1, d2, wavelength, brewster, "p")[1] == 0.0
+    for N in (5, 10**4):
+        averaged = yeh_reflectance(n1, n2, d1, d2, N, wavelength, brewster, "p",
+                                   method="phase-averaged")
+        assert averaged == yeh_reflectance(n1, n2, d1, d2, N, wavelength, brewster, "p") == 0.0
+
+
 def test_unknown_yeh_method_is_refused():
     with pytest.raises(ValueError, match="method"):
         yeh_reflectance(1.0, 1.5, 125.0, 375.0, 5, 500.0, 0.1, "s", method="fast")

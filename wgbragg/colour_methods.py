@@ -237,7 +237,9 @@ def _zones(mirror, theta):
             phase[row] = np.arctan2(np.sqrt(np.maximum(sin2, 0.0)), x)
     share = np.abs(_snap_edge_phases(phase_hi, ~last)
                    - _snap_edge_phases(phase_lo, ~first)).max(axis=0) / np.pi
-    keep = hi - lo > 0.0  # coincident edges: a closed gap, or s and p at normal incidence
+    # Coincident edges (a closed gap, or s and p at normal incidence), and zones too narrow
+    # to have a width in nm (1e-18 rad/nm apart: their mean R would be 0 / 0).
+    keep = 2.0 * np.pi / lo - 2.0 * np.pi / hi > 0.0
     return owner[keep], lo[keep], hi[keep], ~first[keep], ~last[keep], share[keep]
 
 

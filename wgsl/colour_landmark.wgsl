@@ -31,8 +31,6 @@ const GAUSS_OUTER: f32 = 0.27777778;    // 5 / 18
 const GAUSS_INNER: f32 = 0.44444444;    // 8 / 18
 // Evanescent n2: sign changes recorded per scan batch (a batch ends early when full).
 const EVANESCENT_BATCH: u32 = 16u;
-// Landmark intervals shorter than this (nm) are skipped, as in the numpy twin.
-const MIN_INTERVAL_NM: f32 = 1e-6;
 
 const METHOD_APPROX: u32 = 0u;
 const METHOD_SUBDIVIDED: u32 = 1u;

@@ -215,8 +215,10 @@ def _yeh_polarized(n1, n2, d1, d2, N, wavelength, theta, polarization, host, ave
             c2u2 = c2 * u1 * u1
             R = np.where(in_gap, c2 / (c2 + inv_u1_squared), c2u2 / (1.0 + c2u2))
             if averaged:
+                # At a band edge (sin2 = 0) the exact R, as the float32 twin: with C = 0 too
+                # (Brewster's angle, p) the mean would be 0 / 0.
                 band = np.sqrt(np.maximum(sin2, 0.0))
-                R = np.where(in_gap, R, 1.0 - band / np.sqrt(c2 + band * band))
+                R = np.where(in_gap | (sin2 <= 0), R, 1.0 - band / np.sqrt(c2 + band * band))
         else:
             # Appendix D: r_N = C U_{N-1} / (A U_{N-1} - U_{N-2}), then the host interface.
             r_N = C * u1 / (A * u1 - u0)
