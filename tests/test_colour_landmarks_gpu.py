@@ -185,7 +185,7 @@ def test_subdivided_options():
                                mirror.xyz(THETA, method="approx", backend="gpu"), atol=1e-7)
     fine = mirror.xyz(THETA, method="subdivided", backend="gpu", s=6)
     assert not np.allclose(fine, mirror.xyz(THETA, method="subdivided", backend="gpu"))
-    for bad in (0, -2, 2.5, True, "3", colour_landmarks_gpu.MAX_SUBDIVISIONS + 1):
+    for bad in (0, -2, 2.5, True, "3", cm.MAX_SUBDIVISIONS + 1):
         with pytest.raises(ValueError, match=r"\bs\b"):
             mirror.xyz(0.2, method="subdivided", backend="gpu", s=bad)
     with pytest.raises(ValueError, match="method 'approx' takes no option 's'"):

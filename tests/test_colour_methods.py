@@ -213,11 +213,30 @@ def test_paper_methods_refuse_another_host():
                                               ({"theta": 2.0}, "theta"),
                                               ({"method": "subdivided", "s": 0}, "s"),
                                               ({"method": "subdivided", "s": 2.5}, "s"),
-                                              ({"method": "subdivided", "s": True}, "s")])
+                                              ({"method": "subdivided", "s": True}, "s"),
+                                              # Were a MemoryError and an OverflowError.
+                                              ({"method": "subdivided", "s": 10**9},
+                                               r"s \(subdivision quality\) must be an integer "
+                                               r"in \[1, 65536\]"),
+                                              ({"method": "subdivided", "s": 2**70}, "s")])
 def test_bad_input(kwargs, name):
     arguments = {"theta": 0.3} | kwargs
     with pytest.raises(ValueError, match=name):
         BraggMirror(1.0, 1.5, 125.0, 375.0, 20).xyz(**arguments)
+
+
+def test_subdivided_takes_fewer_angles_at_once_where_sub_boxes_would_crowd(monkeypatch):
+    """MAX_SUB_BOXES bounds the numpy twin's memory: blocks are halved until they fit, and
+    what cannot fit at one angle is refused naming s."""
+    mirror = BraggMirror(1.0, 1.5, 250.0, 250.0, 20)
+    theta = np.linspace(0.0, 1.4, 8)
+    whole = mirror.xyz(theta, method="subdivided", s=200)
+    monkeypatch.setattr(colour_methods, "MAX_SUB_BOXES", 3000)
+    np.testing.assert_allclose(mirror.xyz(theta, method="subdivided", s=200), whole,
+                               rtol=1e-13, atol=0.0)
+    with pytest.raises(ValueError, match=r"s \(subdivision quality\) = 2000 asks for \d+ sub-boxes "
+                                         r"at one angle of this mirror, more than 3000"):
+        mirror.xyz(theta, method="subdivided", s=2000)
 
 
 @pytest.mark.parametrize("backend", ["numpy", "gpu"])

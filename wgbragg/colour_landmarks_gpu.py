@@ -29,12 +29,11 @@ import functools
 import numpy as np
 
 from . import colorimetry, gpu, kernels
-from ._validation import check_integer
+from .colour_methods import check_subdivisions
 from .materials import BraggMirror
 
 __all__ = [
     "GPU_LANDMARK_METHODS",
-    "MAX_SUBDIVISIONS",
     "WORKGROUP_SIZE",
     "approx_xyz",
     "averaged_xyz",
@@ -51,8 +50,6 @@ GPU_LANDMARK_METHODS = {"approx": 0, "subdivided": 1, "averaged": 2}
 # device sooner; on lavapipe 16 .. 256 time the same within noise.
 WORKGROUP_SIZE = 64
 
-MAX_SUBDIVISIONS = 1 << 16
-"""Largest ``s`` of "subdivided" the GPU accepts (sub-boxes are evaluated one by one)."""
 
 LANDMARK_CAPACITY = 64
 """Landmarks per angle returned by :func:`find_landmarks_gpu` (a test aid)."""
@@ -89,15 +86,6 @@ def _check_mirror(mirror, method: str) -> BraggMirror:
     return mirror
 
 
-def _check_subdivisions(s) -> int:
-    # As colour_methods._subdivided, plus a bound: the kernel loops over max(1, s - m)
-    # sub-boxes per pass band, so an unbounded s could stall the device.
-    s = check_integer("s (subdivision quality)", s, 1)
-    if s > MAX_SUBDIVISIONS:
-        raise ValueError(
-            f"s (subdivision quality) must be <= {MAX_SUBDIVISIONS} with backend='gpu', got {s}"
-        )
-    return s
 
 
 def _kernel_and_params(mirror: BraggMirror, method: str, subdivisions: int):
@@ -157,7 +145,7 @@ def landmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3)
         "averaged" (``n1 d1 + n2 d2`` beyond ~0.3 mm), fewer with "subdivided" and a large
         ``s``.
     """
-    kernel, params = _kernel_and_params(mirror, method, _check_subdivisions(subdivisions))
+    kernel, params = _kernel_and_params(mirror, method, check_subdivisions(subdivisions))
     inputs, outputs, shape = _buffers(theta)
     (out,) = kernel.run(inputs, outputs, params)
     gpu.check_loops(out[:, 3], f"colour method {method!r} on a mirror with n1 d1 + n2 d2 = "
@@ -168,7 +156,7 @@ def landmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3)
 def benchmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3,
                   repeats: int = 10) -> float:
     """Median GPU seconds of one :func:`landmark_xyz` dispatch (buffers uploaded once)."""
-    kernel, params = _kernel_and_params(mirror, method, _check_subdivisions(subdivisions))
+    kernel, params = _kernel_and_params(mirror, method, check_subdivisions(subdivisions))
     inputs, outputs, _ = _buffers(theta)
     return kernel.benchmark(inputs, outputs, params, repeats=repeats)
 

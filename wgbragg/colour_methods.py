@@ -64,6 +64,13 @@ PHASE_SNAP = 0.15
 ANGLES_PER_BLOCK = 256
 """Angles whose landmarks and nodes the numpy methods hold at once (about 160 KB each)."""
 
+MAX_SUBDIVISIONS = 1 << 16
+"""Largest ``s`` of "subdivided", on either backend."""
+
+MAX_SUB_BOXES = 1 << 22
+"""Sub-boxes of "subdivided" the numpy twin holds at once (about 0.3 GB); fewer angles are
+taken together where a block would need more."""
+
 # Three-point Gauss-Legendre rule on [0, 1].
 _GAUSS_NODES = 0.5 + 0.5 * np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)])
 _GAUSS_WEIGHTS = np.array([5.0, 8.0, 5.0]) / 18.0
@@ -126,6 +133,16 @@ def _approx_polarized(mirror, theta, polarization, subdivisions):
         # modes (evanescent n2).
         mode = np.floor(0.5 * (lo + hi) * n_plus / np.pi).astype(int)
         pieces = np.where(gap | (n_plus <= 0.0), 1, np.maximum(1, subdivisions - mode))
+        total = int(pieces.sum())
+        if total > MAX_SUB_BOXES:
+            if theta.size == 1:
+                raise ValueError(
+                    f"s (subdivision quality) = {subdivisions} asks for {total} sub-boxes at "
+                    f"one angle of this mirror, more than {MAX_SUB_BOXES}: lower s")
+            half = theta.size // 2
+            return np.concatenate([
+                _approx_polarized(mirror, part, polarization, subdivisions)
+                for part in (theta[:half], theta[half:])])
     starts = np.repeat(lo, pieces)
     widths = np.repeat((hi - lo) / pieces, pieces)
     _, steps = _ranges(np.zeros(pieces.size, dtype=int), pieces)
@@ -397,8 +414,12 @@ def _spectral(material, theta, backend, samples=16, seed=None):
 
 
 def _subdivided(mirror, theta, s=3):
-    s = check_integer("s (subdivision quality)", s, 1)
-    return approx_xyz(mirror, theta, subdivisions=s)
+    return approx_xyz(mirror, theta, subdivisions=check_subdivisions(s))
+
+
+def check_subdivisions(s) -> int:
+    """``s`` of "subdivided": an integer in [1, :data:`MAX_SUBDIVISIONS`], else ValueError."""
+    return check_integer("s (subdivision quality)", s, 1, MAX_SUBDIVISIONS)
 
 
 def _approx_basic(mirror, theta):
