@@ -172,6 +172,21 @@ def test_integrate_xyz_rejects_mismatched_nodes():
         integrate_xyz(MIRRORS[0], 0.1, wavelength, weights[:-1])
 
 
+@pytest.mark.parametrize("backend", ["numpy", pytest.param("gpu", marks=pytest.mark.gpu)])
+@pytest.mark.parametrize(("nodes", "node_weights", "name"), [
+    ([-5.0], [[1.0, 1.0, 1.0]], r"wavelength_nm must be in \[1, 1e\+06\] nm"),
+    ([np.nan], [[1.0, 1.0, 1.0]], "wavelength_nm contains NaN"),
+    ([0.0], [[1.0, 1.0, 1.0]], r"wavelength_nm must be in \[1, 1e\+06\] nm"),
+    (["500"], [[1.0, 1.0, 1.0]], "wavelength_nm"),
+    ([500.0], [[np.nan, 1.0, 1.0]], "weights contains NaN"),
+    ([500.0], [[np.inf, 1.0, 1.0]], "weights must be finite"),
+])
+def test_integrate_xyz_checks_nodes_on_both_backends(backend, nodes, node_weights, name):
+    """The GPU integrated bad nodes silently (-5 nm gave 0.096, NaN 0)."""
+    with pytest.raises(ValueError, match=name):
+        integrate_xyz(MIRRORS[0], 0.3, nodes, node_weights, backend)
+
+
 # --------------------------------------------------------------------------- spectral (numpy)
 
 

@@ -17,7 +17,15 @@ from __future__ import annotations
 import numpy as np
 
 from . import colorimetry
-from ._validation import check_angle, check_backend, check_count, check_material, check_seed
+from ._validation import (
+    _as_float_array,
+    check_angle,
+    check_backend,
+    check_count,
+    check_material,
+    check_seed,
+    check_wavelength,
+)
 
 __all__ = [
     "MAX_SAMPLES",
@@ -53,7 +61,7 @@ def integrate_xyz(material, theta, wavelength_nm, weights, backend="numpy") -> n
     theta : array_like
         Angles of incidence in radians in ``[0, pi/2]``, any shape.
     wavelength_nm : array_like
-        Nodes, shape ``(K,)``, nm (> 0).
+        Nodes, shape ``(K,)``, nm in ``[1, 1e6]``.
     weights : array_like
         XYZ weights of the nodes, shape ``(K, 3)``.
     backend : {"numpy", "gpu"}
@@ -66,20 +74,24 @@ def integrate_xyz(material, theta, wavelength_nm, weights, backend="numpy") -> n
     Raises
     ------
     ValueError
-        For an angle outside ``[0, pi/2]`` or NaN, an unknown backend, a material without a
-        ``reflectance`` method (or not a BraggMirror / ThinFilm on the GPU), or nodes and
-        weights of mismatched shapes.
+        For an angle outside ``[0, pi/2]`` or NaN, a node outside ``[1, 1e6]`` nm or NaN,
+        weights not finite, an unknown backend, a material without a ``reflectance`` method
+        (or not a BraggMirror / ThinFilm on the GPU), or nodes and weights of mismatched
+        shapes.
     """
     check_backend(backend)
     check_material(material)
     angle = check_angle(theta)
-    wavelength = np.asarray(wavelength_nm, np.float64)
-    weight = np.asarray(weights, np.float64)
+    # Checked here for both backends: the kernel would integrate whatever it is given.
+    wavelength = check_wavelength(wavelength_nm)
+    weight = _as_float_array("weights", weights)
     if wavelength.ndim != 1 or weight.shape != (wavelength.size, 3):
         raise ValueError(
             f"wavelength_nm must have shape (K,) and weights (K, 3), got {wavelength.shape} and "
             f"{weight.shape}"
         )
+    if not np.all(np.isfinite(weight)):
+        raise ValueError("weights must be finite")
     if backend == "gpu":
         from . import colour_gpu
 
