@@ -97,6 +97,18 @@ def test_single_ballistic_reproduces_the_model_without_variance(structures, refe
         np.testing.assert_allclose(f, reference[name], rtol=F32_RTOL, err_msg=name)
 
 
+@pytest.mark.parametrize(("host", "base"), [(1.0, None), (1.33, 0.5)])
+def test_single_reflection_of_a_layer_seen_from_another_medium(filters, host, base):
+    """Appendix D (the jewel beetle's cuticle in air): the walk evaluated the mirror as if
+    embedded in its n1, 0.0003 for 1.06 at 520 nm."""
+    beetle = BraggMirror(1.59, 1.67, 81.6, 78.4, 8, host=host)
+    s = LayeredBragg([RoughBraggLayer(beetle, 0.1, transmission_filter=filters[0.1])],
+                     base_albedo=base)
+    f = s.simulate(WI, WO, WAVELENGTHS, paths=256, mode="single")
+    np.testing.assert_allclose(f, s.brdf(WI[:, None], WO[:, None], WAVELENGTHS),
+                               rtol=F32_RTOL)
+
+
 def test_single_naive_estimates_the_model(structures, reference):
     for name, s in structures.items():
         f, error = s.simulate(WI, WO, WAVELENGTHS, paths=PATHS, mode="single",

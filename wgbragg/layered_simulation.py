@@ -218,7 +218,7 @@ def _layers(structure: LayeredBragg, wavelength, ballistic: bool):
     records = np.zeros(len(structure.layers), _LAYER_DTYPE)
     for index, layer in enumerate(structure.layers):
         m = layer.mirror
-        mirror = kernels.bragg_params(m.n1, m.n2, m.d1, m.d2, m.N, m.n1)
+        mirror = kernels.bragg_params(m.n1, m.n2, m.d1, m.d2, m.N, m.host)
         for name in kernels.BRAGG_MIRROR_DTYPE.names:
             records[index][name] = mirror[name]
         records[index]["alpha"] = layer.alpha
@@ -374,6 +374,8 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
         "SINGLE": mode == "single",
         "NEXT_EVENT": next_event,
         "RGB": lanes is None,
+        # Layers share their host (LayeredBragg); Appendix D where it is not their n1.
+        "HOST_MATCHED": all(layer.ballistic for layer in structure.layers),
     })
     # bounce_limit guarantees that one walk fits.
     per_invocation = min(_PATHS_PER_INVOCATION if next_event else _PARTICLES_PER_INVOCATION,

@@ -65,12 +65,12 @@ fn cosine_direction(u: vec2<f32>) -> vec3<f32> {
     return vec3<f32>(r * cos(phi), r * sin(phi), sqrt(1.0 - u.x));
 }
 
-// The mirror's unpolarized reflectance at four wavelengths (rough layers are index-matched:
-// host == n1).
+// The mirror's unpolarized reflectance at four wavelengths, seen from m.host (the walk's
+// medium). The entry point declares HOST_MATCHED.
 fn quad_reflectance(m: BraggMirror, wavelength_nm: vec4<f32>, theta: f32) -> vec4<f32> {
     var r: vec4<f32>;
     for (var k = 0u; k < 4u; k++) {
-        r[k] = bragg_reflectance(m, wavelength_nm[k], theta, 2u, true);
+        r[k] = bragg_reflectance(m, wavelength_nm[k], theta, 2u, HOST_MATCHED);
     }
     return r;
 }

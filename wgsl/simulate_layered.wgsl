@@ -30,6 +30,8 @@ override SINGLE: bool = false;
 // true: the BRDF at wo by next-event estimation; false: exit particles.
 override NEXT_EVENT: bool = true;
 override RGB: bool = true;
+// Every layer's mirror sits in its own n1 (else Appendix D: seen from the walk's medium).
+override HOST_MATCHED: bool = true;
 
 const FIRST_NM: f32 = 360.0;
 // Russian roulette from this many reflections on: earlier vertices carry most of the estimate.
