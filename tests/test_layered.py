@@ -364,10 +364,29 @@ def test_bad_structures_raise(filters, make, match):
     (lambda s: s.albedo(0.1, samples=0), "samples"),
     (lambda s: s.albedo(0.1, seed=-1), "seed"),
     (lambda s: s.albedo(0.1, seed="a"), "seed"),
+    # The LUT read 830 nm for 1000 nm; the shapes failed in numpy's own words.
+    (lambda s: s.brdf([0.0, 0.0, 1.0], [0.0, 0.0, 1.0], 1000.0, "single-reflection-lut"),
+     r"wavelength_nm must lie in that range"),
+    (lambda s: s.sample([0.0, 0.0, 1.0], [0.5, 0.5, 0.5], 359.0, "single-reflection-lut"),
+     r"wavelength_nm must lie in that range"),
+    (lambda s: s.sample(np.tile([0.0, 0.0, 1.0], (2, 1)), np.full((2, 3), 0.5),
+                        [500.0, 600.0, 700.0]), r"wi \(2,\) and u \(2,\) and wavelength_nm \(3,\)"),
 ])
 def test_bad_arguments_raise(structures, call, match):
     with pytest.raises(ValueError, match=match):
         call(structures["A-diffuse"])
+
+
+def test_grazing_mirror_pair_has_its_specular_value(filters):
+    """wi and wo 1e-300 above the horizon, mirror images of each other: their half vector is
+    the normal. Its square underflowed (brdf: 'theta contains NaN', pdf 0)."""
+    s = LayeredBragg([rough(BraggMirror(1.0, 1.5, 250.0, 250.0, 10), 0.1, filters)])
+    values = []
+    for z in (1e-300, 1e-20):
+        wi, wo = np.array([1.0, 0.0, z]), np.array([-1.0, 0.0, z])
+        values.append((s.brdf(wi, wo, 550.0), s.pdf(wi, wo)))
+    np.testing.assert_allclose(values[0], values[1], rtol=1e-12)
+    assert values[0][0] > 1000.0
 
 
 def test_grazing_and_extreme_inputs_are_finite(filters):

@@ -394,6 +394,17 @@ def test_long_multiplexed_wavelength_axis_is_split(structures):
     assert 2 * layered_gpu.wavelengths_per_invocation(2) < wavelength.size
 
 
+def test_grazing_mirror_pair_has_its_specular_value(structures):
+    """wi and wo 1e-40 above the horizon (float32 subnormals), mirror images of each other:
+    the half vector is the normal, whose square underflowed to NaN in brdf, pdf and RGB."""
+    s = structures["one-layer"]
+    wi, wo = np.array([1.0, 0.0, 1e-40]), np.array([-1.0, 0.0, 1e-40])
+    np.testing.assert_allclose(s.brdf(wi, wo, 550.0, backend="gpu"), s.brdf(wi, wo, 550.0),
+                               rtol=1e-5)
+    np.testing.assert_allclose(s.pdf(wi, wo, backend="gpu"), s.pdf(wi, wo), rtol=1e-5)
+    assert np.all(np.isfinite(s.brdf(wi, wo, backend="gpu")))
+
+
 def test_batches_beyond_the_largest_buffer_are_dispatched_in_parts(structures, monkeypatch):
     """A batch of more invocations than the device's largest buffer holds (8.4 million
     directions on lavapipe: the scatterogram's sensor at 2900 x 2900) was a wgpu validation

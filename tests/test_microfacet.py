@@ -205,6 +205,9 @@ def test_n_dimensional_broadcast():
         (lambda: ggx_sample_visible_normal([0, 0, 1.0], [0.5, 1.5], 0.1), r"u must be in \[0, 1\]"),
         (lambda: ggx_sample_visible_normal([0, 0, 1.0], [0.5], 0.1), "trailing axis of length 2"),
         (lambda: ggx_visible_normal_pdf([0, 0, 1.0], [0, 0, 0.5], 0.1), "m must hold unit"),
+        (lambda: ggx_visible_normal_pdf(np.tile([0, 0, 1.0], (2, 1)),
+                                        np.tile([0, 0, 1.0], (3, 1)), 0.1),
+         r"wi \(2,\) and m \(3,\) and alpha \(\) do not broadcast"),
     ],
 )
 def test_raises(call, match):

@@ -100,6 +100,20 @@ def test_bad_arguments_raise(structure, kwargs, match):
         scatterogram(structure, **kwargs)
 
 
+@pytest.mark.parametrize(("result", "exposure", "match"), [
+    ("x", None, "result must be a Scatterogram, got str"),
+    (None, "x", "exposure must be finite and > 0, got 'x'"),
+    (None, np.array([1.0, 2.0]), "exposure must be finite and > 0"),
+    (None, True, "exposure must be finite and > 0, got True"),
+])
+def test_save_refuses_bad_arguments_naming_them(structure, tmp_path, result, exposure, match):
+    """Were a TypeError, an AttributeError and numpy's 'truth value is ambiguous'."""
+    result = scatterogram(structure, size=16) if result is None else result
+    with pytest.raises(ValueError, match=match):
+        save_scatterogram(result, tmp_path / "s.png", exposure=exposure)
+    assert not list(tmp_path.iterdir())
+
+
 @pytest.mark.parametrize("structure", ["x", None, BraggMirror(1.0, 1.5, 250.0, 250.0, 10)])
 def test_a_structure_without_brdf_is_named(structure):
     with pytest.raises(ValueError, match=r"\bstructure must be a LayeredBragg"):

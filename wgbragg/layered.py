@@ -43,13 +43,16 @@ from ._validation import (
     check_directions,
     check_wavelength,
 )
-from .microfacet import _D, _G1_over_cos, ggx_sample_visible_normal
+from .microfacet import _D, _G1_over_cos, ggx_sample_visible_normal, half_vector
 from .optics.yeh import yeh_reflectance
 from .rough_layer import RoughBraggLayer
 
 __all__ = ["BRDF_METHODS", "HERO", "INTEGRATED", "LayeredBragg", "coating_reflectance"]
 
 BRDF_METHODS = ("single-reflection", "single-reflection-lut")
+
+LUT_WAVELENGTH_RANGE_NM = (360.0, 830.0)
+"""Wavelengths (nm) of the LUT method's Yeh table: the colorimetry's 1 nm nodes."""
 """``method=`` of :meth:`LayeredBragg.brdf`: the model with the mirrors' reflectance evaluated
 exactly (Yeh), or read from a table over (theta_d, wavelength) per layer."""
 
@@ -181,6 +184,21 @@ class _BaseAlbedo:
 
     def mean(self) -> float:
         return float(np.mean(self.spectrum(colorimetry.xyz_weights()[0])))
+
+
+def _check_wavelength(wavelength_nm, method: str) -> np.ndarray | None:
+    """Wavelengths of a spectral query: the library's range, and for the LUT method its
+    table's (:data:`LUT_WAVELENGTH_RANGE_NM`), which it would otherwise read clamped."""
+    if wavelength_nm is None:
+        return None
+    wavelength = check_wavelength(wavelength_nm)
+    low, high = LUT_WAVELENGTH_RANGE_NM
+    if method == "single-reflection-lut" and not np.all((wavelength >= low)
+                                                        & (wavelength <= high)):
+        raise ValueError(f"method='single-reflection-lut' tabulates the Yeh term over "
+                         f"{low:g}-{high:g} nm: wavelength_nm must lie in that range (use "
+                         "method='single-reflection' beyond it)")
+    return wavelength
 
 
 def _check_unit_interval(array: np.ndarray, name: str) -> np.ndarray:
@@ -437,8 +455,7 @@ class LayeredBragg:
         """The bracket of eq 34 for directions inside ``n1`` (both with z > 0)."""
         spectral = wavelength is not None
         ci, co = i[..., 2], o[..., 2]
-        h = i + o
-        h = h / np.linalg.norm(h, axis=-1, keepdims=True)
+        h = half_vector(i, o)
         cos_h, cos_d = h[..., 2], np.clip(np.sum(i * h, axis=-1), 0.0, 1.0)
         theta_i, theta_o = _theta(ci), _theta(co)
         total = 0.0
@@ -546,7 +563,7 @@ class LayeredBragg:
         backend = check_backend(backend)
         if method not in BRDF_METHODS:
             raise ValueError(f"method must be one of {BRDF_METHODS}, got {method!r}")
-        wavelength = None if wavelength_nm is None else check_wavelength(wavelength_nm)
+        wavelength = _check_wavelength(wavelength_nm, method)
         check_broadcast(**{"wi": wi.shape[:-1], "wo": wo.shape[:-1],
                            "wavelength_nm": () if wavelength is None else wavelength.shape})
         if wavelength is not None and colour_method is not None:
@@ -595,8 +612,7 @@ class LayeredBragg:
 
     def _inner_pdf(self, i, o, probabilities):
         """Mixture density of ``o`` inside ``n1`` (1/sr), given the component probabilities."""
-        h = i + o
-        h = h / np.linalg.norm(h, axis=-1, keepdims=True)
+        h = half_vector(i, o)
         cos_d = np.clip(np.sum(i * h, axis=-1), 0.0, 1.0)
         ci = i[..., 2]
         density = 0.0
@@ -683,7 +699,7 @@ class LayeredBragg:
         backend = check_backend(backend)
         if method not in BRDF_METHODS:
             raise ValueError(f"method must be one of {BRDF_METHODS}, got {method!r}")
-        wavelength = None if wavelength_nm is None else check_wavelength(wavelength_nm)
+        wavelength = _check_wavelength(wavelength_nm, method)
         colour_method = self._colour_method(colour_method, backend)
         hero = colour_method == HERO and wavelength is None
         if colour_method == HERO and not hero:
@@ -698,7 +714,8 @@ class LayeredBragg:
             raise ValueError("u must be in [0, 1]")
         if np.any(wi[..., 2] <= 0.0):
             raise ValueError("wi must lie strictly above the horizon: wi[..., 2] in (0, 1]")
-        check_broadcast(wi=wi.shape[:-1], u=u.shape[:-1])
+        check_broadcast(**{"wi": wi.shape[:-1], "u": u.shape[:-1],
+                           "wavelength_nm": () if wavelength is None else wavelength.shape})
         if backend == "gpu":
             from . import layered_gpu
 

@@ -31,6 +31,7 @@ __all__ = [
     "ggx_G1",
     "ggx_sample_visible_normal",
     "ggx_visible_normal_pdf",
+    "half_vector",
 ]
 
 ALPHA_MIN = 1e-4
@@ -247,6 +248,30 @@ def ggx_visible_normal_pdf(wi, m, alpha) -> np.ndarray:
     wi = check_directions(wi, "wi", upper=True)
     m = check_directions(m, "m")
     alpha = check_alpha(alpha)
+    check_broadcast(wi=wi.shape[:-1], m=m.shape[:-1], alpha=alpha.shape)
     cos_wm = np.maximum(np.sum(wi * m, axis=-1), 0.0)
     cos_m = np.clip(m[..., 2], -1.0, 1.0)
     return _G1_over_cos(np.clip(wi[..., 2], 0.0, 1.0), alpha) * cos_wm * _D(cos_m, alpha)
+
+
+def half_vector(wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+    """Unit half vector ``normalize(wi + wo)`` of directions above the horizon.
+
+    Parameters
+    ----------
+    wi, wo : numpy.ndarray, shape (..., 3)
+        Unit directions with z > 0 (unchecked), broadcast against each other.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 3)
+
+    Notes
+    -----
+    The sum is scaled by its largest component before it is normalised: at grazing
+    ``wi + wo`` can be 1e-300, whose square underflows to 0 (the float32 twin is
+    ``half_vector`` of ``wgsl/layered.wgsl``).
+    """
+    h = wi + wo
+    h = h / np.max(np.abs(h), axis=-1, keepdims=True)
+    return h / np.linalg.norm(h, axis=-1, keepdims=True)

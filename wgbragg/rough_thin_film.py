@@ -49,6 +49,7 @@ from .microfacet import (
     _G1_over_cos,
     check_alpha,
     ggx_sample_visible_normal,
+    half_vector,
 )
 from .thin_film_colour import DEFAULT_ORDER, FOURIER_METHODS
 
@@ -348,8 +349,7 @@ class RoughThinFilm:
         safe = np.array([0.0, 0.0, 1.0])
         wi = np.where(up[..., None], wi, safe)
         wo = np.where(up[..., None], wo, safe)
-        h = wi + wo
-        h = h / np.linalg.norm(h, axis=-1, keepdims=True)
+        h = half_vector(wi, wo)
         # h.wi = sqrt((1 + wi.wo) / 2): symmetric in wi and wo to the last bit.
         cos_d = np.sqrt(np.clip(0.5 * (1.0 + np.sum(wi * wo, axis=-1)), 0.0, 1.0))
         a = self.alpha
@@ -384,8 +384,7 @@ class RoughThinFilm:
         safe = np.array([0.0, 0.0, 1.0])
         wi = np.where(up[..., None], wi, safe)
         wo = np.where(up[..., None], wo, safe)
-        h = wi + wo
-        h = h / np.linalg.norm(h, axis=-1, keepdims=True)
+        h = half_vector(wi, wo)
         a = self.alpha
         density = (0.25 * _G1_over_cos(np.minimum(wi[..., 2], 1.0), a)
                    * _D(np.clip(h[..., 2], -1.0, 1.0), a))

@@ -16,6 +16,7 @@ air (Appendix D).
 from __future__ import annotations
 
 import dataclasses
+import numbers
 import os
 
 import numpy as np
@@ -171,14 +172,18 @@ def save_scatterogram(result: Scatterogram, path: str | os.PathLike, title: str 
     exposure : float, optional
         Radiance scale before clipping; default: 1 / the largest channel value of the image.
     """
+    if not isinstance(result, Scatterogram):
+        raise ValueError(f"result must be a Scatterogram, got {type(result).__name__}")
     check_output_path(path, "path", ".png")
+    if exposure is not None and (isinstance(exposure, bool)
+                                 or not isinstance(exposure, numbers.Real)
+                                 or not (np.isfinite(exposure) and exposure > 0.0)):
+        raise ValueError(f"exposure must be finite and > 0, got {exposure!r}")
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    if exposure is not None and not (np.isfinite(exposure) and exposure > 0.0):
-        raise ValueError(f"exposure must be finite and > 0, got {exposure}")
     image = _display(result, exposure)
     figure, axes = plt.subplots(figsize=(5, 5.3), dpi=120, layout="constrained")
     axes.imshow(image, extent=(-90.0, 90.0, -90.0, 90.0), interpolation="nearest")

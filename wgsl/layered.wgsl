@@ -48,6 +48,18 @@ fn refract_out(w: vec3<f32>, n: f32) -> vec4<f32> {
     return vec4<f32>(t, sqrt(1.0 - sin2), 1.0);
 }
 
+// Unit half vector of i and o above the horizon, scaled before normalising: at grazing i + o
+// can be 1e-40, whose square underflows; exactly 0 (z flushed to zero) leaves the normal, its
+// limit.
+fn half_vector(i: vec3<f32>, o: vec3<f32>) -> vec3<f32> {
+    let h = i + o;
+    let largest = max(abs(h.x), max(abs(h.y), abs(h.z)));
+    if (largest == 0.0) {
+        return vec3<f32>(0.0, 0.0, 1.0);
+    }
+    return normalize(h / largest);
+}
+
 // Mirror reflection of i about the unit normal m.
 fn reflect_about(i: vec3<f32>, m: vec3<f32>) -> vec3<f32> {
     return 2.0 * dot(i, m) * m - i;

@@ -207,7 +207,7 @@ fn layered_pair(s: LayeredStructure, wi: vec3<f32>, wo: vec3<f32>) -> LayeredPai
         i = refract_in(i, n);
         o = refract_in(o, n);
     }
-    let h = normalize(i + o);
+    let h = half_vector(i, o);
     p.scale = select(0.0, scale, up);
     p.ci = i.z;
     p.co = o.z;
@@ -399,7 +399,7 @@ fn layered_pdf(s: LayeredStructure, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
         // What enters the coating, times Snell's d omega' / d omega = cos_o / (n^2 cos_o').
         factor = (1.0 - coating_reflectance(wi.z, n)) * wo.z / (n * n * o.z);
     }
-    let h = normalize(i + o);
+    let h = half_vector(i, o);
     let theta = angle_from(i.z, length(i.xy));
     let total = component_total(s, theta, i.z);
     // No component has weight (transparent layers over an absorbing base): the numpy twin's

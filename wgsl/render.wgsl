@@ -257,7 +257,7 @@ fn film_eval(f: FilmMaterial, wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
     if (wi.z <= 0.0 || wo.z <= 0.0) {
         return vec4<f32>(0.0);
     }
-    let h = normalize(wi + wo);
+    let h = half_vector(wi, wo);
     // D G1(wi) G1(wo) / (4 cos_i cos_o), with the cosines divided out of G1 where it is exact.
     let shape = ggx_D(h.z, f.alpha) * ggx_G1_over_cos(min(wi.z, 1.0), f.alpha)
         * ggx_G1_over_cos(min(wo.z, 1.0), f.alpha) * 0.25;
@@ -268,7 +268,7 @@ fn film_pdf(f: FilmMaterial, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     if (wi.z <= 0.0 || wo.z <= 0.0) {
         return 0.0;
     }
-    let h = normalize(wi + wo);
+    let h = half_vector(wi, wo);
     let c = dot(wi, h);
     return select(0.0, ggx_visible_normal_pdf(wi, h, f.alpha) / (4.0 * c), c > 0.0);
 }

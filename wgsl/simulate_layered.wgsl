@@ -189,7 +189,7 @@ fn connect(above: u32, o: vec3<f32>) -> vec4<f32> {
 // Next-event estimation at layer l hit from above along -i: its lobe (eq 17) towards o, seen
 // through the layers above.
 fn connect_layer(layer: Layer, l: u32, i: vec3<f32>, o: vec3<f32>) {
-    let h = normalize(i + o);
+    let h = half_vector(i, o);
     let lobe = layer_lobe(i.z, o.z, h, layer.alpha);
     let r = quad_reflectance(layer.mirror, wavelength, angle_between(i, h));
     estimate += beta * lobe * r * connect(l, o);
