@@ -147,6 +147,38 @@ fn airy_series(host: f32, n_film: f32, q1: f32, q2: f32, base: vec2<f32>,
     return vec3<f32>(t_star, r12 * r23);
 }
 
+// thin_film_colour.TAIL_TOLERANCE and SMOOTH_OPD_NM: below the film's critical angle, where
+// both interfaces reflect almost totally, a film of small OPD is integrated exactly.
+const TAIL_TOLERANCE: f32 = 1e-3;
+const SMOOTH_OPD_NM: f32 = 300.0;
+
+// Bound on the tail the series leaves out, 2 T* |w|^(M+1) / (1 - |w|), of one polarisation's
+// airy_series.
+fn series_tail(c: vec3<f32>, order: u32) -> f32 {
+    let size = length(c.yz);
+    if (size >= 1.0) {
+        return 3.0e38;
+    }
+    return 2.0 * c.x * pow(size, f32(order + 1u)) / (1.0 - size);
+}
+
+// Whether a propagating film's series converges too slowly to truncate where its spectrum is
+// still smooth (thin_film_colour._fourier_xyz_flat).
+fn integrate_exactly(p: FilmColourParams, q1: f32, q2: f32) -> bool {
+    if (2.0 * q2 * p.d_nm > SMOOTH_OPD_NM) {
+        return false;
+    }
+    var tail = 0.0;
+    for (var b = 0u; b < p.windows; b++) {
+        let w = fourier_windows[p.film * p.windows + b];
+        tail = max(tail, max(series_tail(airy_series(p.host, p.n_film, q1, q2, w.node.yz, 0u),
+                                         p.order),
+                             series_tail(airy_series(p.host, p.n_film, q1, q2, w.node.yz, 1u),
+                                         p.order)));
+    }
+    return tail > TAIL_TOLERANCE;
+}
+
 fn add_transform(acc: vec3<f32>, g: vec2<f32>, f: Transform) -> vec3<f32> {
     // Re(g F) per channel.
     return acc + vec3<f32>(g.x * f.xy.x - g.y * f.xy.y, g.x * f.xy.z - g.y * f.xy.w,
@@ -158,7 +190,7 @@ fn film_colour(theta: f32, p: FilmColourParams, gaussian: bool, prefiltered: boo
     let q1 = max(p.host * sc.y, 0.0);
     let film_q2 = (p.n_film - p.host) * (p.n_film + p.host) + q1 * q1;
     var acc = vec3<f32>(0.0);
-    if (film_q2 <= 0.0) {
+    if (film_q2 <= 0.0 || integrate_exactly(p, q1, sqrt(film_q2))) {
         var film: ThinFilm;
         film.host = p.host;
         film.n_film = p.n_film;
