@@ -114,8 +114,9 @@ fn cell_terms(m: BraggMirror, g: CellGeometry, polarization: u32) -> CellTerms {
     return t;
 }
 
-// A phase error above this (radians) leaves sin^2(N K Lambda) no better than a guess. With the
-// one-oscillation condition below it never triggers for N <= 1000 (error < N^2 dx / 2 pi).
+// A phase error above this (radians) leaves sin^2(N K Lambda) no better than a guess. The
+// estimate grows with N (1 + 2 pi cell cycles): thin cells reach it beyond N = 1000, cells of
+// thousands of cycles (micrometres at lambda = 1 nm) at N = 20-50.
 const PHASE_TOLERANCE: f32 = 0.25;
 
 // Where float32 cannot resolve the phase psi = N K Lambda of the pass-band oscillation, the
