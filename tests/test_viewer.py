@@ -207,6 +207,27 @@ def test_the_preview_lights_with_filtered_ibl_where_the_scene_allows_it():
     assert plain.preview_lighting == "monte-carlo"
 
 
+def test_the_first_preview_scale_is_guessed_from_the_paths_shown_before_it():
+    """Before any preview frame, a filtered-lighting pixel is taken to cost 0.3 of the paths'
+    measured cost (it was full size, 9-12 frames/s at 256 x 256 on lavapipe); a frame that
+    compiled pipelines does not hold the estimate up once a normal one is measured."""
+    from wgbragg import viewer as viewer_module
+
+    viewer = Viewer("teapot", size=(256, 256))
+    budget = viewer_module._PREVIEW_HEADROOM / viewer_module.PREVIEW_BUDGET_FPS
+    share = viewer_module._FILTERED_PIXEL_COST_SHARE
+    assert viewer.preview_scale("split-sum") == 1  # nothing measured: full size
+    viewer._measure(False, 1, "monte-carlo", 3.0, 256 * 256)  # a first frame, compiling
+    viewer._measure(False, 1, "monte-carlo", 0.4, 256 * 256)
+    per_pixel = 0.4 / (256 * 256)
+    assert viewer._pixel_seconds["monte-carlo"] == per_pixel
+    expected = next(k for k in viewer_module.PREVIEW_SCALES
+                    if share * per_pixel * (256 // k) ** 2 <= budget)
+    assert viewer.preview_scale("split-sum") == expected == 2
+    viewer._measure(True, 2, "split-sum", 0.001, 128 * 128)  # measured: the guess is gone
+    assert viewer.preview_scale("split-sum") == 1
+
+
 def test_side_panel_data(viewer):
     wavelength, reflectance = viewer.spectrum(0)
     assert wavelength.shape == reflectance.shape == (471,)
