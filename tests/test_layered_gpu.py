@@ -7,9 +7,13 @@ kernel's arithmetic, and its tables, built on the GPU by the float32 Yeh kernel 
 product. Tolerances, relative to the largest value of a batch (per wavelength or channel),
 about ten times the largest difference measured on lavapipe (``pytest -s`` prints them):
 
-- ``F_RTOL`` on ``f`` and ``pdf`` (measured: 1.9e-5, the coated structure, spectral): the
-  float32 tables and direction algebra; the half vector moves by ~1e-7 rad, a relative change
-  of 2/alpha * 1e-7 in a GGX peak.
+- ``F_RTOL`` on ``f`` (measured: 1.9e-5, the coated structure, spectral): the float32 tables
+  and direction algebra; the half vector moves by ~1e-7 rad, a relative change of
+  2/alpha * 1e-7 in a GGX peak.
+- ``PDF_RTOL`` on ``pdf`` (measured 2.2e-4, the coated structure): its component
+  probabilities read the wavelength-averaged transmissivity, whose float32 cell means of T
+  (rough_layer._cell_transmittance, from the Bloch phases at the cell's ends) agree with
+  float64 to 1.6e-5 of t, against 3e-6 for the point values they replaced.
 - ``WEIGHT_RTOL`` on sample weights (measured 5.8e-5): ``f cos / pdf`` at a wo that itself
   moved by up to ``WO_ATOL``.
 - ``LANDMARK_RTOL`` for factored RGB with in-kernel landmark colours (measured 5.4e-6, but
@@ -39,6 +43,7 @@ from wgbragg.transmission_filter import TransmissionFilter
 pytestmark = pytest.mark.gpu
 
 F_RTOL = 2e-4
+PDF_RTOL = 2e-3
 WEIGHT_RTOL = 5e-4
 LANDMARK_RTOL = 1e-3
 WO_ATOL = 1e-4
@@ -219,7 +224,7 @@ def test_pdf(structures, name):
     s = structures[name]
     wi, wo = pairs(1000, seed=6)
     gpu = s.pdf(wi, wo, backend="gpu")
-    assert_close(gpu[:, None], s.pdf(wi, wo)[:, None], F_RTOL, f"{name} pdf")
+    assert_close(gpu[:, None], s.pdf(wi, wo)[:, None], PDF_RTOL, f"{name} pdf")
     assert np.all(gpu[(wi[:, 2] <= 0) | (wo[:, 2] <= 0)] == 0.0)
 
 
@@ -272,7 +277,7 @@ def test_sample(structures, name, spectral):
     continuous = pdf > 0.0
     assert np.array_equal(continuous[same], pdf_np[same] > 0.0)
     assert_close(pdf[continuous][:, None], s.pdf(wi[continuous], wo[continuous])[:, None],
-                 F_RTOL, f"{name} sample pdf")
+                 PDF_RTOL, f"{name} sample pdf")
 
 
 def test_albedo(structures):

@@ -304,3 +304,8 @@ def test_other_raises(numpy_filters):
         F_alpha(0.1, -0.1, 0.1)
     with pytest.raises(ValueError, match="alpha"):
         ballistic_transmission_reference(np.cos, 0.1, 0.0)
+
+
+def test_F_alpha_names_angles_that_do_not_broadcast():
+    with pytest.raises(ValueError, match=r"theta_i.*theta_d"):
+        transmission_filter.F_alpha([0.1, 0.2], [0.1, 0.2, 0.3], 0.1)

@@ -29,7 +29,13 @@ from collections.abc import Callable
 import numpy as np
 
 from . import gpu
-from ._validation import _as_float_array, check_angle, check_backend, check_count
+from ._validation import (
+    _as_float_array,
+    check_angle,
+    check_backend,
+    check_broadcast,
+    check_count,
+)
 from .microfacet import _D, _G1_over_cos, check_alpha
 
 __all__ = [
@@ -214,8 +220,8 @@ def F_alpha(theta_i, theta_d, alpha, psi_samples: int = 1000) -> np.ndarray:
     Raises
     ------
     ValueError
-        If an angle is outside [0, pi/2], ``alpha`` outside [0.01, 1] or ``psi_samples`` is
-        not an integer >= 1.
+        If an angle is outside [0, pi/2], the angles do not broadcast against each other,
+        ``alpha`` is outside [0.01, 1] or ``psi_samples`` is not an integer >= 1.
 
     Notes
     -----
@@ -233,6 +239,7 @@ def F_alpha(theta_i, theta_d, alpha, psi_samples: int = 1000) -> np.ndarray:
     theta_d = check_angle(theta_d, "theta_d")
     alpha = check_filter_alpha(alpha)
     psi_samples = check_count("psi_samples", psi_samples)
+    check_broadcast(theta_i=theta_i.shape, theta_d=theta_d.shape)
     incident, difference = np.broadcast_arrays(_angle_terms(theta_i), _angle_terms(theta_d))
     shape = incident.shape[:-1]
     incident, difference = incident.reshape(-1, 4), difference.reshape(-1, 4)

@@ -7,17 +7,23 @@
 //! include "complex.wgsl"
 //! include "layer.wgsl"
 //! include "yeh.wgsl"
+//! include "cell_transmittance.wgsl"
 
 // Rough layers see unpolarized light.
 const UNPOLARIZED: u32 = 2u;
 // host == n1 (a ballistic layer): Appendix D's complex host amplitude is compiled out.
 override HOST_MATCHED: bool = true;
+// A ballistic layer with an n2 layer: T averaged over each node's cell.
+override CELL_MEANS: bool = true;
 
 @group(0) @binding(0) var<storage, read> wavelength_nm: array<f32>;
 @group(0) @binding(1) var<storage, read> theta: array<f32>;
+// Bloch phases (s, p) at the cells' ends, [end][wavelength] (bragg_cell_phases.wgsl), where
+// CELL_MEANS; a placeholder otherwise.
+@group(0) @binding(2) var<storage, read> cell_phases: array<vec2<f32>>;
 // 4 ceil(len(theta) / 4) x len(wavelength_nm) entries.
-@group(0) @binding(2) var<storage, read_write> transmittance: array<f32>;
-@group(0) @binding(3) var<uniform> mirror: BraggMirror;
+@group(0) @binding(3) var<storage, read_write> transmittance: array<f32>;
+@group(0) @binding(4) var<uniform> mirror: BraggMirror;
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>,
@@ -31,7 +37,18 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
     let count = arrayLength(&theta);
     // Angles past the last one only pad the final quad: they meet zero weights. A clamped
     // index and a select rather than a branch, which lavapipe would run masked anyway.
-    let reflectance = bragg_reflectance(mirror, wavelength_nm[(i % per_quad) / 4u],
-                                        theta[min(angle, count - 1u)], UNPOLARIZED, HOST_MATCHED);
-    transmittance[i] = select(0.0, 1.0 - reflectance, angle < count);
+    let node = min(angle, count - 1u);
+    let column = (i % per_quad) / 4u;
+    let wavelength = wavelength_nm[column];
+    var value: f32;
+    if (CELL_MEANS && mirror.bulk == 0u) {
+        let columns = arrayLength(&wavelength_nm);
+        value = cell_transmittance(mirror, cell_geometry(mirror, wavelength, theta[node]),
+                                   cell_phases[node * columns + column],
+                                   cell_phases[(node + 1u) * columns + column]);
+    } else {
+        value = 1.0 - bragg_reflectance(mirror, wavelength, theta[node], UNPOLARIZED,
+                                        HOST_MATCHED);
+    }
+    transmittance[i] = select(0.0, value, angle < count);
 }
