@@ -33,36 +33,48 @@ fn smoothstep_unit(z: f32) -> f32 {
     return t * t * (3.0 - 2.0 * t);
 }
 
+// One polarisation's T at geometry g averaged over its cell, across which the Bloch phase
+// K Lambda moves by `step` turns.
+fn cell_transmittance_polarized(m: BraggMirror, g: CellGeometry, polarization: u32,
+                                step: f32) -> f32 {
+    let t = cell_terms(m, g, polarization);
+    let point = 1.0 - matched_reflectance(t, g.cell_cycles, m.periods);
+    if (t.sin2 <= 0.0) {
+        return point;
+    }
+    let n = f32(m.periods);
+    let span = n * step;
+    let w = min(abs(t.W), MAX_AMPLITUDE);
+    let a = w * w;
+    let b = t.sin2;
+    let features = 2.0 * span * sqrt((a + b) / b);
+    // Resolved features keep the point value (matched_reflectance already averages where
+    // float32 cannot place the phase), and so do nodes within psi0 < pi / 2 of a band edge,
+    // where the window below is empty: most nodes of most mirrors stop here.
+    let edge = sin(0.5 * PI / n);
+    if (features <= RESOLVED || b <= edge * edge) {
+        return point;
+    }
+    let root = sqrt(b);
+    let psi0 = n * atan2_cycles_positive(root, abs(t.x));
+    if (phase_unresolved(t, g.cell_cycles, psi0, root, n)) {
+        return clamp(root / sqrt(a + b), 0.0, 1.0);  // float32 cannot place psi0
+    }
+    let width = min(span * smoothstep_unit(features), max(min(psi0, 2.0 * psi0 - 0.5), 0.0));
+    if (width <= 0.0) {
+        return point;
+    }
+    return clamp(window_transmittance(a, b, psi0, width), 0.0, 1.0);
+}
+
 // Unpolarized T at geometry g averaged over its cell, whose ends have the Bloch phases
-// (s, p) `lower` and `upper` in turns (cell_phases).
+// (s, p) `lower` and `upper` in turns (bragg_cell_phases.wgsl).
 fn cell_transmittance(m: BraggMirror, g: CellGeometry, lower: vec2<f32>,
                       upper: vec2<f32>) -> f32 {
-    let n = f32(m.periods);
-    var total = 0.0;
     if (g.q1 <= 0.0) {
         return 0.0;  // grazing in n1: r12 = -1 (yeh_polarized)
     }
-    for (var polarization = 0u; polarization < 2u; polarization++) {
-        // yeh_polarized's matched R from the terms the window needs too.
-        let t = cell_terms(m, g, polarization);
-        var value = 1.0 - matched_reflectance(t, g.cell_cycles, m.periods);
-        if (t.sin2 > 0.0) {
-            let span = n * abs(upper[polarization] - lower[polarization]);
-            let w = min(abs(t.W), MAX_AMPLITUDE);
-            let a = w * w;
-            let b = t.sin2;
-            let root = sqrt(b);
-            let psi0 = n * atan2_cycles_positive(root, abs(t.x));
-            let features = 2.0 * span * sqrt((a + b) / b);
-            var width = span * smoothstep_unit(features);
-            width = min(width, max(min(psi0, 2.0 * psi0 - 0.5), 0.0));
-            if (phase_unresolved(t, g.cell_cycles, psi0, root, n)) {
-                value = clamp(root / sqrt(a + b), 0.0, 1.0);  // float32 cannot place psi0
-            } else if (width > 0.0) {
-                value = clamp(window_transmittance(a, b, psi0, width), 0.0, 1.0);
-            }
-        }
-        total += 0.5 * value;
-    }
-    return total;
+    let step = abs(upper - lower);
+    return 0.5 * (cell_transmittance_polarized(m, g, 0u, step.x)
+        + cell_transmittance_polarized(m, g, 1u, step.y));
 }
