@@ -223,7 +223,9 @@ def render_section(results: dict, cfg: Config, command: str) -> str:
     worst_tables = max(max(tables) for tables, _ in results["edits"].values())
     medians = [statistics.median(tables) for tables, _ in results["edits"].values()]
     baked_s = results["filter"][0][0]
-    filtered_fps, filtered_scale = next(iter(results["previews"].values()))[1]
+    # Every interaction counts, the first one too.
+    previews = [run for runs in results["previews"].values() for run in runs]
+    slowest_fps = min(fps for fps, _ in previews)
     lines += ["", "### Targets", ""]
     lines += _table(["target", "measured", "met"], [
         [f"tables of an edited Bragg layer re-baked in <= {TABLE_BUDGET_MS:g} ms",
@@ -231,9 +233,9 @@ def render_section(results: dict, cfg: Config, command: str) -> str:
          f"{_ms(worst_tables)}", _yes(max(medians) <= TABLE_BUDGET_MS)],
         [f"transmission filter of a new roughness in <= {FILTER_BUDGET_S:g} s",
          f"{human_time(baked_s)} (baked)", _yes(baked_s <= FILTER_BUDGET_S)],
-        [f"preview >= {PREVIEW_BUDGET_FPS:g} frames/s", f"{filtered_fps:.1f} frames/s "
-         f"(filtered lighting, divisor {filtered_scale}, from the second interaction on)",
-         _yes(filtered_fps >= PREVIEW_BUDGET_FPS)],
+        [f"preview >= {PREVIEW_BUDGET_FPS:g} frames/s", f"slowest {slowest_fps:.1f} "
+         "frames/s (either preview, first or next interaction)",
+         _yes(slowest_fps >= PREVIEW_BUDGET_FPS)],
     ])
     lines += ["", "The table target is judged by the median over the edits: single edits run "
               "longer while other processes share the cores.", END_MARKER]
