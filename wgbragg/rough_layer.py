@@ -41,7 +41,8 @@ _WAVELENGTHS_PER_LANE = 12
 _PARAMS_DTYPE = gpu.struct_dtype([
     ("rows", "u32"), ("quads", "u32"), ("wavelengths", "u32"), ("blocks", "u32"),
 ])
-# id(filter) -> its weights (texture) and difference angles on the GPU, dropped with the filter.
+# id(filter) -> its weights (texture), difference angles and their cells' ends on the GPU,
+# dropped with the filter.
 _filters_on_gpu: dict[int, tuple[gpu.DeviceArray, ...]] = {}
 
 
@@ -130,18 +131,18 @@ def _cell_transmittance(m: BraggMirror, wavelength: np.ndarray, theta_d: np.ndar
     ``wgsl/bragg_transmittance.wgsl``.
     """
     lower, upper = cell_edges(theta_d)
+    # Neighbouring cells share an end: the phases at each end once (bragg_cell_phases.wgsl).
+    ends = np.append(lower, upper[-1])
     N = m.N
     total = 0.0
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         for polarization in ("s", "p"):
             _, C, x, sin2 = cell_coefficients(m.n1, m.n2, m.d1, m.d2, wavelength,
                                               m.n1 * np.sin(theta_d), polarization)
-            ends = []
-            for edge in (lower, upper):
-                _, _, x_edge, sin2_edge = cell_coefficients(m.n1, m.n2, m.d1, m.d2, wavelength,
-                                                            m.n1 * np.sin(edge), polarization)
-                ends.append(np.arctan2(np.sqrt(np.maximum(sin2_edge, 0.0)), x_edge))
-            span = N * np.abs(ends[1] - ends[0])
+            _, _, x_end, sin2_end = cell_coefficients(m.n1, m.n2, m.d1, m.d2, wavelength,
+                                                      m.n1 * np.sin(ends), polarization)
+            phase = np.arctan2(np.sqrt(np.maximum(sin2_end, 0.0)), x_end)
+            span = N * np.abs(phase[..., 1:] - phase[..., :-1])
             a = np.abs(C) ** 2
             b = np.maximum(sin2, 0.0)
             psi0 = N * np.arctan2(np.sqrt(b), np.abs(x))
