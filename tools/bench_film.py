@@ -444,8 +444,9 @@ def render_section(results: Results, command: str) -> str:
         "coefficients at each lobe's centre, adapted from illuminant E to D65 (Bradford).")
     out.append(
         "2. The largest errors are at grazing angles, where |r12 r23| approaches 1 and the "
-        "truncated series converges slowly; the worst is a free-standing film (base 1.0) at "
-        "d = 0, which the exact Airy sum makes black and a truncated series does not.")
+        "truncated series converges slowly. Films of small OPD are integrated exactly there "
+        "(`thin_film_colour.TAIL_RANGE`): the free-standing film (base 1.0) at d = 0, which "
+        "the exact Airy sum makes black, was 82 dE2000 off at M = 3 before.")
     out.append(
         "3. GPU times: median of the timestamps around one dispatch of "
         f"{cfg.timing_angles:,} angles; numpy: wall clock of `film.xyz(theta, method)` on the "

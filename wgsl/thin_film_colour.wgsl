@@ -147,13 +147,16 @@ fn airy_series(host: f32, n_film: f32, q1: f32, q2: f32, base: vec2<f32>,
     return vec3<f32>(t_star, r12 * r23);
 }
 
-// thin_film_colour.TAIL_TOLERANCE and SMOOTH_OPD_NM: below the film's critical angle, where
-// both interfaces reflect almost totally, a film of small OPD is integrated exactly.
-const TAIL_TOLERANCE: f32 = 1e-3;
-const SMOOTH_OPD_NM: f32 = 300.0;
+// thin_film_colour.TAIL_RANGE and EXACT_OPD_RANGE_NM: below the film's critical angle, where
+// both interfaces reflect almost totally, a film of small OPD is integrated exactly, blended
+// with the series in between.
+const TAIL_LOW: f32 = 1e-4;
+const TAIL_HIGH: f32 = 1e-3;
+const EXACT_OPD_SHORT_NM: f32 = 300.0;
+const EXACT_OPD_LONG_NM: f32 = 450.0;
 
 // Bound on the tail the series leaves out, 2 T* |w|^(M+1) / (1 - |w|), of one polarisation's
-// airy_series.
+// airy_series (thin_film_colour.series_tail).
 fn series_tail(c: vec3<f32>, order: u32) -> f32 {
     let size = length(c.yz);
     if (size >= 1.0) {
@@ -162,11 +165,12 @@ fn series_tail(c: vec3<f32>, order: u32) -> f32 {
     return 2.0 * c.x * pow(size, f32(order + 1u)) / (1.0 - size);
 }
 
-// Whether a propagating film's series converges too slowly to truncate where its spectrum is
-// still smooth (thin_film_colour._fourier_xyz_flat).
-fn integrate_exactly(p: FilmColourParams, q1: f32, q2: f32) -> bool {
-    if (2.0 * q2 * p.d_nm > SMOOTH_OPD_NM) {
-        return false;
+// Share of exact integration of a propagating film (thin_film_colour._exact_share).
+fn exact_share(p: FilmColourParams, q1: f32, q2: f32) -> f32 {
+    let by_opd = clamp((EXACT_OPD_LONG_NM - 2.0 * q2 * p.d_nm)
+                       / (EXACT_OPD_LONG_NM - EXACT_OPD_SHORT_NM), 0.0, 1.0);
+    if (by_opd <= 0.0) {
+        return 0.0;
     }
     var tail = 0.0;
     for (var b = 0u; b < p.windows; b++) {
@@ -176,7 +180,8 @@ fn integrate_exactly(p: FilmColourParams, q1: f32, q2: f32) -> bool {
                              series_tail(airy_series(p.host, p.n_film, q1, q2, w.node.yz, 1u),
                                          p.order)));
     }
-    return tail > TAIL_TOLERANCE;
+    let by_tail = clamp(log(tail / TAIL_LOW) / log(TAIL_HIGH / TAIL_LOW), 0.0, 1.0);
+    return by_tail * by_opd;
 }
 
 fn add_transform(acc: vec3<f32>, g: vec2<f32>, f: Transform) -> vec3<f32> {
@@ -190,7 +195,11 @@ fn film_colour(theta: f32, p: FilmColourParams, gaussian: bool, prefiltered: boo
     let q1 = max(p.host * sc.y, 0.0);
     let film_q2 = (p.n_film - p.host) * (p.n_film + p.host) + q1 * q1;
     var acc = vec3<f32>(0.0);
-    if (film_q2 <= 0.0 || integrate_exactly(p, q1, sqrt(film_q2))) {
+    var exact = 1.0;
+    if (film_q2 > 0.0) {
+        exact = exact_share(p, q1, sqrt(film_q2));
+    }
+    if (exact > 0.0) {
         var film: ThinFilm;
         film.host = p.host;
         film.n_film = p.n_film;
@@ -201,7 +210,10 @@ fn film_colour(theta: f32, p: FilmColourParams, gaussian: bool, prefiltered: boo
             film.k_base = node.node.z;
             acc += thin_film_reflectance(film, node.node.x, theta, 2u) * node.weight.xyz;
         }
-    } else {
+        acc *= exact;
+    }
+    if (exact < 1.0) {
+        var series = vec3<f32>(0.0);
         let q2 = sqrt(film_q2);
         let opd_per_nm = 2.0 * q2;
         let opd = opd_per_nm * p.d_nm;
@@ -209,7 +221,7 @@ fn film_colour(theta: f32, p: FilmColourParams, gaussian: bool, prefiltered: boo
             let w = fourier_windows[p.film * p.windows + b];
             let cs = airy_series(p.host, p.n_film, q1, q2, w.node.yz, 0u);
             let cp = airy_series(p.host, p.n_film, q1, q2, w.node.yz, 1u);
-            acc += (1.0 - 0.5 * (cs.x + cp.x)) * w.white.xyz;
+            series += (1.0 - 0.5 * (cs.x + cp.x)) * w.white.xyz;
             var power_s = vec2<f32>(1.0, 0.0);
             var power_p = vec2<f32>(1.0, 0.0);
             for (var m = 1u; m <= p.order; m++) {
@@ -220,12 +232,14 @@ fn film_colour(theta: f32, p: FilmColourParams, gaussian: bool, prefiltered: boo
                 let x = f32(m) * opd;
                 let spread = f32(m) * opd_per_nm * p.sigma_nm;
                 if (gaussian) {
-                    acc = add_transform(acc, g, gaussian_transform(w, x, spread));
+                    series = add_transform(series, g, gaussian_transform(w, x, spread));
                 } else {
-                    acc = add_transform(acc, g, table_transform(w, b, x, spread, p, prefiltered));
+                    series = add_transform(series, g,
+                                           table_transform(w, b, x, spread, p, prefiltered));
                 }
             }
         }
+        acc += (1.0 - exact) * series;
     }
     return vec3<f32>(dot(p.adapt0.xyz, acc), dot(p.adapt1.xyz, acc), dot(p.adapt2.xyz, acc));
 }
