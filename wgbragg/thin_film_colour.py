@@ -121,8 +121,8 @@ truncated series went white (dE2000 up to 87 within 0.01 rad of it)."""
 EXACT_OPD_RANGE_NM = (300.0, 450.0)
 """OPDs (nm) over which exact integration fades out: full below the first, none above the
 second. There the spectrum turns by at most 5.5 rad across the visible range, smooth enough
-for the evanescent nodes (10 nm apart). Both blends keep the colour continuous in the angle, so the float32
-twin, whose bounds round differently, stays within rounding of it."""
+for the evanescent nodes (10 nm apart). Both blends keep the colour continuous in the angle,
+so the float32 twin, whose bounds round differently, stays within rounding of it."""
 
 EXACT_NODES = 48
 """Nodes (uniform in wavelength over 360-830 nm, 10 nm apart) where the table method integrates
