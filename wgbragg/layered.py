@@ -50,9 +50,6 @@ from .rough_layer import RoughBraggLayer
 __all__ = ["BRDF_METHODS", "HERO", "INTEGRATED", "LayeredBragg", "coating_reflectance"]
 
 BRDF_METHODS = ("single-reflection", "single-reflection-lut")
-
-LUT_WAVELENGTH_RANGE_NM = (360.0, 830.0)
-"""Wavelengths (nm) of the LUT method's Yeh table: the colorimetry's 1 nm nodes."""
 """``method=`` of :meth:`LayeredBragg.brdf`: the model with the mirrors' reflectance evaluated
 exactly (Yeh), or read from a table over (theta_d, wavelength) per layer."""
 
@@ -188,11 +185,11 @@ class _BaseAlbedo:
 
 def _check_wavelength(wavelength_nm, method: str) -> np.ndarray | None:
     """Wavelengths of a spectral query: the library's range, and for the LUT method its
-    table's (:data:`LUT_WAVELENGTH_RANGE_NM`), which it would otherwise read clamped."""
+    table's (the colorimetry's 1 nm nodes), which it would otherwise read clamped."""
     if wavelength_nm is None:
         return None
     wavelength = check_wavelength(wavelength_nm)
-    low, high = LUT_WAVELENGTH_RANGE_NM
+    low, high = colorimetry.WAVELENGTH_RANGE_NM
     if method == "single-reflection-lut" and not np.all((wavelength >= low)
                                                         & (wavelength <= high)):
         raise ValueError(f"method='single-reflection-lut' tabulates the Yeh term over "

@@ -70,8 +70,8 @@ __all__ = [
 
 WORKGROUP_SIZE = 64
 
-WAVELENGTH_RANGE_NM = (360.0, 830.0)
-"""Wavelengths the GPU tables cover (nm, 1 nm apart)."""
+WAVELENGTH_RANGE_NM = colorimetry.WAVELENGTH_RANGE_NM
+"""Wavelengths the GPU tables cover (nm, 1 nm apart): the colorimetry's nodes."""
 
 FACTORED_COLOUR_METHODS = {**GPU_LANDMARK_METHODS, "reference": 3}
 """``colour_method`` values whose layer colours the kernel computes in place (factored RGB
