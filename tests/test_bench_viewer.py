@@ -57,6 +57,15 @@ def test_roughness_edit_bakes_then_finds_its_filter(run):
     assert all(_seconds(bench, row[2]) > 0 for row in rows)
 
 
+def test_edits_that_change_the_kernel_are_timed(run):
+    bench, text = run
+    rows = _rows(text, "### Edits that change the kernel")
+    assert [row[0] for row in rows] == [
+        "first frame of the session", "first filtered-lighting preview frame",
+        "3 Bragg layers instead of 2", "spectral mode", "a thin film instead of the Bragg layers"]
+    assert all(_seconds(bench, row[1]) > 0 for row in rows)
+
+
 def test_previews_and_targets(run):
     _, text = run
     previews = _rows(text, "### Preview frames")

@@ -11,6 +11,12 @@ are those of :attr:`Viewer.budgets`, wall clock), on the ``teapot`` preset:
 - **the transmission filter after a roughness edit**: of a roughness this process has not used,
   baked into an empty cache folder (:attr:`Budgets.filter_s`), then the same roughness again
   (in memory);
+- **edits that change the kernel**, each the edit and the frame after it (wall clock), in this
+  order on one viewer, before anything else of the run has compiled: the session's first
+  frame (tables, filters from the cache, pipelines; the device already open), the first
+  filtered-lighting preview frame (its renderer, the prefiltered environment), three Bragg
+  layers instead of two, spectral mode, a thin film instead of the Bragg layers. Each builds
+  a pipeline specialised to the new configuration;
 - **preview frames** while interacting: frames per second of ``frames`` frames after two
   untimed ones (render, readback and display transform), with the filtered image-based
   lighting preview and with the path-traced one, and the resolution divisor each chose: in a
@@ -107,6 +113,36 @@ def _bragg_edits(viewer, edits: int, offset_nm: float) -> tuple[list[float], lis
     return tables, updates
 
 
+def _structural_edits(size: tuple[int, int]) -> list[tuple[str, float]]:
+    """(label, seconds) of the edits that change what the kernel holds, each with its frame."""
+    from wgbragg import gpu
+    from wgbragg.viewer import Viewer
+
+    gpu.get_device()
+    timed = []
+
+    def step(label, action):
+        start = time.perf_counter()
+        action()
+        timed.append((label, time.perf_counter() - start))
+
+    viewer = Viewer("teapot", size=size, mode="rgb")
+    step("first frame of the session", viewer.frame)
+
+    def preview():
+        viewer.interacting = True
+        viewer.frame()
+        viewer.interacting = False
+
+    step("first filtered-lighting preview frame", preview)
+    for label, change in (("3 Bragg layers instead of 2", {"layers": 3}),
+                          ("spectral mode", {"mode": "spectral"}),
+                          ("a thin film instead of the Bragg layers",
+                           {"material_type": "thin-film"})):
+        step(label, lambda change=change: (viewer.edit(**change), viewer.frame()))
+    return timed
+
+
 def _interaction(viewer, frames: int) -> tuple[float, int]:
     """(frames per second, resolution divisor) of one interaction's preview frames."""
     viewer.interacting = True
@@ -135,14 +171,17 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> dict:
     dict
         ``"edits"``: mode -> (table ms, update ms) lists; ``"filter"``: [(seconds, source)]
         baked then found; ``"previews"``: label -> [(frames/s, divisor)] of the first and the
-        next interaction; ``"environment"``: the run's facts.
+        next interaction; ``"structural"``: [(label, seconds)] of the edits that change the
+        kernel; ``"environment"``: the run's facts.
     """
     from wgbragg.viewer import Viewer
 
     meter = _docs.LoadMeter()
     results = {"edits": {}, "previews": {}}
     size = (cfg.size, cfg.size)
-    bar = tqdm(total=len(MODES) + 3, desc="viewer", disable=not progress)
+    bar = tqdm(total=len(MODES) + 4, desc="viewer", disable=not progress)
+    results["structural"] = _structural_edits(size)
+    bar.update()
     for index, mode in enumerate(MODES):
         viewer = Viewer("teapot", size=size, mode=mode)
         viewer.frame()
@@ -215,7 +254,14 @@ def render_section(results: dict, cfg: Config, command: str) -> str:
     lines += _table(["roughness", "source", "time"], [
         [f"{FRESH_ALPHA:g}", source, human_time(seconds)]
         for seconds, source in results["filter"]])
-    lines += ["", "### Preview frames while interacting", ""]
+    lines += ["", "### Edits that change the kernel", ""]
+    lines += _table(["edit, and the frame after it", "time"], [
+        [label, human_time(seconds)] for label, seconds in results["structural"]])
+    lines += ["", "In this order on one viewer, before anything else in the run compiled a "
+              "pipeline. Each builds a render pipeline specialised to the new configuration "
+              "(and the first preview frame also its renderer and prefiltered environment).",
+              ""]
+    lines += ["### Preview frames while interacting", ""]
     lines += _table(["preview", "first interaction: frames/s", "divisor",
                      "next interaction: frames/s", "divisor"], [
         [label, f"{first[0]:.1f}", str(first[1]), f"{later[0]:.1f}", str(later[1])]

@@ -53,6 +53,17 @@ dispatches in order in one submission and reads back only the arrays asked for;
     second = kernel_b.bind([first.outputs[0], weights], [(n, np.float32)])
     (result,) = submit([first, second], read=second.outputs)
 
+Specialisation
+--------------
+Override constants select what a pipeline computes, but lavapipe inlines the functions called
+in the branches they disable before it folds those branches away. Code that only some
+specialisations reach sits between ``//! if CONDITION`` / ``//! else`` / ``//! endif`` lines,
+whose conditions read the pipeline's override constants: :func:`compute_pipeline` empties the
+lines of the branches not taken before compiling (``wgbragg/_specialise.py`` has the
+grammar). Blocks only remove code that the constants make unreachable, so they change
+compile times, not results: the renderer's kernel compiles in 0.05-0.3 s instead of 3.5-5 s
+on lavapipe.
+
 Loop budget
 -----------
 llvmpipe (lavapipe's shader compiler) ends every loop of an invocation once the loops of its
@@ -88,6 +99,8 @@ from typing import Any
 
 import numpy as np
 import wgpu
+
+from ._specialise import BlockError, specialise, strip_comments
 
 __all__ = [
     "LOOP_BUDGET",
@@ -516,7 +529,6 @@ def struct_dtype(fields: Sequence[tuple[str, str]]) -> np.dtype:
 # --------------------------------------------------------------------------- pipelines
 
 
-_COMMENT_RE = re.compile(r"/\*.*?\*/|//[^\n]*", re.DOTALL)
 _BINDING_RE = re.compile(
     r"@(group|binding)\s*\(\s*(\d+)\s*\)\s*@(group|binding)\s*\(\s*(\d+)\s*\)\s*"
     r"var\s*(?:<\s*(\w+)\s*(?:,\s*(\w+)\s*)?>|\w+\s*:\s*(texture_2d\s*<\s*f32\s*>))"
@@ -529,15 +541,10 @@ _pipeline_cache: dict[tuple, Kernel] = {}
 _cache_stats = {"hits": 0, "misses": 0}
 
 
-def _strip_comments(code: str) -> str:
-    # Keep newlines inside block comments so offsets map to the same lines.
-    return _COMMENT_RE.sub(lambda m: re.sub(r"[^\n]", " ", m.group(0)), code)
-
-
 def _reflect_bindings(source: ShaderSource) -> str:
     """One letter per binding of ``source``, checked against the convention: ``r`` storage
     read, ``t`` texture_2d<f32>, ``w`` storage read_write, ``u`` uniform."""
-    code = _strip_comments(source.code)
+    code = strip_comments(source.code)
     found = []
     for m in _BINDING_RE.finditer(code):
         attrs = {m.group(1): int(m.group(2)), m.group(3): int(m.group(4))}
@@ -618,7 +625,9 @@ def compute_pipeline(
     entry : str
         Entry point function.
     constants : mapping, optional
-        Values of WGSL ``override`` declarations. ``WORKGROUP_SIZE`` defaults to 64.
+        Values of WGSL ``override`` declarations. ``WORKGROUP_SIZE`` defaults to 64. They
+        also keep or remove the source's specialisation blocks (``//! if LAYERED`` ...
+        ``//! else`` ... ``//! endif``, see "Specialisation" above) before it is compiled.
 
     Returns
     -------
@@ -641,7 +650,7 @@ def compute_pipeline(
         # Checked when it was built: scanning the source again costs ~1 ms per call.
         _cache_stats["hits"] += 1
         return kernel
-    declared = set(_OVERRIDE_RE.findall(_strip_comments(source.code)))
+    declared = set(_OVERRIDE_RE.findall(strip_comments(source.code)))
     if "WORKGROUP_SIZE" not in declared:
         raise ValueError(f'{name}: declares no `override WORKGROUP_SIZE`; include "harness.wgsl"')
     unknown = sorted(k for k in merged if k not in declared and not k.isdigit())
@@ -650,7 +659,11 @@ def compute_pipeline(
             f"{name}: unknown override constants {unknown}; shader declares {sorted(declared)}"
         )
     _cache_stats["misses"] += 1
-    kernel = Kernel(source, entry, merged)
+    try:
+        code = specialise(source.code, merged)
+    except BlockError as exc:
+        raise ShaderCompileError(*source.locate(exc.line), str(exc)) from None
+    kernel = Kernel(dataclasses.replace(source, code=code), entry, merged)
     _pipeline_cache[key] = kernel
     return kernel
 

@@ -231,10 +231,11 @@ fn layer_mirror(layer: RoughLayer) -> BraggMirror {
 
 fn layer_reflectance(s: LayeredStructure, layer: RoughLayer, theta_d: f32,
                      wavelength_nm: f32, column: Lerp) -> f32 {
-    if (LUT) {
-        return table_bilinear(layer.reflectance, lut_row(s, theta_d), column);
-    }
+    //! if LUT
+    return table_bilinear(layer.reflectance, lut_row(s, theta_d), column);
+    //! else
     return bragg_reflectance(layer_mirror(layer), wavelength_nm, theta_d, 2u, HOST_MATCHED);
+    //! endif
 }
 
 fn node_wavelength(j: u32) -> f32 {
@@ -246,21 +247,23 @@ fn node_weights(j: u32) -> vec3<f32> {
 }
 
 fn layer_colour(s: LayeredStructure, layer: RoughLayer, theta_d: f32) -> vec3<f32> {
-    if (LUT) {
-        return table_lerp_rgb(layer.reflectance_rgb, lut_row(s, theta_d));
+    //! if LUT
+    return table_lerp_rgb(layer.reflectance_rgb, lut_row(s, theta_d));
+    //! else
+    //! if COLOUR_METHOD == COLOUR_REFERENCE
+    let m = layer_mirror(layer);
+    let angle = angle_geometry(m, theta_d);
+    var xyz = vec3<f32>(0.0);
+    for (var j = 0u; j < VISIBLE_NODES; j++) {
+        let g = geometry_at(m, angle, node_wavelength(j));
+        xyz += bragg_reflectance_at(m, g, 2u, HOST_MATCHED) * node_weights(j);
     }
-    if (COLOUR_METHOD == COLOUR_REFERENCE) {
-        let m = layer_mirror(layer);
-        let angle = angle_geometry(m, theta_d);
-        var xyz = vec3<f32>(0.0);
-        for (var j = 0u; j < VISIBLE_NODES; j++) {
-            let g = geometry_at(m, angle, node_wavelength(j));
-            xyz += bragg_reflectance_at(m, g, 2u, HOST_MATCHED) * node_weights(j);
-        }
-        return xyz_to_linear_srgb(xyz);
-    }
+    return xyz_to_linear_srgb(xyz);
+    //! else
     return xyz_to_linear_srgb(landmark_colour_unpolarized(
         layer_mirror(layer), theta_d, COLOUR_METHOD, SUBDIVISIONS, HOST_MATCHED, MATCHED_LAYERS));
+    //! endif
+    //! endif
 }
 
 fn layered_eval_spectral(s: LayeredStructure, p: LayeredPair, wavelength_nm: f32) -> f32 {
@@ -332,13 +335,13 @@ fn layered_eval_rgb(s: LayeredStructure, p: LayeredPair) -> vec3<f32> {
     if (p.scale == 0.0) {
         return vec3<f32>(0.0);
     }
-    if (INTEGRATED) {
-        var xyz = vec3<f32>(0.0);
-        for (var j = 0u; j < VISIBLE_NODES; j++) {
-            xyz += layered_eval_spectral(s, p, node_wavelength(j)) * node_weights(j);
-        }
-        return xyz_to_linear_srgb(xyz);
+    //! if INTEGRATED
+    var xyz = vec3<f32>(0.0);
+    for (var j = 0u; j < VISIBLE_NODES; j++) {
+        xyz += layered_eval_spectral(s, p, node_wavelength(j)) * node_weights(j);
     }
+    return xyz_to_linear_srgb(xyz);
+    //! else
     var total = vec3<f32>(0.0);
     var through = vec3<f32>(1.0);
     for (var l = 0u; l < LAYERS; l++) {
@@ -354,6 +357,7 @@ fn layered_eval_rgb(s: LayeredStructure, p: LayeredPair) -> vec3<f32> {
         total += s.base_rgb / PI * through;
     }
     return total * p.scale;
+    //! endif
 }
 
 // ----------------------------------------------------------------------------- eq 35

@@ -181,24 +181,27 @@ fn lanes_max(value: vec4<f32>) -> f32 {
 // ----------------------------------------------------------------------------- environment
 
 fn sky_radiance(e: Environment, d: vec3<f32>) -> vec3<f32> {
-    if (ENVIRONMENT_MAP) {
-        return environment_map_radiance(d);
-    }
+    //! if ENVIRONMENT_MAP
+    return environment_map_radiance(d);
+    //! else
     return environment_radiance(e, d);
+    //! endif
 }
 
 fn sky_pdf(e: Environment, d: vec3<f32>) -> f32 {
-    if (ENVIRONMENT_MAP) {
-        return environment_map_pdf(d);
-    }
+    //! if ENVIRONMENT_MAP
+    return environment_map_pdf(d);
+    //! else
     return environment_pdf(e, d);
+    //! endif
 }
 
 fn sky_sample(e: Environment, u: vec3<f32>) -> vec3<f32> {
-    if (ENVIRONMENT_MAP) {
-        return environment_map_sample(u.xy);
-    }
+    //! if ENVIRONMENT_MAP
+    return environment_map_sample(u.xy);
+    //! else
     return environment_sample(e, u);
+    //! endif
 }
 
 // ----------------------------------------------------------------------------- materials
@@ -233,12 +236,12 @@ fn film_base_index(f: FilmMaterial, wavelength_nm: f32) -> vec2<f32> {
 // deviation of the thickness (prefiltering, RGB mode with FILM_PREFILTERED only).
 fn film_reflectance(f: FilmMaterial, cos_d: f32, sigma_nm: f32) -> vec4<f32> {
     let theta = acos(clamp(cos_d, 0.0, 1.0));
-    if (!SPECTRAL) {
-        var p = f.colour;
-        p.d_nm = film_thickness;
-        p.sigma_nm = sigma_nm;
-        return vec4<f32>(film_colour(theta, p, false, FILM_PREFILTERED), 0.0);
-    }
+    //! if !SPECTRAL
+    var p = f.colour;
+    p.d_nm = film_thickness;
+    p.sigma_nm = sigma_nm;
+    return vec4<f32>(film_colour(theta, p, false, FILM_PREFILTERED), 0.0);
+    //! else
     var film: ThinFilm;
     film.host = f.colour.host;
     film.n_film = f.colour.n_film;
@@ -251,6 +254,7 @@ fn film_reflectance(f: FilmMaterial, cos_d: f32, sigma_nm: f32) -> vec4<f32> {
         out[k] = thin_film_reflectance(film, wavelengths[k], theta, 2u);
     }
     return out;
+    //! endif
 }
 
 fn film_eval(f: FilmMaterial, wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
@@ -293,38 +297,50 @@ struct BsdfSample {
 }
 
 fn layered_eval(s: LayeredStructure, p: LayeredPair) -> vec4<f32> {
-    if (!SPECTRAL) {
-        return vec4<f32>(layered_eval_rgb(s, p), 0.0);
-    }
+    //! if SPECTRAL
     return layered_eval_spectral4(s, p, wavelengths);
+    //! else
+    return vec4<f32>(layered_eval_rgb(s, p), 0.0);
+    //! endif
 }
 
 // f (1/sr) for local directions, +z the shading normal.
 fn bsdf_eval(m: Material, wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
+    //! if THIN_FILMS
     if (THIN_FILMS && m.kind == MATERIAL_THIN_FILM) {
         return film_eval(films[m.structure], wi, wo);
     }
+    //! endif
+    //! if LAYERED
     if (LAYERED && m.kind == MATERIAL_LAYERED) {
         let s = structures[m.structure];
         return layered_eval(s, layered_pair(s, wi, wo));
     }
+    //! endif
     return select(vec4<f32>(0.0), upsample(m.albedo / PI), wi.z > 0.0 && wo.z > 0.0);
 }
 
 fn bsdf_pdf(m: Material, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+    //! if THIN_FILMS
     if (THIN_FILMS && m.kind == MATERIAL_THIN_FILM) {
         return film_pdf(films[m.structure], wi, wo);
     }
+    //! endif
+    //! if LAYERED
     if (LAYERED && m.kind == MATERIAL_LAYERED) {
         return layered_pdf(structures[m.structure], wi, wo);
     }
+    //! endif
     return select(0.0, wo.z / PI, wi.z > 0.0 && wo.z > 0.0);
 }
 
 fn bsdf_sample(m: Material, wi: vec3<f32>, u: vec3<f32>) -> BsdfSample {
+    //! if THIN_FILMS
     if (THIN_FILMS && m.kind == MATERIAL_THIN_FILM) {
         return film_sample(films[m.structure], wi, u.yz);
     }
+    //! endif
+    //! if LAYERED
     if (LAYERED && m.kind == MATERIAL_LAYERED) {
         let s = structures[m.structure];
         let drawn = layered_sample(s, wi, u);
@@ -335,6 +351,7 @@ fn bsdf_sample(m: Material, wi: vec3<f32>, u: vec3<f32>) -> BsdfSample {
         }
         return BsdfSample(drawn.wo, weight, drawn.pdf, drawn.dirac > 0.0);
     }
+    //! endif
     let wo = cosine_direction(u.yz);
     return BsdfSample(wo, upsample(m.albedo), wo.z / PI, false);
 }
@@ -412,12 +429,11 @@ fn layered_ibl(m: Material, n: vec3<f32>, v: vec3<f32>, cos_v: f32) -> vec3<f32>
         let layer = layers[s.first_layer + l];
         let level = m.ibl_level + l;
         let p = prefiltered_lookup(level, r);
-        var colour: vec3<f32>;
-        if (IBL == IBL_KNEIPHOF) {
-            colour = bragg_filtered(s, layer, light_spread(p, v));
-        } else {
-            colour = layer_colour(s, layer, theta_v);
-        }
+        //! if IBL == IBL_KNEIPHOF
+        let colour = bragg_filtered(s, layer, light_spread(p, v));
+        //! else
+        let colour = layer_colour(s, layer, theta_v);
+        //! endif
         total += p.radiance * microfacet_albedo(level, cos_v) * colour * through;
         let t = table_lerp_rgb(layer.transmissivity_rgb, filter_row(layer, theta_v));
         through *= t * t;
@@ -438,19 +454,23 @@ fn ibl_radiance(m: Material, n: vec3<f32>, v: vec3<f32>) -> vec4<f32> {
         return upsample(m.albedo * prefiltered_lookup(m.ibl_level, n).radiance);
     }
     let cos_v = clamp(dot(n, v), 0.0, 1.0);
+    //! if LAYERED
     if (LAYERED && m.kind == MATERIAL_LAYERED) {
         return vec4<f32>(layered_ibl(m, n, v, cos_v), 0.0);
     }
+    //! endif
     var reflectance = vec4<f32>(0.0);
     let p = prefiltered_lookup(m.ibl_level, 2.0 * cos_v * n - v);
+    //! if THIN_FILMS
     if (THIN_FILMS && m.kind == MATERIAL_THIN_FILM) {
         let f = films[m.structure];
-        if (IBL == IBL_KNEIPHOF) {
-            reflectance = film_kneiphof(f, light_spread(p, v));
-        } else {
-            reflectance = film_reflectance(f, cos_v, 0.0);
-        }
+        //! if IBL == IBL_KNEIPHOF
+        reflectance = film_kneiphof(f, light_spread(p, v));
+        //! else
+        reflectance = film_reflectance(f, cos_v, 0.0);
+        //! endif
     }
+    //! endif
     return upsample(p.radiance) * microfacet_albedo(m.ibl_level, cos_v) * reflectance;
 }
 
@@ -475,6 +495,7 @@ fn direct_light(m: Material, frame: Frame, wi: vec3<f32>, origin: vec3<f32>,
     let e = params.environment;
     var total = vec4<f32>(0.0);
     // Filtered IBL lights the surface from the environment by itself.
+    //! if IBL == IBL_MONTE_CARLO
     if (IBL == IBL_MONTE_CARLO) {
         let d = sky_sample(e, vec3<f32>(random(state), random(state), random(state)));
         let local = to_local(frame, d);
@@ -487,6 +508,7 @@ fn direct_light(m: Material, frame: Frame, wi: vec3<f32>, origin: vec3<f32>,
             }
         }
     }
+    //! endif
     for (var k = 0u; k < params.point_lights; k++) {
         let to_light = lights[2u * k].xyz - origin;
         let distance = length(to_light);
@@ -570,11 +592,10 @@ fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u3
                         abs(surface.position.z));
         let next = surface.position + surface.geometric * (params.epsilon + 1e-5 * scale);
         radiance += throughput * direct_light(m, frame, wi, next, surface.geometric, state);
-        if (IBL != IBL_MONTE_CARLO) {
-            radiance += throughput * ibl_radiance(m, surface.shading, -d);
-            break;
-        }
-
+        //! if IBL != IBL_MONTE_CARLO
+        radiance += throughput * ibl_radiance(m, surface.shading, -d);
+        break;
+        //! else
         let drawn = bsdf_sample(m, wi, vec3<f32>(random(state), random(state), random(state)));
         d = to_world(frame, drawn.wo);
         if (lanes_max(drawn.weight) <= 0.0 || dot(d, surface.geometric) <= 0.0) {
@@ -591,6 +612,7 @@ fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u3
             }
             throughput /= survive;
         }
+        //! endif
     }
     return radiance;
 }

@@ -1,0 +1,148 @@
+"""Specialisation blocks (``//! if`` / ``//! else`` / ``//! endif``, wgbragg/_specialise.py):
+which lines each set of override constants keeps, and the errors of malformed blocks."""
+
+from __future__ import annotations
+
+import pytest
+
+from wgbragg import gpu
+from wgbragg._specialise import BlockError, specialise
+
+HEADER = (
+    "override LAYERED: bool = false;\n"
+    "override IBL: u32 = 0u;\n"
+    "override EXPRESSION: u32 = 2u * 3u;\n"
+    "const IBL_KNEIPHOF: u32 = 2u;\n"
+)
+
+
+def kept(body: str, **constants) -> list[str]:
+    """The non-empty body lines that ``constants`` keep, directives excluded."""
+    code = specialise(HEADER + body, constants)
+    lines = code.split("\n")
+    assert len(lines) == len((HEADER + body).split("\n")), "line numbers moved"
+    return [line.strip() for line in lines[HEADER.count("\n"):]
+            if line.strip() and not line.strip().startswith("//!")]
+
+
+BLOCK = """\
+a
+//! if LAYERED
+b
+//! if IBL == IBL_KNEIPHOF || IBL == 1
+c
+//! else
+d
+//! endif
+//! else
+e
+//! endif
+f
+"""
+
+
+@pytest.mark.parametrize(("constants", "expected"), [
+    ({}, ["a", "e", "f"]),  # defaults from the declarations
+    ({"LAYERED": True}, ["a", "b", "d", "f"]),
+    ({"LAYERED": True, "IBL": 2}, ["a", "b", "c", "f"]),
+    ({"LAYERED": 1, "IBL": 1}, ["a", "b", "c", "f"]),
+    ({"LAYERED": False, "IBL": 2}, ["a", "e", "f"]),
+])
+def test_nested_blocks_keep_the_branches_taken(constants, expected):
+    assert kept(BLOCK, **constants) == expected
+
+
+@pytest.mark.parametrize(("condition", "constants", "holds"), [
+    ("!LAYERED", {}, True),
+    ("!LAYERED", {"LAYERED": True}, False),
+    ("LAYERED && IBL != 0", {"LAYERED": True, "IBL": 0}, False),
+    ("LAYERED && IBL != 0u", {"LAYERED": True, "IBL": 2}, True),
+    ("LAYERED || IBL == 2", {"IBL": 2}, True),
+    ("LAYERED == true", {"LAYERED": True}, True),
+    ("LAYERED != false", {}, False),
+])
+def test_conditions(condition, constants, holds):
+    assert kept(f"//! if {condition}\nx\n//! endif\n", **constants) == (["x"] if holds else [])
+
+
+@pytest.mark.parametrize(("body", "line", "message"), [
+    ("//! if LAYERED\nx\n", 5, "without `//! endif`"),
+    ("x\n//! endif\n", 6, "without `//! if`"),
+    ("//! else\n", 5, "without `//! if`"),
+    ("//! if LAYERED\n//! else\n//! else\n//! endif\n", 7, "second `//! else`"),
+    ("//! if LAYERED\n//! endif LAYERED\n", 6, "takes no condition"),
+    ("//! if\n//! endif\n", 5, "needs a condition"),
+    ("//! if SPECTRAL\n//! endif\n", 5, "'SPECTRAL' is not an override"),
+    ("//! if EXPRESSION == 6\n//! endif\n", 5, "neither a value nor a literal default"),
+    ("//! if IBL == NOWHERE\n//! endif\n", 5, "'NOWHERE' is neither"),
+    ("//! if IBL < 2\n//! endif\n", 5, "cannot read 'IBL < 2'"),
+])
+def test_malformed_blocks_are_located(body, line, message):
+    with pytest.raises(BlockError, match=message) as info:
+        specialise(HEADER + body, {})
+    assert info.value.line == line
+
+
+def test_a_value_set_by_the_pipeline_replaces_a_default_that_is_an_expression():
+    assert kept("//! if EXPRESSION == 6\nx\n//! endif\n", EXPRESSION=6) == ["x"]
+
+
+def test_declarations_in_comments_are_not_overrides():
+    code = "// override GHOST: bool = true;\n//! if GHOST\n//! endif\n"
+    with pytest.raises(BlockError, match="'GHOST' is not an override"):
+        specialise(code, {})
+
+
+@pytest.mark.parametrize("name", sorted(
+    path.relative_to(gpu.shader_dir()).as_posix() for path in gpu.shader_dir().rglob("*.wgsl")
+    if "broken" not in path.name))
+def test_every_shipped_shader_specialises_with_its_defaults(name):
+    source = gpu.load_shader(name)
+    assert specialise(source.code, {}).count("\n") == source.code.count("\n")
+
+
+# ------------------------------------------------------------------ through the harness
+
+KERNEL = """\
+//! include "harness.wgsl"
+override FAST: bool = false;
+@group(0) @binding(0) var<storage, read_write> out: array<f32>;
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    //! if FAST
+    out[gid.x] = 1.0;
+    //! else
+    out[gid.x] = function_that_does_not_exist();
+    //! endif
+}
+"""
+
+
+@pytest.fixture
+def tmp_shaders(tmp_path, monkeypatch):
+    (tmp_path / "harness.wgsl").write_text(
+        (gpu.shader_dir() / "harness.wgsl").read_text(encoding="utf-8"), encoding="utf-8")
+    monkeypatch.setattr(gpu, "shader_dir", lambda: tmp_path)
+    return tmp_path
+
+
+@pytest.mark.gpu
+def test_pipelines_compile_only_the_branches_taken(tmp_shaders):
+    import numpy as np
+
+    (tmp_shaders / "blocks.wgsl").write_text(KERNEL, encoding="utf-8")
+    (out,) = gpu.compute_pipeline("blocks.wgsl", constants={"FAST": True}).run(
+        [], [(4, np.float32)])
+    np.testing.assert_array_equal(out, 1.0)
+    with pytest.raises(gpu.ShaderCompileError, match="function_that_does_not_exist") as info:
+        gpu.compute_pipeline("blocks.wgsl", constants={"FAST": False})
+    assert (info.value.file, info.value.line) == ("blocks.wgsl", 9)
+
+
+@pytest.mark.gpu
+def test_a_malformed_block_is_a_compile_error_at_its_directive(tmp_shaders):
+    (tmp_shaders / "open.wgsl").write_text(KERNEL.replace("    //! endif\n", ""),
+                                           encoding="utf-8")
+    with pytest.raises(gpu.ShaderCompileError, match="without `//! endif`") as info:
+        gpu.compute_pipeline("open.wgsl", constants={"FAST": True})
+    assert (info.value.file, info.value.line) == ("open.wgsl", 6)
