@@ -921,9 +921,9 @@ class Viewer:
         self._frame_seconds[preview] = average
         per_pixel = seconds / pixels
         known = self._pixel_seconds.get(ibl)
-        # A renderer's first frame also builds its tables and pipelines (0.5-0.7 s against a
-        # 0.02-0.1 s frame): a cost far below the estimate replaces it rather than decaying
-        # into it over dozens of frames.
+        # A renderer's first frame also builds its tables and pipelines (0.5-0.7 s, 10-30
+        # preview frames): a cost far below the estimate replaces it rather than decaying into
+        # it over dozens of frames.
         self._pixel_seconds[ibl] = per_pixel if known is None or per_pixel < 0.5 * known else (
             (1.0 - _SMOOTHING) * known + _SMOOTHING * per_pixel)
         if preview:
