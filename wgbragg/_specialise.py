@@ -58,8 +58,8 @@ def strip_comments(code: str) -> str:
 
 def _declared(code: str, constants: Mapping[str, float | int | bool]) -> tuple[dict, dict]:
     """Override constants with their values (from ``constants``, else their literal defaults;
-    None where there is neither, e.g. a default that is an expression), and module-scope
-    ``const`` declarations with literal values."""
+    None where there is neither, e.g. a default that is an expression), and the ``const``
+    declarations with literal values."""
     overrides: dict[str, float | int | bool | None] = {}
     literals: dict[str, int] = {}
     for kind, name, value in _DECLARATION_RE.findall(strip_comments(code)):
