@@ -307,12 +307,12 @@ fn layered_eval(s: LayeredStructure, p: LayeredPair) -> vec4<f32> {
 // f (1/sr) for local directions, +z the shading normal.
 fn bsdf_eval(m: Material, wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
     //! if THIN_FILMS
-    if (THIN_FILMS && m.kind == MATERIAL_THIN_FILM) {
+    if (m.kind == MATERIAL_THIN_FILM) {
         return film_eval(films[m.structure], wi, wo);
     }
     //! endif
     //! if LAYERED
-    if (LAYERED && m.kind == MATERIAL_LAYERED) {
+    if (m.kind == MATERIAL_LAYERED) {
         let s = structures[m.structure];
         return layered_eval(s, layered_pair(s, wi, wo));
     }
@@ -322,12 +322,12 @@ fn bsdf_eval(m: Material, wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
 
 fn bsdf_pdf(m: Material, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     //! if THIN_FILMS
-    if (THIN_FILMS && m.kind == MATERIAL_THIN_FILM) {
+    if (m.kind == MATERIAL_THIN_FILM) {
         return film_pdf(films[m.structure], wi, wo);
     }
     //! endif
     //! if LAYERED
-    if (LAYERED && m.kind == MATERIAL_LAYERED) {
+    if (m.kind == MATERIAL_LAYERED) {
         return layered_pdf(structures[m.structure], wi, wo);
     }
     //! endif
@@ -336,12 +336,12 @@ fn bsdf_pdf(m: Material, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
 
 fn bsdf_sample(m: Material, wi: vec3<f32>, u: vec3<f32>) -> BsdfSample {
     //! if THIN_FILMS
-    if (THIN_FILMS && m.kind == MATERIAL_THIN_FILM) {
+    if (m.kind == MATERIAL_THIN_FILM) {
         return film_sample(films[m.structure], wi, u.yz);
     }
     //! endif
     //! if LAYERED
-    if (LAYERED && m.kind == MATERIAL_LAYERED) {
+    if (m.kind == MATERIAL_LAYERED) {
         let s = structures[m.structure];
         let drawn = layered_sample(s, wi, u);
         // The coating's Fresnel reflectance is the same at every wavelength.
@@ -455,14 +455,14 @@ fn ibl_radiance(m: Material, n: vec3<f32>, v: vec3<f32>) -> vec4<f32> {
     }
     let cos_v = clamp(dot(n, v), 0.0, 1.0);
     //! if LAYERED
-    if (LAYERED && m.kind == MATERIAL_LAYERED) {
+    if (m.kind == MATERIAL_LAYERED) {
         return vec4<f32>(layered_ibl(m, n, v, cos_v), 0.0);
     }
     //! endif
     var reflectance = vec4<f32>(0.0);
     let p = prefiltered_lookup(m.ibl_level, 2.0 * cos_v * n - v);
     //! if THIN_FILMS
-    if (THIN_FILMS && m.kind == MATERIAL_THIN_FILM) {
+    if (m.kind == MATERIAL_THIN_FILM) {
         let f = films[m.structure];
         //! if IBL == IBL_KNEIPHOF
         reflectance = film_kneiphof(f, light_spread(p, v));
