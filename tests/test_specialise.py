@@ -73,7 +73,15 @@ def test_conditions(condition, constants, holds):
     ("//! if LAYERED\n//! endif LAYERED\n", 6, "takes no condition"),
     ("//! if\n//! endif\n", 5, "needs a condition"),
     ("//! if SPECTRAL\n//! endif\n", 5, "'SPECTRAL' is not an override"),
-    ("//! if EXPRESSION == 6\n//! endif\n", 5, "neither a value nor a literal default"),
+    ("//! if EXPRESSION == 6\n//! endif\n", 5, "its default is not an integer"),
+    # Every atom is read, the ones that cannot change the outcome too.
+    ("//! if !LAYERED || SPECTRAL\n//! endif\n", 5, "'SPECTRAL' is not an override"),
+    ("//! if LAYERED && IBL == NOWHERE\n//! endif\n", 5, "'NOWHERE' is neither"),
+    ("//! if !LAYERED ||\n//! endif\n", 5, "cannot read ''"),
+    ("//! if LAYERED\n//! elif IBL == 2\n//! endif\n", 6, "unknown directive `//! elif`"),
+    ("//! ifLAYERED\n", 5, "unknown directive `//! ifLAYERED`"),
+    ("//! if !IBL == 2\n//! endif\n", 5, "cannot read '!IBL == 2'"),
+    ("//! if LAYERED == trueu\n//! endif\n", 5, "'trueu' is neither"),
     ("//! if IBL == NOWHERE\n//! endif\n", 5, "'NOWHERE' is neither"),
     ("//! if IBL < 2\n//! endif\n", 5, "cannot read 'IBL < 2'"),
 ])
@@ -85,6 +93,19 @@ def test_malformed_blocks_are_located(body, line, message):
 
 def test_a_value_set_by_the_pipeline_replaces_a_default_that_is_an_expression():
     assert kept("//! if EXPRESSION == 6\nx\n//! endif\n", EXPRESSION=6) == ["x"]
+
+
+def test_a_const_declared_with_two_values_is_not_read():
+    code = HEADER + ("fn a() { const K: u32 = 5u; }\nconst K: u32 = 2u;\n"
+                     "//! if IBL == K\n//! endif\n")
+    with pytest.raises(BlockError, match="'K' is neither"):
+        specialise(code, {})
+
+
+def test_constants_set_by_id():
+    code = "@id(7) override FAST: bool = false;\n//! if FAST\nx\n//! endif\n"
+    assert "x" in specialise(code, {"7": True}).split("\n")
+    assert "x" not in specialise(code, {}).split("\n")
 
 
 def test_declarations_in_comments_are_not_overrides():
@@ -137,6 +158,16 @@ def test_pipelines_compile_only_the_branches_taken(tmp_shaders):
     with pytest.raises(gpu.ShaderCompileError, match="function_that_does_not_exist") as info:
         gpu.compute_pipeline("blocks.wgsl", constants={"FAST": False})
     assert (info.value.file, info.value.line) == ("blocks.wgsl", 9)
+
+
+@pytest.mark.gpu
+def test_a_kernel_built_directly_resolves_its_blocks(tmp_shaders):
+    import numpy as np
+
+    (tmp_shaders / "blocks.wgsl").write_text(KERNEL, encoding="utf-8")
+    kernel = gpu.Kernel(gpu.load_shader("blocks.wgsl"), "main",
+                        {"WORKGROUP_SIZE": 64, "FAST": True})
+    np.testing.assert_array_equal(kernel.run([], [(4, np.float32)])[0], 1.0)
 
 
 @pytest.mark.gpu
