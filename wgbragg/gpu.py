@@ -63,7 +63,7 @@ lines of the branches not taken before compiling (``wgbragg/_specialise.py`` has
 grammar). Blocks only remove code that the constants make unreachable, so they change
 compile times, not results: on lavapipe the renderer's kernel compiles in 0.05-0.3 s instead
 of 3.5-5 s, except where a scene needs the in-kernel landmark colours (period maps in RGB
-mode: 1.7-3.6 s, from 4.6-5 s). Blocks are resolved when a :class:`Kernel` is built.
+mode: 1.2-1.4 s, from 4.6-5 s). Blocks are resolved when a :class:`Kernel` is built.
 
 Loop budget
 -----------

@@ -489,54 +489,63 @@ fn unoccluded(origin: vec3<f32>, direction: vec3<f32>, distance: f32) -> bool {
     return trace(origin, direction, distance, true).face < 0;
 }
 
-// Radiance reflected at one vertex towards wi from the lights reached by shadow rays.
+// Radiance reflected at one vertex towards wi from the lights reached by shadow rays: one
+// environment sample (Monte Carlo lighting only), every point light, one point on every area
+// light. One loop over them all, so that the BSDF (for some scenes a whole in-kernel colour
+// integral) is inlined once here: once per light kind, the render kernel of period-mapped
+// layers in RGB mode took 3.6 s to compile instead of 1.4 s.
 fn direct_light(m: Material, frame: Frame, wi: vec3<f32>, origin: vec3<f32>,
                 geometric: vec3<f32>, state: ptr<function, u32>) -> vec4<f32> {
     let e = params.environment;
-    var total = vec4<f32>(0.0);
     // Filtered IBL lights the surface from the environment by itself.
-    //! if IBL == IBL_MONTE_CARLO
-    if (IBL == IBL_MONTE_CARLO) {
-        let d = sky_sample(e, vec3<f32>(random(state), random(state), random(state)));
-        let local = to_local(frame, d);
-        if (dot(d, geometric) > 0.0 && local.z > 0.0) {
-            let f = bsdf_eval(m, wi, local);
-            if (any(f > vec4<f32>(0.0)) && unoccluded(origin, d, FAR)) {
-                let light_pdf = sky_pdf(e, d);
-                let weight = power_heuristic(light_pdf, bsdf_pdf(m, wi, local));
-                total += f * local.z * upsample(sky_radiance(e, d)) * (weight / light_pdf);
-            }
+    let environment = select(0u, 1u, IBL == IBL_MONTE_CARLO);
+    let first_area = environment + params.point_lights;
+    var total = vec4<f32>(0.0);
+    for (var k = 0u; k < first_area + params.area_lights; k++) {
+        var l: vec3<f32>;
+        var shadow_distance = FAR;
+        var distance = 0.0;
+        var emitting = 1.0;
+        var base = 0u;
+        if (k < environment) {
+            l = sky_sample(e, vec3<f32>(random(state), random(state), random(state)));
+        } else if (k < first_area) {
+            base = 2u * (k - environment);
+            let to_light = lights[base].xyz - origin;
+            distance = length(to_light);
+            l = to_light / distance;
+            shadow_distance = distance;
+        } else {
+            base = 2u * params.point_lights + 4u * (k - first_area);
+            let edge_u = lights[base + 1u].xyz;
+            let edge_v = lights[base + 2u].xyz;
+            let normal_area = cross(edge_u, edge_v);
+            let point = lights[base].xyz + random(state) * edge_u + random(state) * edge_v;
+            let to_light = point - origin;
+            distance = length(to_light);
+            l = to_light / distance;
+            // One-sided emitter: it shines towards edge_u x edge_v.
+            emitting = -dot(normal_area, l);
+            shadow_distance = distance * (1.0 - 1e-4);
         }
-    }
-    //! endif
-    for (var k = 0u; k < params.point_lights; k++) {
-        let to_light = lights[2u * k].xyz - origin;
-        let distance = length(to_light);
-        let l = to_light / distance;
-        let local_l = to_local(frame, l);
-        if (dot(l, geometric) > 0.0 && local_l.z > 0.0 && unoccluded(origin, l, distance)) {
-            total += bsdf_eval(m, wi, local_l) * local_l.z * upsample(lights[2u * k + 1u].xyz)
-                / (distance * distance);
+        let local = to_local(frame, l);
+        if (!(emitting > 0.0 && dot(l, geometric) > 0.0 && local.z > 0.0)) {
+            continue;
         }
-    }
-    let first_area = 2u * params.point_lights;
-    for (var k = 0u; k < params.area_lights; k++) {
-        let base = first_area + 4u * k;
-        let edge_u = lights[base + 1u].xyz;
-        let edge_v = lights[base + 2u].xyz;
-        let normal_area = cross(edge_u, edge_v);
-        let point = lights[base].xyz + random(state) * edge_u + random(state) * edge_v;
-        let to_light = point - origin;
-        let distance = length(to_light);
-        let l = to_light / distance;
-        // One-sided emitter: it shines towards edge_u x edge_v.
-        let emitting = -dot(normal_area, l);
-        let local_l = to_local(frame, l);
-        if (emitting > 0.0 && dot(l, geometric) > 0.0 && local_l.z > 0.0
-            && unoccluded(origin, l, distance * (1.0 - 1e-4))) {
+        let f = bsdf_eval(m, wi, local);
+        if (!any(f > vec4<f32>(0.0)) || !unoccluded(origin, l, shadow_distance)) {
+            continue;
+        }
+        if (k < environment) {
+            let light_pdf = sky_pdf(e, l);
+            let weight = power_heuristic(light_pdf, bsdf_pdf(m, wi, local));
+            total += f * local.z * upsample(sky_radiance(e, l)) * (weight / light_pdf);
+        } else if (k < first_area) {
+            total += f * local.z * upsample(lights[base + 1u].xyz) / (distance * distance);
+        } else {
             // Uniform on the area (pdf 1 / A): A cos_light / distance^2, and emitting is A cos_light.
-            total += bsdf_eval(m, wi, local_l) * local_l.z * upsample(lights[base + 3u].xyz)
-                * emitting / (distance * distance);
+            total += f * local.z * upsample(lights[base + 3u].xyz) * emitting
+                / (distance * distance);
         }
     }
     return total;
