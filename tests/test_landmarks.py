@@ -70,6 +70,85 @@ def test_evanescent_n2_has_band_edges_only():
     assert np.abs(sin2).max() < 1e-9
 
 
+def _pass_band_edges_on_a_grid(mirror, theta, pol, grid):
+    """Midpoints of the grid cells where sin^2 K Lambda changes sign: a brute-force search."""
+    _, sin2 = bloch_dispersion(mirror.n1, mirror.n2, mirror.d1, mirror.d2, 2.0 * np.pi / grid,
+                               theta, pol, host=mirror.host)
+    change = np.flatnonzero((sin2[1:] > 0.0) != (sin2[:-1] > 0.0))
+    return 0.5 * (grid[change] + grid[change + 1])
+
+
+def test_evanescent_n2_band_edges_match_a_fine_scan():
+    """Random dense hosts past n2's critical angle, some within 1e-5 of it: every edge a
+    20001-point scan sees is found within one step, and every other edge found bounds a pass
+    band narrower than two steps (tunnelling through thick n2, which the scan misses)."""
+    rng = np.random.default_rng(11)
+    grid = np.linspace(*VISIBLE_OMEGA, 20001)
+    step = grid[1] - grid[0]
+    unseen = 0
+    for _ in range(40):
+        n1 = rng.uniform(1.3, 3.0)
+        n2 = rng.uniform(1.0, n1 - 0.05)
+        host = rng.uniform(n2 + 0.01, 3.5)
+        top = min(n1, host)
+        s = n2 + (top - n2) * (10.0 ** rng.uniform(-5.0, -1.0) if rng.random() < 0.3
+                               else rng.uniform(0.0, 1.0))
+        mirror = BraggMirror(n1, n2, *10.0 ** rng.uniform(1.0, 3.4, 2), 10, host=host)
+        theta = math.asin(s / host)
+        for pol in "sp":
+            found = mirror.landmarks(theta, pol)
+            assert set(found.kind) <= {"edge"} and np.all(np.diff(found.omega) >= 0.0)
+            scanned = _pass_band_edges_on_a_grid(mirror, theta, pol, grid)
+            for edge in scanned:
+                assert np.abs(found.omega - edge).min() <= step
+            for i, edge in enumerate(found.omega):
+                if scanned.size and np.abs(scanned - edge).min() <= step:
+                    continue
+                neighbours = np.abs(np.delete(found.omega, i) - edge)
+                assert neighbours.min() < 2.0 * step
+                unseen += 1
+    assert unseen > 0  # the sample does hold bands below the scan's resolution
+
+
+def test_tunnelling_pass_bands_narrower_than_any_grid_are_found():
+    """A thick n2 barrier under a dense host: one pass band per pi of the n1 phase, 1.8 nm
+    to 0.013 nm wide; a 512-point scan (our earlier search) missed those narrower than its
+    step."""
+    mirror = BraggMirror(2.4, 1.0, 2700.0, 1000.0, 10, host=2.7)
+    theta = math.radians(23.0)
+    s = mirror.host * math.sin(theta)
+    q1 = math.sqrt(mirror.n1 ** 2 - s * s)
+    phases = np.array(VISIBLE_OMEGA) * q1 * mirror.d1 / np.pi
+    branches = int(np.ceil(phases[1]) - np.floor(phases[0]))
+    for pol in "sp":
+        found = mirror.landmarks(theta, pol)
+        assert found.omega.size >= 2 * (branches - 2)
+        lo, hi = found.omega[0::2], found.omega[1::2]
+        assert np.all(hi > lo)
+        assert np.sum(hi - lo < (VISIBLE_OMEGA[1] - VISIBLE_OMEGA[0]) / 511) >= 10
+        middle = 2.0 * np.pi / (0.5 * (lo + hi))
+        _, sin2 = bloch_dispersion(mirror.n1, mirror.n2, mirror.d1, mirror.d2, middle, theta,
+                                   pol, host=mirror.host)
+        assert np.all(sin2 > 0.0)  # each pair bounds a pass band
+        x, _ = dispersion(mirror, found, theta, pol)
+        np.testing.assert_allclose(np.abs(x), 1.0, rtol=0, atol=1e-6)
+
+
+@pytest.mark.parametrize("pol", ["s", "p"])
+def test_edges_are_continuous_where_n2_turns_evanescent(pol):
+    """At n2's critical angle (q2 = 0) the evanescent search is finite and meets the
+    propagating one: the edges just past it are those just before it."""
+    mirror = BraggMirror(1.5, 1.0, 300.0, 50.0, 20)
+    critical = math.asin(1.0 / 1.5)
+    before = mirror.landmarks(critical - 1e-9, pol)
+    past = mirror.landmarks(critical + 1e-9, pol)
+    at = mirror.landmarks(critical, pol)
+    before_edges = before.omega[before.kind == "edge"]
+    for found in (past, at):
+        assert np.all(np.isfinite(found.omega))
+        np.testing.assert_allclose(found.omega[found.kind == "edge"], before_edges, rtol=1e-6)
+
+
 @pytest.mark.parametrize("mirror", [BraggMirror(1.0, 1.0, 100.0, 100.0, 5),
                                     BraggMirror(1.0, 1.5, 100.0, 0.0, 5),
                                     BraggMirror(1.3, 1.5, 100.0, 100.0, 5, host=2.0)], ids=repr)

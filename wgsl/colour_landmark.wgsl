@@ -18,19 +18,18 @@
 // band edges (the square-root edge of the averaged spectrum is then smooth in u), against the
 // piecewise-linear XYZ density (colorimetry.xyz_density).
 
-// colour_methods.PANEL_NM, PANELS_PER_OSCILLATION, PANEL_MARGIN, PHASE_SNAP and
-// AVERAGING_MIN_PERIODS.
+// colour_methods.PANEL_NM, PANELS_PER_OSCILLATION, PANEL_MARGIN, PHASE_SNAP,
+// AVERAGING_MIN_PERIODS and EXACT_MIN_OSCILLATION_NM.
 const PANEL_NM: f32 = 40.0;
 const PANELS_PER_OSCILLATION: f32 = 3.0;
 const PANEL_MARGIN: f32 = 0.05;
 const PHASE_SNAP: f32 = 0.15;
 const AVERAGING_MIN_PERIODS: u32 = 16u;
+const EXACT_MIN_OSCILLATION_NM: f32 = 0.1;
 // Three-point Gauss-Legendre on [0, 1] (colour_methods._GAUSS_NODES, _GAUSS_WEIGHTS).
 const GAUSS_OFFSET: f32 = 0.38729833;   // sqrt(0.6) / 2
 const GAUSS_OUTER: f32 = 0.27777778;    // 5 / 18
 const GAUSS_INNER: f32 = 0.44444444;    // 8 / 18
-// Evanescent n2: sign changes recorded per scan batch (a batch ends early when full).
-const EVANESCENT_BATCH: u32 = 16u;
 
 const METHOD_APPROX: u32 = 0u;
 const METHOD_SUBDIVIDED: u32 = 1u;
@@ -134,10 +133,8 @@ fn node_reflectance(c: ColourSetup, omega: f32, exact: bool) -> f32 {
         + geometry_node_reflectance(c, g, 1u, exact));
 }
 
-// Bloch phases K Lambda in [0, pi] of s and p at omega (0 or pi inside band gaps), from
-// sin^2 K Lambda, which keeps its relative accuracy at band edges where acos(x) would not. At
-// a band edge (at_edge) snapped as colour_methods._snap_edge_phases.
-fn bloch_phases(c: ColourSetup, omega: f32, at_edge: bool) -> vec2<f32> {
+// (cos K Lambda of s, of p, sin^2 K Lambda of s, of p) at omega.
+fn dispersion_pair(c: ColourSetup, omega: f32) -> vec4<f32> {
     var s_terms: CellTerms;
     var p_terms: CellTerms;
     if (c.fast) {
@@ -149,8 +146,15 @@ fn bloch_phases(c: ColourSetup, omega: f32, at_edge: bool) -> vec2<f32> {
         s_terms = cell_terms(c.mirror, g, 0u);
         p_terms = cell_terms(c.mirror, g, 1u);
     }
-    let sine = sqrt(max(vec2<f32>(s_terms.sin2, p_terms.sin2), vec2<f32>(0.0)));
-    let phase = atan2(sine, vec2<f32>(s_terms.x, p_terms.x));
+    return vec4<f32>(s_terms.x, p_terms.x, s_terms.sin2, p_terms.sin2);
+}
+
+// Bloch phases K Lambda in [0, pi] of s and p at omega (0 or pi inside band gaps), from
+// sin^2 K Lambda, which keeps its relative accuracy at band edges where acos(x) would not. At
+// a band edge (at_edge) snapped as colour_methods._snap_edge_phases.
+fn bloch_phases(c: ColourSetup, omega: f32, at_edge: bool) -> vec2<f32> {
+    let d = dispersion_pair(c, omega);
+    let phase = atan2(sqrt(max(d.zw, vec2<f32>(0.0))), d.xy);
     let near_pi = phase > vec2<f32>(PI - PHASE_SNAP);
     let snap = vec2<bool>(at_edge) & (near_pi | (phase < vec2<f32>(PHASE_SNAP)));
     return select(phase, select(vec2<f32>(0.0), vec2<f32>(PI), near_pi), snap);
@@ -232,7 +236,8 @@ fn averaged_zone(c: ColourSetup, lo: f32, hi: f32, lower_edge: bool, upper_edge:
     let width_nm = TWO_PI / lo - TWO_PI / hi;
     var panels = u32(max(ceil(width_nm * (1.0 / PANEL_NM)), 1.0));
     let oscillations = f32(c.mirror.periods) * share;
-    let exact = c.mirror.periods < AVERAGING_MIN_PERIODS
+    let exact = (c.mirror.periods < AVERAGING_MIN_PERIODS
+                 && width_nm >= EXACT_MIN_OSCILLATION_NM * oscillations)
         || (share > 0.0 && width_nm > PANEL_NM * oscillations);
     if (exact) {
         panels = max(panels, u32(max(ceil(PANELS_PER_OSCILLATION * oscillations - PANEL_MARGIN),
@@ -333,10 +338,12 @@ fn zones_start(c: ColourSetup) -> Zones {
 }
 
 // Integrates the open zone up to omega (a band edge iff is_edge) and opens the next there.
-fn zone_close(c: ColourSetup, zones: ptr<function, Zones>, omega: f32, is_edge: bool) {
+// in_gap: polarisations known to be in a gap across the zone (see evanescent_gaps).
+fn zone_close(c: ColourSetup, zones: ptr<function, Zones>, omega: f32, is_edge: bool,
+              in_gap: vec2<bool>) {
     // The share of a pass band: see colour_methods._zones.
     let phases = bloch_phases(c, omega, is_edge);
-    let sweep = abs(phases - (*zones).lo_phases);
+    let sweep = select(abs(phases - (*zones).lo_phases), vec2<f32>(0.0), in_gap);
     let share = max(sweep.x, sweep.y) * (1.0 / PI);
     (*zones).xyz += averaged_zone(c, (*zones).lo, omega, (*zones).lo_edge, is_edge, share);
     (*zones).lo = omega;
@@ -345,10 +352,17 @@ fn zone_close(c: ColourSetup, zones: ptr<function, Zones>, omega: f32, is_edge: 
 }
 
 // A band edge at omega; those outside the range only bound zones outside it.
-fn zone_edge(c: ColourSetup, zones: ptr<function, Zones>, omega: f32) {
+fn zone_edge(c: ColourSetup, zones: ptr<function, Zones>, omega: f32, in_gap: vec2<bool>) {
     if (omega > OMEGA_LO && omega < OMEGA_HI) {
-        zone_close(c, zones, omega, true);
+        zone_close(c, zones, omega, true, in_gap);
     }
+}
+
+// With n2 evanescent, the polarisations in a gap at the middle of the zone ending at omega:
+// their phase changes are rounding (colour_methods._zones). Evaluated only there: in the
+// propagating sweep's loop the check cost 1.5 % of the kernel's time, though never taken.
+fn evanescent_gaps(c: ColourSetup, zones: ptr<function, Zones>, omega: f32) -> vec2<bool> {
+    return dispersion_pair(c, 0.5 * ((*zones).lo + omega)).zw <= vec2<f32>(0.0);
 }
 
 // The fields of every method's setup: the angle's fields of the cell geometry (the wavelength
@@ -410,38 +424,13 @@ fn landmark_colour(m: BraggMirror, theta: f32, polarization: u32, method: u32,
             }
         }
     } else {
-        // Evanescent n2: edges at the sign changes of sin^2 K Lambda on the numpy grid. The
-        // scan records the grid cells where the sign changes, up to EVANESCENT_BATCH at a
-        // time; the edges are then refined and integrated in loops of their own, so that
-        // invocations meeting edges at different grid points stay in step.
-        let ef = evanescent_frame(m, c.angle, polarization);
+        // Evanescent n2: one pass band per branch [k, k + 1] of tau = omega q1 d1 / pi.
+        let f = evanescent_frame(m, c.angle, polarization);
         c.subdivide = false;  // no modes to subdivide by (as the numpy twin)
-        var previous = evanescent_pass(ef, OMEGA_LO);
-        sweep_status(&sweep, previous, 0);
-        var next = 1u;
-        loop {
-            var cells: array<u32, EVANESCENT_BATCH>;
-            var count = 0u;
-            for (; next < SCAN_POINTS && count < EVANESCENT_BATCH; next++) {
-                let in_band = evanescent_pass(ef, scan_omega(next));
-                if (in_band != previous) {
-                    cells[count] = next;
-                    count += 1u;
-                }
-                previous = in_band;
-            }
-            for (var k = 0u; k < count; k++) {
-                let i = cells[k];
-                let lo = scan_omega(i - 1u);
-                let hi = scan_omega(i);
-                // The status alternates at each edge; lo is in a gap iff the zone after is a
-                // pass band (scan_edge's lo_negative).
-                let pass_after = !sweep.pass_band;
-                let edge = scan_edge(m, c.angle, polarization, lo, hi, pass_after);
-                sweep_visit(c, &sweep, edge, pass_after, 0);
-            }
-            if (next >= SCAN_POINTS) {
-                break;
+        for (var k = i32(floor(f.tau_lo)); k < i32(ceil(f.tau_hi)); k++) {
+            let band = evanescent_band(f, k);
+            for (var j = 0; j < 2; j++) {
+                sweep_visit(c, &sweep, select(band.x, band.y, j == 1) / f.scale, j == 0, 0);
             }
         }
     }
@@ -458,6 +447,7 @@ fn averaged_colour(m: BraggMirror, theta: f32, host_matched: bool,
     }
     let bulk = !matched_layers && m.bulk != 0u;
     let propagating = matched_layers || c.angle.q2sq > 0.0;
+    let evanescent = !bulk && !propagating;
     if (!bulk && propagating) {
         // n_plus, delta and so the modes and t range are those of both polarisations.
         c.frame = mode_frame(m, c.angle, 0u);
@@ -490,61 +480,40 @@ fn averaged_colour(m: BraggMirror, theta: f32, host_matched: bool,
                     default: {}
                 }
                 if (t > f.t_lo && t < f.t_hi) {
-                    zone_edge(c, &zones, PI * t / f.n_plus);
+                    zone_edge(c, &zones, PI * t / f.n_plus, vec2<bool>(false));
                 }
             }
         }
     } else {
-        // Evanescent n2: as landmark_colour, sign changes of sin^2 K Lambda of either
-        // polarisation on the numpy grid, recorded per batch (grid index << 4, bits 0 / 1: s / p
-        // changes sign, bits 2 / 3: s / p is in a gap below the cell), then refined.
+        // Evanescent n2: as landmark_colour, the bands of both polarisations in each branch
+        // (which does not depend on the polarisation), their edges in order as above.
         let s_frame = evanescent_frame(m, c.angle, 0u);
         let p_frame = evanescent_frame(m, c.angle, 1u);
-        var s_passes = evanescent_pass(s_frame, OMEGA_LO);
-        var p_passes = evanescent_pass(p_frame, OMEGA_LO);
-        var next = 1u;
-        loop {
-            var cells: array<u32, EVANESCENT_BATCH>;
-            var count = 0u;
-            for (; next < SCAN_POINTS && count < EVANESCENT_BATCH; next++) {
-                let s_next = evanescent_pass(s_frame, scan_omega(next));
-                let p_next = evanescent_pass(p_frame, scan_omega(next));
-                let changes = select(0u, 1u, s_next != s_passes) | select(0u, 2u, p_next != p_passes);
-                if (changes != 0u) {
-                    cells[count] = (next << 4u) | changes | select(0u, 4u, !s_passes)
-                        | select(0u, 8u, !p_passes);
-                    count += 1u;
+        for (var k = i32(floor(s_frame.tau_lo)); k < i32(ceil(s_frame.tau_hi)); k++) {
+            let s_band = evanescent_band(s_frame, k);
+            let p_band = evanescent_band(p_frame, k);
+            let rising_lo = min(s_band.x, p_band.x);
+            let rising_hi = max(s_band.x, p_band.x);
+            let falling_lo = min(s_band.y, p_band.y);
+            let falling_hi = max(s_band.y, p_band.y);
+            for (var j = 0; j < 4; j++) {
+                var t = rising_lo;
+                switch j {
+                    case 1: { t = min(rising_hi, falling_lo); }
+                    case 2: { t = max(rising_hi, falling_lo); }
+                    case 3: { t = falling_hi; }
+                    default: {}
                 }
-                s_passes = s_next;
-                p_passes = p_next;
-            }
-            for (var k = 0u; k < count; k++) {
-                let cell = cells[k];
-                let lo = scan_omega((cell >> 4u) - 1u);
-                let hi = scan_omega(cell >> 4u);
-                var s_edge = hi;
-                var p_edge = hi;
-                if ((cell & 1u) != 0u) {
-                    s_edge = scan_edge(m, c.angle, 0u, lo, hi, (cell & 4u) != 0u);
-                }
-                if ((cell & 2u) != 0u) {
-                    p_edge = scan_edge(m, c.angle, 1u, lo, hi, (cell & 8u) != 0u);
-                }
-                // One edge: both hold it (the other's hi is not visited); two: in order.
-                let both = (cell & 3u) == 3u;
-                let single = select(p_edge, s_edge, (cell & 1u) != 0u);
-                for (var j = 0u; j < select(1u, 2u, both); j++) {
-                    let edge = select(single, select(min(s_edge, p_edge), max(s_edge, p_edge),
-                                                     j == 1u), both);
-                    zone_edge(c, &zones, edge);
-                }
-            }
-            if (next >= SCAN_POINTS) {
-                break;
+                let omega = t / s_frame.scale;
+                zone_edge(c, &zones, omega, evanescent_gaps(c, &zones, omega));
             }
         }
     }
-    zone_close(c, &zones, OMEGA_HI, false);
+    var in_gap = vec2<bool>(false);
+    if (evanescent) {
+        in_gap = evanescent_gaps(c, &zones, OMEGA_HI);
+    }
+    zone_close(c, &zones, OMEGA_HI, false, in_gap);
     return zones.xyz;
 }
 

@@ -20,19 +20,15 @@
 // [Airy point, next mode]) holding exactly one edge, and a closed gap (Brewster's angle, or
 // sin(pi m delta / 2) = 0) exactly where its second term vanishes.
 //
-// Evanescent n2 (no modes): as the numpy twin, sign changes of sin^2 K Lambda on the same
-// 512-point omega grid, refined by bisection.
+// Evanescent n2 (no modes): as the numpy twin (landmarks._evanescent_edges), in
+// tau = omega q1 d1 / pi each integer is a gap and [k, k + 1] holds one pass band, whose
+// edges lie on either side of its zero of cos K Lambda; the three roots by safeguarded Newton.
 
 // The visible range 360..830 nm as angular wavenumbers (rad/nm): landmarks.VISIBLE_OMEGA.
 const OMEGA_LO: f32 = 0.0075701028;   // 2 pi / 830
 const OMEGA_HI: f32 = 0.0174532925;   // 2 pi / 360
 const LAMBDA_LO_NM: f32 = 360.0;
 const LAMBDA_HI_NM: f32 = 830.0;
-// landmarks._SCAN_POINTS: grid of the evanescent-n2 edge scan.
-const SCAN_POINTS: u32 = 512u;
-// Bisection steps refining an evanescent edge: the grid cell (2e-5 rad/nm) shrinks below one
-// float32 ulp of omega (9e-10) in 15 steps.
-const SCAN_BISECTIONS: u32 = 18u;
 // Safeguarded Newton: at most this many steps, stopping once a step is below NEWTON_TOL
 // relative (a few float32 ulps: the evaluation noise of the functions).
 const NEWTON_STEPS: u32 = 16u;
@@ -148,40 +144,61 @@ fn mode_terms(f: ModeFrame, t: f32) -> CellTerms {
     return mode_terms_at(f, mode_phases(f, t));
 }
 
+// Safeguarded Newton (rtsafe) on a bracket [lo, hi] holding one root, from the iterate t.
+struct Rtsafe {
+    lo: f32,
+    hi: f32,
+    t: f32,
+    done: bool,
+}
+
+fn rtsafe_start(lo: f32, hi: f32, t0: f32) -> Rtsafe {
+    return Rtsafe(lo, hi, select(0.5 * (lo + hi), t0, t0 >= lo && t0 <= hi), false);
+}
+
+// One step, given (value, derivative) at r.t; the value at lo is positive iff lo_positive.
+fn rtsafe_step(r: ptr<function, Rtsafe>, value: vec2<f32>, lo_positive: bool) {
+    let t = (*r).t;
+    if (value.x == 0.0) {
+        (*r).done = true;
+        return;
+    }
+    if ((value.x > 0.0) == lo_positive) {
+        (*r).lo = t;
+    } else {
+        (*r).hi = t;
+    }
+    // The midpoint whenever Newton leaves the bracket (or divides by 0); done once the step
+    // is below the evaluation noise. The bracket ends are admitted: a nearly closed gap has
+    // its edge within rounding of the mode.
+    let step = value.x / value.y;
+    if (abs(step) <= NEWTON_TOL * max(t, 1.0)) {
+        (*r).t = clamp(t - step, (*r).lo, (*r).hi);
+        (*r).done = true;
+        return;
+    }
+    let next = t - step;
+    (*r).t = select(0.5 * ((*r).lo + (*r).hi), next, next >= (*r).lo && next <= (*r).hi);
+}
+
 // Root of the dispersion (kind 0) or of an edge factor (kind 1) in [lo, hi], whose value at lo
 // is positive iff lo_positive, from the first guess t0.
-fn bracketed_root(f: ModeFrame, kind: u32, cos_type: bool, sigma: f32, lo_in: f32, hi_in: f32,
+fn bracketed_root(f: ModeFrame, kind: u32, cos_type: bool, sigma: f32, lo: f32, hi: f32,
                   lo_positive: bool, t0: f32) -> f32 {
-    var lo = lo_in;
-    var hi = hi_in;
-    var t = select(0.5 * (lo + hi), t0, t0 >= lo && t0 <= hi);
+    var r = rtsafe_start(lo, hi, t0);
     for (var step = 0u; step < NEWTON_STEPS; step++) {
         var value: vec2<f32>;
         if (kind == 0u) {
-            value = dispersion_value(f, t);
+            value = dispersion_value(f, r.t);
         } else {
-            value = edge_factor_value(f, t, cos_type, sigma);
+            value = edge_factor_value(f, r.t, cos_type, sigma);
         }
-        if (value.x == 0.0) {
+        rtsafe_step(&r, value, lo_positive);
+        if (r.done) {
             break;
         }
-        if ((value.x > 0.0) == lo_positive) {
-            lo = t;
-        } else {
-            hi = t;
-        }
-        // Safeguarded Newton (rtsafe): the midpoint whenever Newton leaves the bracket (or
-        // divides by 0); done once the step is below the evaluation noise. The bracket ends
-        // are admitted: a nearly closed gap has its edge within rounding of the mode.
-        let step = value.x / value.y;
-        if (abs(step) <= NEWTON_TOL * max(t, 1.0)) {
-            t = clamp(t - step, lo, hi);
-            break;
-        }
-        let next = t - step;
-        t = select(0.5 * (lo + hi), next, next >= lo && next <= hi);
     }
-    return t;
+    return r.t;
 }
 
 // The landmarks of the mode interval [m, m + 1] (t coordinates).
@@ -250,61 +267,116 @@ fn mode_interval(f: ModeFrame, m: i32) -> ModeInterval {
     return iv;
 }
 
-// Evanescent n2, per angle and polarisation: cos K Lambda = cos(delta1) cosh(kappa)
-// + c sin(delta1) sinh(kappa), c = (1/r - r) / 2 with r = eta1 / |eta2| (cell_terms with
-// sin -> sinh), delta1 = omega q1 d1 and kappa = omega |q2| d2.
+// Evanescent n2, per angle and polarisation (landmarks._evanescent_edges): in
+// tau = omega q1 d1 / pi, with the decay kappa = pi rho tau, cos K Lambda = cosh(kappa) h and
+//   h = cos(pi tau) + (a tanh(kappa) - b tanh(kappa) / (pi rho)) sin(pi tau),
+// finite where q2 -> 0. Written with sech(kappa) instead of cosh(kappa), nothing overflows: the
+// edges of a band narrower than float32 resolves coincide with its zero of h.
 struct EvanescentFrame {
-    phase1: f32,   // q1 d1 / (2 pi): delta1 in turns per rad/nm
-    decay: f32,    // |q2| d2: kappa per rad/nm
-    c: f32,
+    scale: f32,   // tau per omega (rad/nm): q1 d1 / pi
+    rho: f32,     // |q2| d2 / (q1 d1)
+    a: f32,       // |eta2| / (2 eta1)
+    b: f32,       // pi eta1 d2 / (2 q1 d1 e2), e2 = |eta2| / |q2|
+    tau_lo: f32,  // the visible range
+    tau_hi: f32,
 }
 
+// Needs an evanescent (or grazing) n2, angle.q2sq <= 0, and q1 > 0.
 fn evanescent_frame(m: BraggMirror, angle: CellGeometry, polarization: u32) -> EvanescentFrame {
     var f: EvanescentFrame;
-    let q2 = sqrt(-angle.q2sq);
-    f.phase1 = angle.q1 * m.d1_nm * (1.0 / TWO_PI);
-    f.decay = q2 * m.d2_nm;
-    let r = select(angle.q1 / q2, (angle.q1 * m.n2 * m.n2) / (q2 * m.n1 * m.n1),
-                   polarization == 1u);
-    f.c = 0.5 * (1.0 / r - r);
+    let q2 = sqrt(max(-angle.q2sq, 0.0));
+    let p = polarization == 1u;
+    let eta1 = select(angle.q1, angle.q1 / (m.n1 * m.n1), p);
+    let e2 = select(1.0, 1.0 / (m.n2 * m.n2), p);
+    let phase1 = angle.q1 * m.d1_nm;
+    f.scale = phase1 * (1.0 / PI);
+    f.rho = q2 * m.d2_nm / phase1;
+    f.a = 0.5 * q2 * e2 / eta1;
+    f.b = 0.5 * PI * eta1 * m.d2_nm / (phase1 * e2);
+    f.tau_lo = OMEGA_LO * f.scale;
+    f.tau_hi = OMEGA_HI * f.scale;
     return f;
 }
 
-// Whether omega lies in a pass band (|cos K Lambda| < 1): the scan's test, cheaper than
-// cell_terms. Beyond MAX_DECAY e-folds the layer is opaque and every omega is in a gap.
-fn evanescent_pass(f: EvanescentFrame, omega: f32) -> bool {
-    let kappa = min(omega * f.decay, MAX_DECAY);
-    let e = exp(kappa);
-    let inv_e = 1.0 / e;
-    let sc = sin_cos_cycles(omega * f.phase1);
-    let x = 0.5 * (sc.y * (e + inv_e) + f.c * sc.x * (e - inv_e));
-    return abs(x) < 1.0;
+// (h, dh/dtau, sech kappa, d sech kappa / dtau) at tau >= 0.
+fn evanescent_terms(f: EvanescentFrame, tau: f32) -> vec4<f32> {
+    let kappa = PI * f.rho * tau;
+    let e = exp(-2.0 * kappa);
+    let sech = 2.0 * exp(-kappa) / (1.0 + e);
+    // tanh(kappa) / kappa by its series where 1 - e would cancel (error below 6e-8).
+    let small = kappa < 0.1;
+    let k2 = kappa * kappa;
+    let tanhc = 1.0 - k2 * (1.0 / 3.0 - k2 * (2.0 / 15.0));
+    let tanh = select((1.0 - e) / (1.0 + e), kappa * tanhc, small);
+    let tanh_over = select(tanh / (PI * f.rho), tau * tanhc, small);  // tanh(kappa) / (pi rho)
+    let sc = sin_cos_cycles(0.5 * tau);                                 // pi tau
+    let c = f.a * tanh - f.b * tanh_over;
+    let dc = (f.a * PI * f.rho - f.b) * sech * sech;
+    return vec4<f32>(sc.y + c * sc.x, (dc - PI) * sc.x + PI * c * sc.y, sech,
+                     -PI * f.rho * sech * tanh);
 }
 
-// sin^2 K Lambda at angular wavenumber omega (any n2: the product form of cell_terms).
-fn dispersion_sin2(m: BraggMirror, angle: CellGeometry, omega: f32, polarization: u32) -> f32 {
-    return cell_terms(m, geometry_at(m, angle, TWO_PI / omega), polarization).sin2;
-}
-
-// The omega grid of the evanescent scan: numpy.linspace(OMEGA_LO, OMEGA_HI, SCAN_POINTS).
-fn scan_omega(i: u32) -> f32 {
-    let step = (OMEGA_HI - OMEGA_LO) / f32(SCAN_POINTS - 1u);
-    return select(OMEGA_LO + f32(i) * step, OMEGA_HI, i == SCAN_POINTS - 1u);
-}
-
-// The sign change of sin^2 K Lambda in [lo, hi] by bisection (lo_negative: sin2(lo) <= 0).
-fn scan_edge(m: BraggMirror, angle: CellGeometry, polarization: u32, lo_in: f32, hi_in: f32,
-             lo_negative: bool) -> f32 {
-    var lo = lo_in;
-    var hi = hi_in;
-    for (var step = 0u; step < SCAN_BISECTIONS; step++) {
-        let mid = 0.5 * (lo + hi);
-        let negative = dispersion_sin2(m, angle, mid, polarization) <= 0.0;
-        if (negative == lo_negative) {
-            lo = mid;
-        } else {
-            hi = mid;
+// The root of parity h + sigma sech in [lo, hi] (decreasing through it), from t0: sigma = 0:
+// the zero of h; -1: the edge below it; +1: the edge above it.
+fn evanescent_root(f: EvanescentFrame, parity: f32, sigma: f32, lo: f32, hi: f32,
+                   t0: f32) -> f32 {
+    var r = rtsafe_start(lo, hi, t0);
+    for (var step = 0u; step < NEWTON_STEPS; step++) {
+        let terms = evanescent_terms(f, r.t);
+        rtsafe_step(&r, vec2<f32>(parity * terms.x + sigma * terms.z,
+                                  parity * terms.y + sigma * terms.w), true);
+        if (r.done) {
+            break;
         }
     }
-    return 0.5 * (lo + hi);
+    return r.t;
+}
+
+// The band edges of branch k in tau: (below, above) its zero of h. An edge below the visible
+// range is returned as -1 and one beyond it as 2 tau_hi + 1, so that omega = tau / scale
+// falls outside the range exactly (the numpy twin drops them too).
+fn evanescent_band(f: EvanescentFrame, k: i32) -> vec2<f32> {
+    let tk = f32(k);
+    let parity = select(1.0, -1.0, (k & 1) == 1);
+    // First guess: h = 0 with its coefficient of sin(pi tau) frozen at the branch's middle,
+    // where h = parity c.
+    let c_mid = parity * evanescent_terms(f, tk + 0.5).x;
+    let airy = evanescent_root(f, parity, 0.0, tk, tk + 1.0,
+                               tk + atan2(1.0, -c_mid) * (1.0 / PI));
+    let at_airy = evanescent_terms(f, airy);
+    let half_width = at_airy.z / max(abs(at_airy.y), 1e-30);
+    let below_range = -1.0;
+    let beyond_range = 2.0 * f.tau_hi + 1.0;
+    var edges = vec2<f32>(below_range, beyond_range);
+    // One loop over both sides keeps a single inlined copy of the root finder.
+    for (var side = 0; side < 2; side++) {
+        let above = side == 1;
+        let sigma = select(-1.0, 1.0, above);
+        let lo = select(max(tk, f.tau_lo), max(airy, f.tau_lo), above);
+        let hi = select(min(airy, f.tau_hi), min(tk + 1.0, f.tau_hi), above);
+        var edge: f32;
+        if (hi <= lo) {
+            // The band's zero lies outside the range, and this edge with it.
+            edge = select(below_range, beyond_range, above);
+        } else {
+            let at_lo = evanescent_terms(f, lo);
+            let at_hi = evanescent_terms(f, hi);
+            if (parity * at_lo.x + sigma * at_lo.z <= 0.0) {
+                // Past the edge already: the range starts there, or the gap closes at lo.
+                edge = select(below_range, lo, lo > f.tau_lo);
+            } else if (parity * at_hi.x + sigma * at_hi.z > 0.0) {
+                // Not yet at the edge: the range ends first, or (where sech(kappa) is below
+                // the rounding of h) the edge is within rounding of the zero of h at hi.
+                edge = select(beyond_range, hi, hi < f.tau_hi);
+            } else {
+                edge = evanescent_root(f, parity, sigma, lo, hi, airy + sigma * half_width);
+            }
+        }
+        if (above) {
+            edges.y = edge;
+        } else {
+            edges.x = edge;
+        }
+    }
+    return edges;
 }

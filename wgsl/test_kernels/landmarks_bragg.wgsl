@@ -58,16 +58,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
                 emit_t(i, &n, f, iv.falling, KIND_EDGE, k);
             }
         } else {
-            // As colour_landmark.wgsl: the scan's test, then bisection on sin^2 K Lambda.
-            let ef = evanescent_frame(mirror, angle, POLARIZATION);
-            var previous = evanescent_pass(ef, OMEGA_LO);
-            for (var j = 1u; j < SCAN_POINTS; j++) {
-                let in_band = evanescent_pass(ef, scan_omega(j));
-                if (in_band != previous) {
-                    emit(i, &n, scan_edge(mirror, angle, POLARIZATION, scan_omega(j - 1u),
-                                          scan_omega(j), !previous), KIND_EDGE, -1);
-                }
-                previous = in_band;
+            let f = evanescent_frame(mirror, angle, POLARIZATION);
+            for (var k = i32(floor(f.tau_lo)); k < i32(ceil(f.tau_hi)); k++) {
+                let band = evanescent_band(f, k);
+                emit(i, &n, band.x / f.scale, KIND_EDGE, -1);
+                emit(i, &n, band.y / f.scale, KIND_EDGE, -1);
             }
         }
     }
