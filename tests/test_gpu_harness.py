@@ -80,6 +80,13 @@ def test_include_once(tmp_shaders):
     assert code.index("const B") < code.index("const C")
 
 
+def test_include_inside_a_block_comment_is_comment_text(tmp_shaders):
+    (tmp_shaders / "a.wgsl").write_text(
+        '/* not now:\n//! include "nowhere.wgsl"\n*/\nconst A = 1;\n')
+    code = gpu.load_shader("a.wgsl").code
+    assert '//! include "nowhere.wgsl"' in code and "const A" in code
+
+
 def test_include_cycle_is_an_error(tmp_shaders):
     (tmp_shaders / "a.wgsl").write_text('// a\n//! include "b.wgsl"\n')
     (tmp_shaders / "b.wgsl").write_text('//! include "a.wgsl"\n')

@@ -114,6 +114,21 @@ def test_declarations_in_comments_are_not_overrides():
         specialise(code, {})
 
 
+def test_directives_inside_block_comments_are_comment_text():
+    """WGSL block comments nest; a `//!` line inside one is neither a directive nor an error,
+    and a declaration inside one is not an override."""
+    body = ("/* disabled:\n//! if LAYERED\n  /* nested */ still inside\n//! bogus\n*/\n"
+            "//! if LAYERED\nb\n//! endif\n/* override GHOST: bool = true; */\n"
+            "// a line comment /* does not open a block\nc\n")
+    assert kept(body) == ["/* disabled:", "/* nested */ still inside", "*/",
+                          "/* override GHOST: bool = true; */",
+                          "// a line comment /* does not open a block", "c"]
+    assert kept(body, LAYERED=True)[-3:] == ["/* override GHOST: bool = true; */",
+                                             "// a line comment /* does not open a block", "c"]
+    with pytest.raises(BlockError, match="'GHOST' is not an override"):
+        specialise(HEADER + body + "//! if GHOST\n//! endif\n", {})
+
+
 @pytest.mark.parametrize("name", sorted(
     path.relative_to(gpu.shader_dir()).as_posix() for path in gpu.shader_dir().rglob("*.wgsl")
     if "broken" not in path.name))

@@ -17,7 +17,8 @@ constant's name, optionally negated with ``!`` or compared with ``==`` / ``!=`` 
 or boolean literal or a ``const`` declared with one. The constants take the values the
 pipeline sets, else the defaults their ``override`` declarations give. Removed lines become
 empty lines, so composed line numbers, and with them error locations, do not move. Blocks
-nest. Declarations, bindings and ``//! include`` lines stay outside blocks: the override
+nest. A directive (or include) line inside a block comment, which nests in WGSL, is comment
+text. Declarations, bindings and ``//! include`` lines stay outside blocks: the override
 constants a pipeline sets must still be declared, and includes are resolved (each file once)
 before any block is.
 """
@@ -27,7 +28,9 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 
-_COMMENT_RE = re.compile(r"/\*.*?\*/|//[^\n]*", re.DOTALL)
+_COMMENT_OPEN_RE = re.compile(r"//|/\*")
+_BLOCK_TOKEN_RE = re.compile(r"/\*|\*/")
+_INDENT_RE = re.compile(r"[ \t]*")
 _DIRECTIVE_RE = re.compile(r"^\s*//!\s*(\w*)(.*)$")
 _DECLARATION_RE = re.compile(r"(?:@id\s*\(\s*(\d+)\s*\)\s*)?\b(override|const)\s+(\w+)\s*"
                              r"(?::\s*\w+\s*)?(?:=\s*([^;]+))?;")
@@ -51,10 +54,56 @@ def _literal(text: str) -> int | None:
     return int(integer) if boolean is None else int(boolean == "true")
 
 
+def comment_spans(code: str) -> list[tuple[int, int]]:
+    """``(start, end)`` offsets of the comments in ``code``, in order: from ``//`` to the end
+    of its line, and from ``/*`` to its matching ``*/`` (block comments nest in WGSL; an
+    unclosed one runs to the end)."""
+    spans = []
+    position = 0
+    while (opening := _COMMENT_OPEN_RE.search(code, position)) is not None:
+        if opening.group(0) == "//":
+            end = code.find("\n", opening.start())
+            end = len(code) if end < 0 else end
+        else:
+            depth, end = 1, len(code)
+            cursor = opening.end()
+            while (token := _BLOCK_TOKEN_RE.search(code, cursor)) is not None:
+                depth += 1 if token.group(0) == "/*" else -1
+                cursor = token.end()
+                if depth == 0:
+                    end = cursor
+                    break
+        spans.append((opening.start(), end))
+        position = end
+    return spans
+
+
 def strip_comments(code: str) -> str:
     """``code`` with its comments blanked; newlines inside block comments are kept, so that
     offsets map to the same lines."""
-    return _COMMENT_RE.sub(lambda m: re.sub(r"[^\n]", " ", m.group(0)), code)
+    parts, last = [], 0
+    for start, end in comment_spans(code):
+        parts += [code[last:start], re.sub(r"[^\n]", " ", code[start:end])]
+        last = end
+    parts.append(code[last:])
+    return "".join(parts)
+
+
+def lines_in_block_comments(code: str) -> set[int]:
+    """0-based indices of the lines whose first non-blank character lies inside a block
+    comment: a ``//!`` line there is comment text, not a directive."""
+    inside: set[int] = set()
+    if "/*" not in code:
+        return inside
+    line_starts = [0] + [match.end() for match in re.finditer("\n", code)]
+    for start, end in comment_spans(code):
+        if not code.startswith("/*", start):
+            continue
+        for line in range(code.count("\n", 0, start), code.count("\n", 0, end) + 1):
+            first_character = _INDENT_RE.match(code, line_starts[line]).end()
+            if start < first_character < end:
+                inside.add(line)
+    return inside
 
 
 def _declared(code: str, constants: Mapping[str, float | int | bool]) -> tuple[dict, dict]:
@@ -113,10 +162,11 @@ def specialise(code: str, constants: Mapping[str, float | int | bool]) -> str:
     """
     values, literals = _declared(code, constants)
     lines = code.split("\n")
+    commented = lines_in_block_comments(code)
     # Per open block: the line of its `if`, its condition's value, whether past its `else`.
     stack: list[tuple[int, bool, bool]] = []
     for i, text in enumerate(lines):
-        match = _DIRECTIVE_RE.match(text)
+        match = None if i in commented else _DIRECTIVE_RE.match(text)
         if match is None:
             if not all(holds != past_else for _, holds, past_else in stack):
                 lines[i] = ""

@@ -101,7 +101,7 @@ from typing import Any
 import numpy as np
 import wgpu
 
-from ._specialise import BlockError, specialise, strip_comments
+from ._specialise import BlockError, lines_in_block_comments, specialise, strip_comments
 
 __all__ = [
     "LOOP_BUDGET",
@@ -443,8 +443,10 @@ def _compose(
     path = root / name
     files.append(path)
     stack.append(name)
-    for lineno, text in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
-        match = _INCLUDE_RE.match(text)
+    text_of_file = path.read_text(encoding="utf-8")
+    commented = lines_in_block_comments(text_of_file)
+    for lineno, text in enumerate(text_of_file.splitlines(), start=1):
+        match = None if lineno - 1 in commented else _INCLUDE_RE.match(text)
         if match is None:
             code.append(text)
             line_map.append((name, lineno))
