@@ -179,6 +179,35 @@ def test_short_period_table(bench, runs):
     assert bench.parse_stats(averaged[-1])[2] <= 0.5
 
 
+def test_dense_host_table(bench, runs):
+    """Past n2's critical angle: a row per mirror and method that takes it, each timed on
+    the GPU where the method has a kernel, its dE2000 consistent, and "averaged" within its
+    bound of the converged integral."""
+    (text, _), _, _ = runs
+    rows = markdown_table(bench_section(bench, text), "### Past n2's critical angle")
+    header, body = rows[0], rows[1:]
+    assert header == ["mirror", "θ", "method", "GPU kernel", "speed-up",
+                      "dE2000 mean / p95 / max"]
+    methods, gpu_methods = _methods()
+    taken = [m for m in methods if m != "spectral"]  # the quick mirror has host == n1
+    assert [row[2] for row in body] == [bench.method_label(m) for m in taken]
+    for method, row in zip(taken, body, strict=True):
+        mean, p95, top = bench.parse_stats(row[5])
+        assert 0.0 <= mean <= top and p95 <= top
+        if method in gpu_methods:
+            assert bench.parse_time(row[3]) > 0.0 and bench.parse_ratio(row[4]) > 0.0
+    assert bench.parse_stats(body[taken.index("averaged")][5])[2] <= 0.5
+
+
+def test_dense_host_range_is_past_the_critical_angle(bench):
+    from wgbragg import BraggMirror
+
+    first, last = bench.dense_host_range(BraggMirror(1.5, 1.0, 100.0, 200.0, 20))
+    assert first == pytest.approx(math.degrees(math.asin(1.0 / 1.5)) + 0.5) and last == 89.0
+    first, last = bench.dense_host_range(BraggMirror(2.4, 1.0, 2700.0, 1000.0, 10, host=2.7))
+    assert last == pytest.approx(math.degrees(math.asin(2.4 / 2.7)) - 0.5)
+
+
 def test_fine_integral(bench):
     """On the 1 nm grid the trapezoid integral is the reference's sum (the density vanishes
     at the ends); the adaptive step resolves N-fold oscillations."""

@@ -132,6 +132,11 @@ class Config:
         Dispatches per timestamp measurement (the median is kept).
     short_periods_nm, short_counts : tuple
         Periods and N of the short-period accuracy grid (same ratios and angles).
+    dense_hosts : tuple
+        ``(n1, n2, d1, d2, N, host)`` of mirrors measured past n2's critical angle (n2
+        evanescent), ``host`` None for n1.
+    dense_angles : int
+        Angles of their accuracy check, spread over that range.
     """
 
     name: str
@@ -145,18 +150,28 @@ class Config:
     kernel_repeats: int
     short_periods_nm: tuple[float, ...]
     short_counts: tuple[int, ...]
+    dense_hosts: tuple[tuple[float, float, float, float, int, float | None], ...]
+    dense_angles: int
 
+
+# Past n2's critical angle: a low-index layer in a dense medium, the same with a thin layer,
+# and tunnelling through thick low-index layers under a denser host (pass bands 2 nm to
+# 1e-5 nm wide), with a thinner barrier.
+DENSE_HOSTS = ((1.5, 1.0, 100.0, 200.0, 20, None), (1.5, 1.0, 300.0, 50.0, 20, None),
+               (2.4, 1.0, 2700.0, 1000.0, 10, 2.7), (2.4, 1.0, 2700.0, 300.0, 10, 2.7))
 
 FULL = Config(
     name="full", periods_nm=(244.0, 500.0, 988.0), ratios=(0.25, 0.5, 0.75),
     counts=(3, 5, 10, 20, 100), angles_deg=tuple(float(a) for a in range(90)),
     samples=(4, 8, 16, 32, 64, 128), timing_angles=16384, gpu_passes=3, kernel_repeats=5,
     short_periods_nm=(30.0, 60.0, 120.0), short_counts=(16, 20, 50, 100),
+    dense_hosts=DENSE_HOSTS, dense_angles=12,
 )
 QUICK = Config(
     name="quick", periods_nm=(500.0,), ratios=(0.5,), counts=(10, 20),
     angles_deg=(0.0, 30.0, 60.0), samples=(4, 8), timing_angles=256, gpu_passes=1,
     kernel_repeats=2, short_periods_nm=(60.0,), short_counts=(20,),
+    dense_hosts=DENSE_HOSTS[:1], dense_angles=3,
 )
 
 
@@ -189,6 +204,18 @@ def short_cases(cfg: Config) -> list[Case]:
 
 
 @dataclasses.dataclass
+class DenseHost:
+    """One mirror past n2's critical angle: the angles measured, each method's numpy dE2000
+    against the converged integral there, and its GPU kernel seconds per colour (best pass;
+    absent without a GPU kernel or a timing helper)."""
+
+    mirror: Any
+    angles_deg: tuple[float, float]
+    fine_delta_e: dict[str, np.ndarray]
+    kernel_seconds: dict[str, float]
+
+
+@dataclasses.dataclass
 class Results:
     """Everything the report needs. Arrays are indexed like :func:`cases` (and angles).
 
@@ -212,6 +239,8 @@ class Results:
         (method, backend, timing) -> (cases,) seconds per colour.
     sweep_delta_e, sweep_gpu_delta_e, sweep_seconds : dict
         The same for the "spectral" sweep, keyed by K instead of the method.
+    dense_hosts : list of DenseHost
+        The mirrors of ``config.dense_hosts``.
     environment : dict
     """
 
@@ -226,6 +255,7 @@ class Results:
     sweep_delta_e: dict[int, np.ndarray]
     sweep_gpu_delta_e: dict[int, np.ndarray]
     sweep_seconds: dict[tuple[int, str, str], np.ndarray]
+    dense_hosts: list[DenseHost]
     environment: dict[str, Any]
 
 
@@ -250,10 +280,13 @@ def _timed(fn: Callable[[], np.ndarray]) -> tuple[np.ndarray, float]:
     return value, time.perf_counter() - start
 
 
-def fine_step_nm(case: Case) -> float:
+def fine_step_nm(case) -> float:
     """Trapezoid step (nm) for :func:`fine_xyz`: :data:`FINE_NODES_PER_OSCILLATION` nodes per
-    shortest spectral oscillation of the mirror, at most :data:`FINE_MAX_STEP_NM`."""
-    shortest = 360.0**2 / (2.0 * max(N1, N2) * case.period * case.N)
+    shortest spectral oscillation of the mirror (a :class:`Case` or a ``BraggMirror``), at
+    most :data:`FINE_MAX_STEP_NM`."""
+    mirror = case.mirror if isinstance(case, Case) else case
+    index = max(mirror.n1, mirror.n2, mirror.host)
+    shortest = 360.0**2 / (2.0 * index * (mirror.d1 + mirror.d2) * mirror.N)
     return min(FINE_MAX_STEP_NM, shortest / FINE_NODES_PER_OSCILLATION)
 
 
@@ -408,11 +441,54 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
     short_fine_delta_e = _short_period_accuracy(cfg, methods, angles, progress)
     if have_gpu:
         _time_gpu(cfg, grid, gpu_methods, seconds, sweep_seconds, progress)
+    dense = _dense_hosts(cfg, methods, gpu_methods, progress)
     environment = _docs.run_facts(gpu_error)
     environment["background_cores"] = load.background_cores()
     return Results(cfg, methods, gpu_methods, delta_e, fine_delta_e, short_fine_delta_e,
                    gpu_delta_e, seconds, sweep_delta_e, sweep_gpu_delta_e, sweep_seconds,
-                   environment)
+                   dense, environment)
+
+
+def dense_host_range(mirror) -> tuple[float, float]:
+    """Angles (degrees) past n2's critical angle, 0.5 degrees inside it, before n1's or 89."""
+    import math
+
+    first = math.degrees(math.asin(mirror.n2 / mirror.host)) + 0.5
+    last = 89.0 if mirror.host <= mirror.n1 else math.degrees(
+        math.asin(mirror.n1 / mirror.host)) - 0.5
+    return first, last
+
+
+def _dense_hosts(cfg: Config, methods: list[str], gpu_methods: tuple[str, ...],
+                 progress: bool) -> list[DenseHost]:
+    """Accuracy (numpy against the converged integral) and GPU kernel time of every method
+    that takes the mirror (``approx`` and ``subdivided`` need host == n1), ``spectral``
+    aside: it does not search landmarks."""
+    from wgbragg import BraggMirror
+
+    out = []
+    bar = tqdm(cfg.dense_hosts, desc="bench_rgb dense hosts", unit="mirror",
+               disable=not progress, file=sys.stderr)
+    for n1, n2, d1, d2, count, host in bar:
+        mirror = BraggMirror(n1, n2, d1, d2, count, host=host)
+        first, last = dense_host_range(mirror)
+        taken = [m for m in methods if m != "spectral"
+                 and (mirror.host == mirror.n1 or m not in ("approx", "subdivided"))]
+        angles = np.radians(np.linspace(first, last, cfg.dense_angles))
+        fine = fine_xyz(mirror, angles, fine_step_nm(mirror))
+        fine_delta_e = {m: _delta_e(fine, mirror.xyz(angles, m, "numpy",
+                                                      **METHOD_OPTIONS.get(m, {})))
+                        for m in taken}
+        theta = np.radians(np.linspace(first, last, cfg.timing_angles))
+        kernel_seconds = {}
+        for method in (m for m in taken if m in gpu_methods):
+            timer = kernel_timer(method, METHOD_OPTIONS.get(method, {}))
+            if timer is not None:
+                timer(mirror, theta, 1)  # compiles the pipeline
+                kernel_seconds[method] = min(timer(mirror, theta, cfg.kernel_repeats)
+                                             for _ in range(cfg.gpu_passes)) / theta.size
+        out.append(DenseHost(mirror, (first, last), fine_delta_e, kernel_seconds))
+    return out
 
 
 def _short_period_accuracy(cfg: Config, methods: list[str], angles: np.ndarray,
@@ -668,6 +744,27 @@ def _short_table(results: Results) -> list[str]:
     return _table(["method", *[f"N = {n}" for n in counts], "all N"], rows)
 
 
+def _dense_table(results: Results) -> list[str]:
+    """Rows (mirror, method): angles, GPU kernel time per colour, speed-up over reference,
+    dE2000 against the converged integral."""
+    rows = []
+    for dense in results.dense_hosts:
+        m = dense.mirror
+        label = (f"n1 = {m.n1:g}, n2 = {m.n2:g}, d = {m.d1:g} / {m.d2:g} nm, N = {m.N}, "
+                 f"host = {m.host:g}")
+        base = dense.kernel_seconds.get(BASELINE)
+        for method, de in dense.fine_delta_e.items():
+            seconds = dense.kernel_seconds.get(method)
+            ratio = base / seconds if base is not None and seconds else None
+            rows.append([label, f"{dense.angles_deg[0]:.1f}-{dense.angles_deg[1]:.1f}°",
+                         method_label(method),
+                         NOT_MEASURED if seconds is None else human_time(seconds),
+                         NOT_MEASURED if ratio is None else human_ratio(ratio),
+                         Stats.of(de).cell()])
+    return _table(["mirror", "θ", "method", "GPU kernel", "speed-up", "dE2000 mean / p95 / max"],
+                  rows)
+
+
 def render_section(results: Results, command: str, plot: Path | None = None) -> str:
     """The markdown section, markers included.
 
@@ -750,6 +847,15 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
             "and even N = 100 only a handful of oscillations, each tens of nm wide: "
             "`averaged` integrates such zones through the exact spectrum.", ""]
     out += _short_table(results)
+
+    out += ["", "### Past n2's critical angle: GPU kernel time and dE2000 against the "
+            "converged integral", ""]
+    out += ["Outside the issue's grid: n2 evanescent (a dense medium or host), where there are "
+            "no modes and each π of the n1 phase holds one pass band, found on either side of "
+            "its zero of cos KΛ (README, 'Evanescent n2'). Angles from 0.5° past n2's critical "
+            f"angle to 89° (or 0.5° before n1's); dE2000 over {cfg.dense_angles} of them, "
+            f"times over {cfg.timing_angles:,}.", ""]
+    out += _dense_table(results)
 
     out += ["", "### Mean dE2000 per Λ and d1/Λ (all N, all angles)", ""]
     header = ["method", *[f"Λ = {p:g}, d1/Λ = {r:g}" for p in periods for r in cfg.ratios]]
