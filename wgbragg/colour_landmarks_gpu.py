@@ -142,8 +142,9 @@ def landmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3)
     gpu.LoopBudgetError
         (a ValueError) On llvmpipe, when an angle's landmarks need more loop iterations than
         it allows (:data:`gpu.LOOP_BUDGET`): about 2000 band gaps in the visible for
-        "averaged" (``n1 d1 + n2 d2`` beyond ~0.3 mm), fewer with "subdivided" and a large
-        ``s``.
+        "averaged" (``n1 d1 + n2 d2`` beyond ~0.3 mm; past n2's critical angle, where the
+        pass bands come one per pi of the n1 phase, about 1700 of them: ``q1 d1`` beyond
+        ~0.5 mm), fewer below N = 16 (exact panels) and with "subdivided" and a large ``s``.
     """
     kernel, params = _kernel_and_params(mirror, method, check_subdivisions(subdivisions))
     inputs, outputs, shape = _buffers(theta)

@@ -48,9 +48,10 @@ AVERAGING_MIN_PERIODS = 16
 costs up to 6 dE2000 at N = 5 and under 0.25 from N = 20)."""
 
 EXACT_MIN_OSCILLATION_NM = 0.1
-"""Below :data:`AVERAGING_MIN_PERIODS`, zones whose oscillations are on average narrower than
-this (nm) are phase-averaged too (see :func:`_quadrature`): sub-nm pass bands, each with its N
-oscillations, cost three Gauss panels per oscillation when integrated exactly."""
+"""With n2 evanescent and below :data:`AVERAGING_MIN_PERIODS`, zones whose oscillations are on
+average narrower than this (nm) are phase-averaged too (see :func:`_quadrature`): the sub-nm
+pass bands of tunnelling, each with its N oscillations, cost three Gauss panels per
+oscillation when integrated exactly."""
 
 PANEL_NM = 40.0
 """Widest Gauss panel (nm) of "averaged": the CMF x D65 density needs ~13 nm node spacing."""
@@ -306,7 +307,7 @@ def _snap_edge_phases(phase, at_edge):
     return np.where(snap, np.where(near_pi, np.pi, 0.0), phase)
 
 
-def _quadrature(mirror, omega_lo, omega_hi, pass_band_share):
+def _quadrature(mirror, omega_lo, omega_hi, pass_band_share, evanescent=False):
     """How each zone is integrated: its Gauss panels, and whether through the exact R.
 
     Parameters
@@ -317,6 +318,8 @@ def _quadrature(mirror, omega_lo, omega_hi, pass_band_share):
     pass_band_share : numpy.ndarray
         Their shares of a pass band (:func:`_zones`): the exact spectrum oscillates
         ``N x share`` times in a zone.
+    evanescent : bool or numpy.ndarray
+        Whether n2 is evanescent at each zone's angle.
 
     Returns
     -------
@@ -325,15 +328,16 @@ def _quadrature(mirror, omega_lo, omega_hi, pass_band_share):
         :data:`PANELS_PER_OSCILLATION` per oscillation.
     exact : numpy.ndarray of bool
         Zones integrated through the exact spectrum: those below :data:`AVERAGING_MIN_PERIODS`
-        whose oscillations are on average at least :data:`EXACT_MIN_OSCILLATION_NM` wide, and
-        those whose oscillations are on average wider than a panel. The pass bands of deep
-        tunnelling through an evanescent n2 layer are a fraction of a nm wide: integrated
-        exactly, a mirror with 20 of them in view (``BraggMirror(2.4, 1.0, 2700, 1000, 10,
-        host=2.7)`` past 22 degrees) took the GPU 6x the reference's time per colour, and
-        averaged, 1.2x, with the colours within 0.01 dE2000 of a converged integral. The
-        threshold costs nothing measurable where oscillations are wider: a 20 um period at
-        N = 10 (0.3 nm oscillations) stays within 0.06 dE2000 of it, where 0.3 nm would
-        cost 0.27 and 1 nm 1.1. Short periods put only
+        (with n2 evanescent, only where their oscillations are on average at least
+        :data:`EXACT_MIN_OSCILLATION_NM` wide), and those whose oscillations are on average
+        wider than a panel. The pass bands of deep tunnelling through an evanescent n2 layer
+        are a fraction of a nm wide: integrated exactly, a mirror with 19 of them in view
+        (``BraggMirror(2.4, 1.0, 2700, 1000, 10, host=2.7)`` past 22 degrees) took the GPU 6x
+        the reference's time per colour, and averaged, 1.2x, with the colours within 0.01
+        dE2000 of a converged integral. Where n2 propagates, phase averaging below N = 16 is
+        biased even for sub-0.1 nm oscillations (periods of tens of um: 1.3 dE2000 at
+        ``BraggMirror(1, 1.5, 5e4, 5e4, 15)``, against 0.03 integrated exactly), so there
+        the threshold does not apply. Short periods put only
         a small part of a pass band in view, so N = 100 can leave a handful of oscillations
         across the visible range: the eye sees them, and their phase average is 10 to 25
         dE2000 off. Such zones need at most ``3 x 470 / PANEL_NM`` panels in all (plus one
@@ -346,7 +350,7 @@ def _quadrature(mirror, omega_lo, omega_hi, pass_band_share):
     width_nm = 2.0 * np.pi / omega_lo - 2.0 * np.pi / omega_hi
     oscillations = mirror.N * pass_band_share
     exact = (((mirror.N < AVERAGING_MIN_PERIODS)
-              & (width_nm >= EXACT_MIN_OSCILLATION_NM * oscillations))
+              & (~np.asarray(evanescent) | (width_nm >= EXACT_MIN_OSCILLATION_NM * oscillations)))
              | ((pass_band_share > 0.0) & (width_nm > PANEL_NM * oscillations)))
     count = np.maximum(1, np.ceil(width_nm / PANEL_NM)).astype(int)
     # The margin keeps a whole pass band (share 1 up to rounding: phases snapped to 0 and pi)
@@ -358,7 +362,9 @@ def _quadrature(mirror, omega_lo, omega_hi, pass_band_share):
 def _averaged_unpolarized(mirror, theta):
     """XYZ at each angle of the 1-D ``theta`` (none totally reflected)."""
     owner, lo, hi, lower_edge, upper_edge, share = _zones(mirror, theta)
-    panels, exact_zone = _quadrature(mirror, lo, hi, share)
+    s = mirror.host * np.sin(theta[owner])
+    panels, exact_zone = _quadrature(mirror, lo, hi, share,
+                                     evanescent=(mirror.n2 - s) * (mirror.n2 + s) <= 0.0)
     nodes = 3 * panels
     zone, step = _ranges(np.zeros(lo.size, dtype=int), nodes)
     panel, point = np.divmod(step, 3)

@@ -48,6 +48,7 @@ struct ColourSetup {
     frame: ModeFrame,       // propagating n2: the dispersion in the mode coordinate
     frame_p: ModeFrame,     // "averaged": the p frame (frame is then the s one)
     fast: bool,             // host == n1, propagating n2, an n2 layer: cell terms from frame
+    evanescent: bool,       // "averaged" with n2 evanescent (EXACT_MIN_OSCILLATION_NM applies)
 }
 
 // ----------------------------------------------------------------------------- colorimetry
@@ -237,7 +238,7 @@ fn averaged_zone(c: ColourSetup, lo: f32, hi: f32, lower_edge: bool, upper_edge:
     var panels = u32(max(ceil(width_nm * (1.0 / PANEL_NM)), 1.0));
     let oscillations = f32(c.mirror.periods) * share;
     let exact = (c.mirror.periods < AVERAGING_MIN_PERIODS
-                 && width_nm >= EXACT_MIN_OSCILLATION_NM * oscillations)
+                 && (!c.evanescent || width_nm >= EXACT_MIN_OSCILLATION_NM * oscillations))
         || (share > 0.0 && width_nm > PANEL_NM * oscillations);
     if (exact) {
         panels = max(panels, u32(max(ceil(PANELS_PER_OSCILLATION * oscillations - PANEL_MARGIN),
@@ -351,18 +352,39 @@ fn zone_close(c: ColourSetup, zones: ptr<function, Zones>, omega: f32, is_edge: 
     (*zones).lo_phases = phases;
 }
 
-// A band edge at omega; those outside the range only bound zones outside it.
-fn zone_edge(c: ColourSetup, zones: ptr<function, Zones>, omega: f32, in_gap: vec2<bool>) {
+// With n2 evanescent, the polarisations in a gap at the middle of the zone ending at omega:
+// their phase changes are rounding (colour_methods._zones).
+fn evanescent_gaps(c: ColourSetup, zones: ptr<function, Zones>, omega: f32) -> vec2<bool> {
+    return dispersion_pair(c, 0.5 * ((*zones).lo + omega)).zw <= vec2<f32>(0.0);
+}
+
+// A band edge at omega; those outside the range only bound zones outside it. check_gaps (a
+// literal at each call, so that the propagating sweep compiles without the check, which cost
+// it 1.5 % of its time though never taken): see evanescent_gaps.
+fn zone_edge(c: ColourSetup, zones: ptr<function, Zones>, omega: f32, check_gaps: bool) {
     if (omega > OMEGA_LO && omega < OMEGA_HI) {
+        var in_gap = vec2<bool>(false);
+        if (check_gaps) {
+            in_gap = evanescent_gaps(c, zones, omega);
+        }
         zone_close(c, zones, omega, true, in_gap);
     }
 }
 
-// With n2 evanescent, the polarisations in a gap at the middle of the zone ending at omega:
-// their phase changes are rounding (colour_methods._zones). Evaluated only there: in the
-// propagating sweep's loop the check cost 1.5 % of the kernel's time, though never taken.
-fn evanescent_gaps(c: ColourSetup, zones: ptr<function, Zones>, omega: f32) -> vec2<bool> {
-    return dispersion_pair(c, 0.5 * ((*zones).lo + omega)).zw <= vec2<f32>(0.0);
+// The j-th (0 to 3, increasing) of the edges of two bands (rising, falling) with
+// rising <= falling each: the lower rising edge comes first, the higher falling edge last.
+// Selects, not a private array (see landmark_colour).
+fn band_edges_in_order(a: vec2<f32>, b: vec2<f32>, j: i32) -> f32 {
+    let rising_hi = max(a.x, b.x);
+    let falling_lo = min(a.y, b.y);
+    var t = min(a.x, b.x);
+    switch j {
+        case 1: { t = min(rising_hi, falling_lo); }
+        case 2: { t = max(rising_hi, falling_lo); }
+        case 3: { t = max(a.y, b.y); }
+        default: {}
+    }
+    return t;
 }
 
 // The fields of every method's setup: the angle's fields of the cell geometry (the wavelength
@@ -447,7 +469,6 @@ fn averaged_colour(m: BraggMirror, theta: f32, host_matched: bool,
     }
     let bulk = !matched_layers && m.bulk != 0u;
     let propagating = matched_layers || c.angle.q2sq > 0.0;
-    let evanescent = !bulk && !propagating;
     if (!bulk && propagating) {
         // n_plus, delta and so the modes and t range are those of both polarisations.
         c.frame = mode_frame(m, c.angle, 0u);
@@ -464,53 +485,33 @@ fn averaged_colour(m: BraggMirror, theta: f32, host_matched: bool,
         for (var k = first; k < last; k++) {
             let s_interval = mode_interval(c.frame, k);
             let p_interval = mode_interval(c.frame_p, k);
-            // The four edges of [k, k + 1] in increasing t: each polarisation's rising edge
-            // lies below its Airy point and falling edge, so the lower rising edge comes
-            // first and the higher falling edge last. Selects, as in landmark_colour.
-            let rising_lo = min(s_interval.rising, p_interval.rising);
-            let rising_hi = max(s_interval.rising, p_interval.rising);
-            let falling_lo = min(s_interval.falling, p_interval.falling);
-            let falling_hi = max(s_interval.falling, p_interval.falling);
+            // Each polarisation's rising edge lies below its Airy point and falling edge.
+            let s_band = vec2<f32>(s_interval.rising, s_interval.falling);
+            let p_band = vec2<f32>(p_interval.rising, p_interval.falling);
             for (var j = 0; j < 4; j++) {
-                var t = rising_lo;
-                switch j {
-                    case 1: { t = min(rising_hi, falling_lo); }
-                    case 2: { t = max(rising_hi, falling_lo); }
-                    case 3: { t = falling_hi; }
-                    default: {}
-                }
+                let t = band_edges_in_order(s_band, p_band, j);
                 if (t > f.t_lo && t < f.t_hi) {
-                    zone_edge(c, &zones, PI * t / f.n_plus, vec2<bool>(false));
+                    zone_edge(c, &zones, PI * t / f.n_plus, false);
                 }
             }
         }
     } else {
         // Evanescent n2: as landmark_colour, the bands of both polarisations in each branch
         // (which does not depend on the polarisation), their edges in order as above.
+        c.evanescent = true;
         let s_frame = evanescent_frame(m, c.angle, 0u);
         let p_frame = evanescent_frame(m, c.angle, 1u);
         for (var k = i32(floor(s_frame.tau_lo)); k < i32(ceil(s_frame.tau_hi)); k++) {
             let s_band = evanescent_band(s_frame, k);
             let p_band = evanescent_band(p_frame, k);
-            let rising_lo = min(s_band.x, p_band.x);
-            let rising_hi = max(s_band.x, p_band.x);
-            let falling_lo = min(s_band.y, p_band.y);
-            let falling_hi = max(s_band.y, p_band.y);
             for (var j = 0; j < 4; j++) {
-                var t = rising_lo;
-                switch j {
-                    case 1: { t = min(rising_hi, falling_lo); }
-                    case 2: { t = max(rising_hi, falling_lo); }
-                    case 3: { t = falling_hi; }
-                    default: {}
-                }
-                let omega = t / s_frame.scale;
-                zone_edge(c, &zones, omega, evanescent_gaps(c, &zones, omega));
+                zone_edge(c, &zones, band_edges_in_order(s_band, p_band, j) / s_frame.scale,
+                          true);
             }
         }
     }
     var in_gap = vec2<bool>(false);
-    if (evanescent) {
+    if (c.evanescent) {
         in_gap = evanescent_gaps(c, &zones, OMEGA_HI);
     }
     zone_close(c, &zones, OMEGA_HI, false, in_gap);
