@@ -61,13 +61,27 @@ def test_gaps_close_at_brewsters_angle():
     assert np.abs(edges[:, None] - modes[None, :]).min(axis=1).max() < 1e-9 * modes.max()
 
 
-def test_evanescent_n2_has_band_edges_only():
+@pytest.mark.parametrize("pol", ["s", "p"])
+def test_evanescent_n2_landmarks_satisfy_their_definitions(pol):
+    """Past n2's critical angle: modes of n_plus = q1 d1 in gaps with the sign of App. A, an
+    Airy point and two edges between each pair, no zero points."""
     mirror = BraggMirror(1.5, 1.0, 300.0, 50.0, 20)
     theta = math.radians(45.0)  # beyond n2's critical angle (41.8 deg)
-    found = mirror.landmarks(theta, "s")
-    assert len(found) > 0 and set(found.kind) == {"edge"}
-    _, sin2 = dispersion(mirror, found, theta, "s")
-    assert np.abs(sin2).max() < 1e-9
+    found = mirror.landmarks(theta, pol)
+    q1 = math.sqrt(1.5**2 - (1.5 * math.sin(theta)) ** 2)
+    assert found.n_plus == pytest.approx(q1 * 300.0, rel=1e-12)
+    assert set(found.kind) == {"mode", "airy", "edge"}
+    x, sin2 = dispersion(mirror, found, theta, pol)
+    edges, airy, modes = found.kind == "edge", found.kind == "airy", found.kind == "mode"
+    np.testing.assert_allclose(np.abs(x[edges]), 1.0, rtol=0, atol=EDGE_ATOL)
+    np.testing.assert_allclose(x[airy], 0.0, rtol=0, atol=AIRY_ATOL)
+    assert np.all(sin2[modes] <= 0.0)
+    np.testing.assert_array_equal(np.sign(x[modes]), (-1.0) ** found.mode_number[modes])
+    np.testing.assert_allclose(found.omega[modes] * found.n_plus / np.pi,
+                               found.mode_number[modes], atol=1e-9)
+    # Between consecutive modes: edge, Airy point, edge.
+    inner = found.kind[np.flatnonzero(modes)[0]:np.flatnonzero(modes)[-1] + 1]
+    assert "".join(k[0] for k in inner).replace("eae", "") == "m" * int(modes.sum())
 
 
 def _pass_band_edges_on_a_grid(mirror, theta, pol, grid):
@@ -97,14 +111,15 @@ def test_evanescent_n2_band_edges_match_a_fine_scan():
         theta = math.asin(s / host)
         for pol in "sp":
             found = mirror.landmarks(theta, pol)
-            assert set(found.kind) <= {"edge"} and np.all(np.diff(found.omega) >= 0.0)
+            assert np.all(np.diff(found.omega) >= 0.0)
+            edges = found.omega[found.kind == "edge"]
             scanned = _pass_band_edges_on_a_grid(mirror, theta, pol, grid)
             for edge in scanned:
-                assert np.abs(found.omega - edge).min() <= step
-            for i, edge in enumerate(found.omega):
+                assert np.abs(edges - edge).min() <= step
+            for i, edge in enumerate(edges):
                 if scanned.size and np.abs(scanned - edge).min() <= step:
                     continue
-                neighbours = np.abs(np.delete(found.omega, i) - edge)
+                neighbours = np.abs(np.delete(edges, i) - edge)
                 assert neighbours.min() < 2.0 * step
                 unseen += 1
     assert unseen > 0  # the sample does hold bands below the scan's resolution
@@ -122,8 +137,9 @@ def test_tunnelling_pass_bands_narrower_than_any_grid_are_found():
     branches = int(np.ceil(phases[1]) - np.floor(phases[0]))
     for pol in "sp":
         found = mirror.landmarks(theta, pol)
-        assert found.omega.size >= 2 * (branches - 2)
-        lo, hi = found.omega[0::2], found.omega[1::2]
+        edges = found.omega[found.kind == "edge"]
+        assert edges.size >= 2 * (branches - 2)
+        lo, hi = edges[0::2], edges[1::2]
         assert np.all(hi > lo)
         assert np.sum(hi - lo < (VISIBLE_OMEGA[1] - VISIBLE_OMEGA[0]) / 511) >= 10
         middle = 2.0 * np.pi / (0.5 * (lo + hi))
@@ -131,22 +147,29 @@ def test_tunnelling_pass_bands_narrower_than_any_grid_are_found():
                                    pol, host=mirror.host)
         assert np.all(sin2 > 0.0)  # each pair bounds a pass band
         x, _ = dispersion(mirror, found, theta, pol)
-        np.testing.assert_allclose(np.abs(x), 1.0, rtol=0, atol=1e-6)
+        np.testing.assert_allclose(np.abs(x[found.kind == "edge"]), 1.0, rtol=0, atol=1e-6)
 
 
 @pytest.mark.parametrize("pol", ["s", "p"])
-def test_edges_are_continuous_where_n2_turns_evanescent(pol):
+def test_landmarks_are_continuous_where_n2_turns_evanescent(pol):
     """At n2's critical angle (q2 = 0) the evanescent search is finite and meets the
-    propagating one: the edges just past it are those just before it."""
-    mirror = BraggMirror(1.5, 1.0, 300.0, 50.0, 20)
+    propagating one: the same modes, Airy points and edges just past it as just before it
+    (the zero points, at z pi / (q2 d2), leave the range), and colours without a step."""
+    from wgbragg.colorimetry import delta_e_2000, xyz_to_linear_srgb
+
+    mirror = BraggMirror(1.5, 1.0, 300.0, 50.0, 5)
     critical = math.asin(1.0 / 1.5)
     before = mirror.landmarks(critical - 1e-9, pol)
-    past = mirror.landmarks(critical + 1e-9, pol)
-    at = mirror.landmarks(critical, pol)
-    before_edges = before.omega[before.kind == "edge"]
-    for found in (past, at):
+    kept = before.kind != "zero"
+    for found in (mirror.landmarks(critical + 1e-9, pol), mirror.landmarks(critical, pol)):
         assert np.all(np.isfinite(found.omega))
-        np.testing.assert_allclose(found.omega[found.kind == "edge"], before_edges, rtol=1e-6)
+        assert list(found.kind) == list(before.kind[kept])
+        # q2 d2 ~ sqrt(2 n2 delta s) d2 moves the propagating modes by 7e-6 at 1e-9 rad.
+        np.testing.assert_allclose(found.omega, before.omega[kept], rtol=1e-4)
+    theta = np.array([critical - 1e-7, critical + 1e-7])
+    for method in ("approx", "subdivided", "averaged"):
+        rgb = xyz_to_linear_srgb(mirror.xyz(theta, method))
+        assert delta_e_2000(rgb[0], rgb[1]) < 0.01, method
 
 
 @pytest.mark.parametrize("mirror", [BraggMirror(1.0, 1.0, 100.0, 100.0, 5),

@@ -51,7 +51,7 @@ GPU_LANDMARK_METHODS = {"approx": 0, "subdivided": 1, "averaged": 2}
 WORKGROUP_SIZE = 64
 
 
-LANDMARK_CAPACITY = 64
+LANDMARK_CAPACITY = 128
 """Landmarks per angle returned by :func:`find_landmarks_gpu` (a test aid)."""
 
 PARAMS_DTYPE = gpu.struct_dtype([

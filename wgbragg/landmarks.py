@@ -6,7 +6,9 @@ modes ``omega_m = m pi / n_plus`` with ``n_plus = q1 d1 + q2 d2`` lie inside ban
 (``|cos K Lambda| >= 1``, App. A), an Airy point (``cos K Lambda = 0``) lies between each pair
 of modes, and the gap edges (``|cos K Lambda| = 1``) between a mode and its Airy points. Zero
 points ``omega_z = z pi / (q2 d2)`` (where ``r_1 = 0`` and the envelope vanishes) are kept when
-they fall inside a pass band.
+they fall inside a pass band. Past n2's critical angle (``q2`` imaginary) the modes are those
+of ``n_plus = q1 d1``, the limit as ``q2 -> 0``: they still lie in gaps, one Airy point and
+two edges between each pair (:func:`_evanescent_landmarks`), and there are no zero points.
 """
 
 from __future__ import annotations
@@ -41,11 +43,12 @@ class Landmarks:
         One of :data:`KINDS` per landmark.
     mode_number : numpy.ndarray
         ``m`` of the mode at or below each landmark (``floor(omega n_plus / pi)``); -1 where
-        n2 is evanescent and modes are undefined.
+        nothing was searched (total reflection, no n2 layer, or ``n1 == n2``).
     omega_range : tuple of float
         The searched range (default :data:`VISIBLE_OMEGA`).
     n_plus : float
-        ``q1 d1 + q2 d2`` in nm (0 where n2 is evanescent).
+        ``q1 d1 + q2 d2`` in nm (``q1 d1`` where n2 is evanescent; 0 where nothing was
+        searched).
     """
 
     omega: np.ndarray
@@ -93,8 +96,9 @@ def _ranges(first, last):
     return owner, first[owner] + np.arange(owner.size) - starts[owner]
 
 
-def _evanescent_edges(mirror, s, polarization, omega_range):
-    """Band edges where n2 is evanescent (``n2 <= s < n1``): (index into ``s``, omega) pairs.
+def _evanescent_landmarks(mirror, s, polarization, omega_range):
+    """Landmarks where n2 is evanescent (``n2 <= s < n1``): (index into ``s``, omega, kind
+    index) of the modes, rising edges, Airy points and falling edges, in that order.
 
     With ``delta1 = pi tau`` (``tau = omega q1 d1 / pi``) and the decay ``kappa = pi rho tau``
     (``rho = |q2| d2 / (q1 d1)``), ``cos K Lambda = cosh(kappa) h(tau)`` where
@@ -104,6 +108,11 @@ def _evanescent_edges(mirror, s, polarization, omega_range):
     ``h = (-1)^k``: ``|cos K Lambda| = cosh(kappa) >= 1``, a gap. So each branch ``[k, k + 1]``
     holds a pass band around the zero of ``h`` (the Airy point ``cos K Lambda = 0``), between
     the edges where ``(-1)^k h = sech(kappa)`` (below it) and ``= -sech(kappa)`` (above).
+    The integers are the modes of ``n_plus = q1 d1`` (where ``x = (-1)^k cosh(kappa)``, in a
+    gap with the sign of App. A) and the zeros of ``h`` the Airy points: the limits, as
+    ``q2 -> 0``, of the propagating landmarks, so that landmark colours are continuous at n2's
+    critical angle (with only the edges, "approx" and "subdivided" jumped there by 1.6 to 9.9
+    dE2000 on the mirrors tried; now by 1e-4).
     ``h`` has exactly one zero per branch: ``h = 0`` reads ``cot(pi tau) + c tanh(kappa) = 0``
     with ``c = (|eta2| / eta1 - eta1 / |eta2|) / 2``, which decreases everywhere if
     ``c <= 0``; if ``c > 0``, rising through a zero would need ``rho > sinh(2 kappa)``, while
@@ -122,8 +131,11 @@ def _evanescent_edges(mirror, s, polarization, omega_range):
     b = 0.5 * np.pi * eta1 * mirror.d2 / (q1 * mirror.d1 * e2)
     rho = q2 * mirror.d2 / (q1 * mirror.d1)
     scale = q1 * mirror.d1 / np.pi  # tau per omega
-    index, k = _ranges(np.floor(lo_omega * scale).astype(np.int64),
-                       np.ceil(hi_omega * scale).astype(np.int64))
+    first = np.floor(lo_omega * scale).astype(np.int64)
+    last = np.ceil(hi_omega * scale).astype(np.int64)
+    mode_owner, mode = _ranges(first, last + 1)
+    modes = mode / scale[mode_owner]
+    index, k = _ranges(first, last)
     a, b, rho, scale = a[index], b[index], rho[index], scale[index]
     parity = np.where(k % 2 == 0, 1.0, -1.0)
 
@@ -157,7 +169,12 @@ def _evanescent_edges(mirror, s, polarization, omega_range):
                    np.full(k.shape, False))
     below = edge(rising, np.maximum(start, lo_omega), np.minimum(airy, hi_omega))
     above = edge(falling, np.maximum(airy, lo_omega), np.minimum(end, hi_omega))
-    return np.concatenate([index, index]), np.concatenate([below, above])
+    # In increasing omega within a branch, which ties (a band narrower than float64 resolves
+    # has its edges on its Airy point) keep.
+    kinds = np.repeat([KINDS.index(kind) for kind in ("mode", "edge", "airy", "edge")],
+                      [modes.size, airy.size, airy.size, airy.size])
+    return (np.concatenate([mode_owner, index, index, index]),
+            np.concatenate([modes, below, airy, above]), kinds)
 
 
 def find_landmarks(mirror, theta: float, polarization: str, omega_range=VISIBLE_OMEGA):
@@ -178,12 +195,12 @@ def find_landmarks(mirror, theta: float, polarization: str, omega_range=VISIBLE_
 
     Notes
     -----
-    With ``n2`` evanescent (``host sin theta >= n2``) there are no modes and only band edges
-    are returned. ``delta1 = k pi`` puts a gap at each integer ``k`` and one pass band between
-    consecutive ones, whose edges are found by bisection around its ``cos K Lambda = 0``
-    point (:func:`_evanescent_edges`), as in the float32 twin. Bands of any width are found,
-    down to those of deep tunnelling through a thick ``n2`` layer, which a scan on a grid
-    (our earlier method, 512 wavenumbers) missed.
+    With ``n2`` evanescent (``host sin theta >= n2``), ``delta1 = k pi`` puts a gap at each
+    integer ``k`` (the modes of ``n_plus = q1 d1``) and one pass band between consecutive
+    ones, whose Airy point and edges are found by bisection (:func:`_evanescent_landmarks`),
+    as in the float32 twin; there are no zero points. Bands of any width are found, down to
+    those of deep tunnelling through a thick ``n2`` layer, which a scan on a grid (our
+    earlier method, 512 wavenumbers) missed.
     """
     return find_landmarks_many(mirror, [check_angle(theta)], polarization, omega_range)[0]
 
@@ -208,6 +225,7 @@ def find_landmarks_many(mirror, thetas, polarization: str, omega_range=VISIBLE_O
     q1 = np.sqrt(np.maximum((mirror.n1 - s) * (mirror.n1 + s), 0.0))
     q2 = np.sqrt(np.maximum(q2sq, 0.0))
     n_plus[propagating] = q1[propagating] * mirror.d1 + q2[propagating] * mirror.d2
+    n_plus[evanescent] = q1[evanescent] * mirror.d1
     # Found landmarks of every angle: (angle, omega, kind index) in groups, concatenated.
     owners, omegas, kinds = [], [], []
 
@@ -217,8 +235,11 @@ def find_landmarks_many(mirror, thetas, polarization: str, omega_range=VISIBLE_O
         kinds.append(np.full(omega.size, kind))
 
     if evanescent.size:
-        owner, edges = _evanescent_edges(mirror, s[evanescent], polarization, omega_range)
-        found(evanescent[owner], edges, KINDS.index("edge"))
+        owner, omega, kind = _evanescent_landmarks(mirror, s[evanescent], polarization,
+                                                   omega_range)
+        owners.append(evanescent[owner])
+        omegas.append(omega)
+        kinds.append(kind)
     if propagating.size:
         plus = n_plus[propagating]
         # Modes bracketing the range; each pair (m, m + 1) holds one Airy point and two edges.
@@ -269,7 +290,7 @@ def find_landmarks_many(mirror, thetas, polarization: str, omega_range=VISIBLE_O
     for angle in range(s.size):
         part = slice(bounds[angle], bounds[angle + 1])
         plus = n_plus[angle]
-        if plus == 0.0:  # evanescent n2, or nothing searched
+        if plus == 0.0:  # nothing searched
             number = np.full(omega[part].size, -1)
         else:
             number = np.floor(omega[part] * plus / np.pi + 1e-9).astype(int)

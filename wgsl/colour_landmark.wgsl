@@ -446,13 +446,25 @@ fn landmark_colour(m: BraggMirror, theta: f32, polarization: u32, method: u32,
             }
         }
     } else {
-        // Evanescent n2: one pass band per branch [k, k + 1] of tau = omega q1 d1 / pi.
+        // Evanescent n2: mode k (tau = k of tau = omega q1 d1 / pi), then the pass band of
+        // [k, k + 1]: rising edge, Airy point, falling edge.
         let f = evanescent_frame(m, c.angle, polarization);
-        c.subdivide = false;  // no modes to subdivide by (as the numpy twin)
+        c.subdivide = method == METHOD_SUBDIVIDED;
         for (var k = i32(floor(f.tau_lo)); k < i32(ceil(f.tau_hi)); k++) {
             let band = evanescent_band(f, k);
-            for (var j = 0; j < 2; j++) {
-                sweep_visit(c, &sweep, select(band.x, band.y, j == 1) / f.scale, j == 0, 0);
+            for (var j = 0; j < 4; j++) {
+                var tau = f32(k);
+                switch j {
+                    case 1: { tau = band.x; }
+                    case 2: { tau = band.y; }
+                    case 3: { tau = band.z; }
+                    default: {}
+                }
+                if (tau <= f.tau_lo) {
+                    sweep_status(&sweep, j >= 1 && j <= 2, k);
+                } else if (tau < f.tau_hi) {
+                    sweep_visit(c, &sweep, tau / f.scale, j >= 1 && j <= 2, k);
+                }
             }
         }
     }
@@ -502,8 +514,8 @@ fn averaged_colour(m: BraggMirror, theta: f32, host_matched: bool,
         let s_frame = evanescent_frame(m, c.angle, 0u);
         let p_frame = evanescent_frame(m, c.angle, 1u);
         for (var k = i32(floor(s_frame.tau_lo)); k < i32(ceil(s_frame.tau_hi)); k++) {
-            let s_band = evanescent_band(s_frame, k);
-            let p_band = evanescent_band(p_frame, k);
+            let s_band = evanescent_band(s_frame, k).xz;
+            let p_band = evanescent_band(p_frame, k).xz;
             for (var j = 0; j < 4; j++) {
                 zone_edge(c, &zones, band_edges_in_order(s_band, p_band, j) / s_frame.scale,
                           true);

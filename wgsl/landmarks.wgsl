@@ -20,9 +20,10 @@
 // [Airy point, next mode]) holding exactly one edge, and a closed gap (Brewster's angle, or
 // sin(pi m delta / 2) = 0) exactly where its second term vanishes.
 //
-// Evanescent n2 (no modes): as the numpy twin (landmarks._evanescent_edges), in
-// tau = omega q1 d1 / pi each integer is a gap and [k, k + 1] holds one pass band, whose
-// edges lie on either side of its zero of cos K Lambda; the three roots by safeguarded Newton.
+// Evanescent n2: as the numpy twin (landmarks._evanescent_landmarks), in tau = omega q1 d1 / pi
+// each integer is a gap (a mode of n_plus = q1 d1) and [k, k + 1] holds one pass band, whose
+// edges lie on either side of its zero of cos K Lambda (its Airy point); the three roots by
+// safeguarded Newton.
 
 // The visible range 360..830 nm as angular wavenumbers (rad/nm): landmarks.VISIBLE_OMEGA.
 const OMEGA_LO: f32 = 0.0075701028;   // 2 pi / 830
@@ -267,7 +268,7 @@ fn mode_interval(f: ModeFrame, m: i32) -> ModeInterval {
     return iv;
 }
 
-// Evanescent n2, per angle and polarisation (landmarks._evanescent_edges): in
+// Evanescent n2, per angle and polarisation (landmarks._evanescent_landmarks): in
 // tau = omega q1 d1 / pi, with the decay kappa = pi rho tau, cos K Lambda = cosh(kappa) h and
 //   h = cos(pi tau) + (a tanh(kappa) - b tanh(kappa) / (pi rho)) sin(pi tau),
 // finite where q2 -> 0. Written with sech(kappa) instead of cosh(kappa), nothing overflows: the
@@ -332,10 +333,10 @@ fn evanescent_root(f: EvanescentFrame, parity: f32, sigma: f32, lo: f32, hi: f32
     return r.t;
 }
 
-// The band edges of branch k in tau: (below, above) its zero of h. An edge below the visible
-// range is returned as -1 and one beyond it as 2 tau_hi + 1, so that omega = tau / scale
-// falls outside the range exactly (the numpy twin drops them too).
-fn evanescent_band(f: EvanescentFrame, k: i32) -> vec2<f32> {
+// The landmarks of branch k in tau: (edge below, Airy point, edge above). An edge below the
+// visible range is returned as -1 and one beyond it as 2 tau_hi + 1, so that it falls outside
+// the range exactly (the numpy twin drops them too).
+fn evanescent_band(f: EvanescentFrame, k: i32) -> vec3<f32> {
     let tk = f32(k);
     let parity = select(1.0, -1.0, (k & 1) == 1);
     // First guess: h = 0 with its coefficient of sin(pi tau) frozen at the branch's middle,
@@ -378,5 +379,5 @@ fn evanescent_band(f: EvanescentFrame, k: i32) -> vec2<f32> {
             edges.x = edge;
         }
     }
-    return edges;
+    return vec3<f32>(edges.x, airy, edges.y);
 }

@@ -31,6 +31,12 @@ fn emit_t(i: u32, n: ptr<function, u32>, f: ModeFrame, t: f32, kind: u32, mode: 
     }
 }
 
+fn emit_tau(i: u32, n: ptr<function, u32>, f: EvanescentFrame, tau: f32, kind: u32, mode: i32) {
+    if (tau > f.tau_lo && tau < f.tau_hi) {
+        emit(i, n, tau / f.scale, kind, mode);
+    }
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>,
         @builtin(num_workgroups) nwg: vec3<u32>) {
@@ -61,8 +67,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
             let f = evanescent_frame(mirror, angle, POLARIZATION);
             for (var k = i32(floor(f.tau_lo)); k < i32(ceil(f.tau_hi)); k++) {
                 let band = evanescent_band(f, k);
-                emit(i, &n, band.x / f.scale, KIND_EDGE, -1);
-                emit(i, &n, band.y / f.scale, KIND_EDGE, -1);
+                emit_tau(i, &n, f, f32(k), KIND_MODE, k);
+                emit_tau(i, &n, f, band.x, KIND_EDGE, k);
+                emit_tau(i, &n, f, band.y, KIND_AIRY, k);
+                emit_tau(i, &n, f, band.z, KIND_EDGE, k);
             }
         }
     }
