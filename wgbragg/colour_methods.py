@@ -233,6 +233,12 @@ def _zone_map(u, lower_edge, upper_edge):
     return s, ds
 
 
+def _n2_evanescent(mirror, theta):
+    """Whether n2 is evanescent (past its critical angle) at each angle ``theta``."""
+    s = mirror.host * np.sin(theta)
+    return (mirror.n2 - s) * (mirror.n2 + s) <= 0.0
+
+
 def _zones(mirror, theta):
     """Zones between consecutive band edges of either polarisation, at each angle of the 1-D
     ``theta``: (angle index, omega_lo, omega_hi, lower is an edge, upper is, share of a pass
@@ -257,7 +263,7 @@ def _zones(mirror, theta):
     first = np.r_[True, owner[1:] != owner[:-1]]
     last = np.r_[owner[1:] != owner[:-1], True]
     s = mirror.host * np.sin(theta)[owner]
-    evanescent = (mirror.n2 - s) * (mirror.n2 + s) <= 0.0
+    evanescent = _n2_evanescent(mirror, theta[owner])
     phase_lo, phase_hi = np.empty((2, lo.size)), np.empty((2, lo.size))
     in_gap = np.empty((2, lo.size), dtype=bool)
     for row, polarization in enumerate(("s", "p")):
@@ -337,15 +343,15 @@ def _quadrature(mirror, omega_lo, omega_hi, pass_band_share, evanescent=False):
         dE2000 of a converged integral. Where n2 propagates, phase averaging below N = 16 is
         biased even for sub-0.1 nm oscillations (periods of tens of um: 1.3 dE2000 at
         ``BraggMirror(1, 1.5, 5e4, 5e4, 15)``, against 0.03 integrated exactly), so there
-        the threshold does not apply. Short periods put only
-        a small part of a pass band in view, so N = 100 can leave a handful of oscillations
-        across the visible range: the eye sees them, and their phase average is 10 to 25
-        dE2000 off. Such zones need at most ``3 x 470 / PANEL_NM`` panels in all (plus one
-        per zone for rounding), whatever N. A zone of share 0 is a band gap, where both
-        spectra are exact, or lies between two edges whose phases were snapped: its
-        oscillations are unknown, so it stays averaged. Where a zone crosses the threshold
-        (along an angle sweep) the colour steps by up to 0.3 dE2000, and the twins may fall on
-        either side of it.
+        the threshold does not apply.
+
+        Short periods put only a small part of a pass band in view, so N = 100 can leave a handful
+        of oscillations across the visible range: the eye sees them, and their phase average is 10
+        to 25 dE2000 off. Such zones need at most ``3 x 470 / PANEL_NM`` panels in all (plus one per
+        zone for rounding), whatever N. A zone of share 0 is a band gap, where both spectra are
+        exact, or lies between two edges whose phases were snapped: its oscillations are unknown, so
+        it stays averaged. Where a zone crosses the threshold (along an angle sweep) the colour
+        steps by up to 0.3 dE2000, and the twins may fall on either side of it.
     """
     width_nm = 2.0 * np.pi / omega_lo - 2.0 * np.pi / omega_hi
     oscillations = mirror.N * pass_band_share
@@ -362,9 +368,8 @@ def _quadrature(mirror, omega_lo, omega_hi, pass_band_share, evanescent=False):
 def _averaged_unpolarized(mirror, theta):
     """XYZ at each angle of the 1-D ``theta`` (none totally reflected)."""
     owner, lo, hi, lower_edge, upper_edge, share = _zones(mirror, theta)
-    s = mirror.host * np.sin(theta[owner])
     panels, exact_zone = _quadrature(mirror, lo, hi, share,
-                                     evanescent=(mirror.n2 - s) * (mirror.n2 + s) <= 0.0)
+                                     evanescent=_n2_evanescent(mirror, theta[owner]))
     nodes = 3 * panels
     zone, step = _ranges(np.zeros(lo.size, dtype=int), nodes)
     panel, point = np.divmod(step, 3)
