@@ -69,7 +69,13 @@ PHASE_SNAP = 0.15
 :func:`_snap_edge_phases`)."""
 
 ANGLES_PER_BLOCK = 256
-"""Angles whose landmarks and nodes the numpy methods hold at once (about 160 KB each)."""
+"""Most angles whose landmarks and nodes the numpy methods hold at once (about 160 KB each
+for a mirror with a few band gaps in view; see :data:`MODE_INTERVALS_PER_BLOCK`)."""
+
+MODE_INTERVALS_PER_BLOCK = 2048
+"""Fewer angles are taken together where each holds many mode intervals (thick mirrors: the
+memory goes with the intervals, ``(n1 d1 + n2 d2) x 0.00315 / nm``): a 1 mm layer took 1.9
+GB for 90 angles at once."""
 
 MAX_SUBDIVISIONS = 1 << 16
 """Largest ``s`` of "subdivided", on either backend."""
@@ -201,7 +207,8 @@ def approx_xyz(mirror, theta, subdivisions=None):
 
 def _per_angle(mirror, theta, colours):
     """XYZ of every angle of ``theta`` (any shape): white where totally reflected, else
-    ``colours`` of a 1-D array of the others, :data:`ANGLES_PER_BLOCK` at a time. A mirror
+    ``colours`` of a 1-D array of the others, in blocks (:data:`ANGLES_PER_BLOCK`,
+    :data:`MODE_INTERVALS_PER_BLOCK`). A mirror
     without an n2 layer reflects the same at every wavelength: its exact colour."""
     theta = check_angle(theta)
     if mirror.n1 == mirror.n2 or mirror.d2 == 0.0:
@@ -211,8 +218,13 @@ def _per_angle(mirror, theta, colours):
     total = _total_reflection(mirror, flat)
     out[total] = _white()
     rest = np.flatnonzero(~total)
-    for start in range(0, rest.size, ANGLES_PER_BLOCK):
-        block = rest[start:start + ANGLES_PER_BLOCK]
+    # Mode intervals in view at any angle: n_plus <= n1 d1 + n2 d2 (q1 d1 <= n1 d1 past n2's
+    # critical angle).
+    intervals = ((mirror.n1 * mirror.d1 + mirror.n2 * mirror.d2)
+                 * (VISIBLE_OMEGA[1] - VISIBLE_OMEGA[0]) / np.pi + 2.0)
+    size = int(np.clip(MODE_INTERVALS_PER_BLOCK / intervals, 1, ANGLES_PER_BLOCK))
+    for start in range(0, rest.size, size):
+        block = rest[start:start + size]
         out[block] = colours(flat[block])
     return out.reshape(*theta.shape, 3)
 
