@@ -174,9 +174,11 @@ def test_landmarks_are_continuous_where_n2_turns_evanescent(pol):
 
 @pytest.mark.parametrize("mirror", [BraggMirror(1.0, 1.0, 100.0, 100.0, 5),
                                     BraggMirror(1.0, 1.5, 100.0, 0.0, 5),
-                                    BraggMirror(1.3, 1.5, 100.0, 100.0, 5, host=2.0)], ids=repr)
+                                    BraggMirror(1.3, 1.5, 100.0, 100.0, 5, host=2.0),
+                                    BraggMirror(1.5, 1.0, 0.0, 50.0, 5)], ids=repr)
+@pytest.mark.filterwarnings("error")
 def test_no_structure_no_landmarks(mirror):
-    theta = 1.2  # for the dense host this is beyond the critical angle of n1
+    theta = 1.2  # beyond n1's critical angle for the dense host, n2's for the n1 = 1.5 slab
     assert len(mirror.landmarks(theta, "s")) == 0
 
 

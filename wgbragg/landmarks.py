@@ -123,6 +123,8 @@ def _evanescent_landmarks(mirror, s, polarization, omega_range):
     tunnelling) coincide with their zero instead of overflowing.
     """
     lo_omega, hi_omega = omega_range
+    if mirror.d1 == 0.0:  # one evanescent slab: no pass band
+        return np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64)
     n1, n2 = mirror.n1, mirror.n2
     q1 = np.sqrt((n1 - s) * (n1 + s))
     q2 = np.sqrt(np.maximum((s - n2) * (s + n2), 0.0))
