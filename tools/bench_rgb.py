@@ -850,10 +850,10 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
 
     out += ["", "### Past n2's critical angle: GPU kernel time and dE2000 against the "
             "converged integral", ""]
-    out += ["Outside the issue's grid: n2 evanescent (a dense medium or host), where there are "
-            "no modes and each π of the n1 phase holds one pass band, found on either side of "
-            "its zero of cos KΛ (README, 'Evanescent n2'). Angles from 0.5° past n2's critical "
-            f"angle to 89° (or 0.5° before n1's); dE2000 over {cfg.dense_angles} of them, "
+    out += ["Outside the issue's grid: n2 evanescent (a dense medium or host), where the modes "
+            "are those of q1 d1 and each π of the n1 phase holds one pass band, found on either "
+            "side of its zero of cos KΛ (README, 'Evanescent n2'). Angles from 0.5° past n2's "
+            f"critical angle to 89° (or 0.5° before n1's); dE2000 over {cfg.dense_angles} of them, "
             f"times over {cfg.timing_angles:,}.", ""]
     out += _dense_table(results)
 
