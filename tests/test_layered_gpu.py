@@ -348,6 +348,41 @@ def test_shapes_and_multiplexing(structures):
     assert empty.shape == (0, 3)
 
 
+@pytest.mark.parametrize("name", ["one-layer", "two-layers"])
+def test_a_view_shared_by_many_samples_is_uploaded_once(structures, name, monkeypatch):
+    """wi shared along the trailing axes (a pixel's view and its samples) is uploaded once per
+    pixel and read by the kernel as invocation / repeat: the same values, bit for bit, as the
+    explicitly repeated request, with float32 or float64 u."""
+    s = structures[name]
+    wi = random_directions(5, seed=40)[:, None]
+    u = np.random.default_rng(41).random((5, 7, 4), dtype=np.float32)
+    wo = random_directions(35, seed=42).reshape(5, 7, 3)
+    uploads = []
+    real = layered_gpu._shared_vec4
+    monkeypatch.setattr(layered_gpu, "_shared_vec4",
+                        lambda a, shape: uploads.append(real(a, shape)) or uploads[-1])
+    requests = {
+        "hero": lambda w, v: s.sample(w, v, backend="gpu", colour_method="hero"),
+        "float64 u": lambda w, v: s.sample(w, v[..., :3].astype(np.float64), backend="gpu"),
+        "spectral": lambda w, v: s.sample(w[..., None, :], v[..., None, :3],
+                                          np.array([450.0, 610.0]), backend="gpu"),
+        "brdf": lambda w, v: s.brdf(w, wo, backend="gpu"),
+        "brdf, multiplexed": lambda w, v: s.brdf(w[..., None, :], wo[..., None, :],
+                                                 np.array([450.0, 610.0]), backend="gpu"),
+    }
+    for label, request in requests.items():
+        uploads.clear()
+        shared = request(wi, u)
+        (rows, repeat), _ = [(upload.shape[0], r) for upload, r in uploads]
+        assert (rows, repeat) == (5, 7), label
+        repeated = request(np.repeat(wi, 7, axis=1), u)
+        assert uploads[-2][0].shape[0] == 35 and uploads[-2][1] == 1, label
+        if isinstance(shared, np.ndarray):
+            shared, repeated = (shared,), (repeated,)
+        for a, b in zip(shared, repeated, strict=True):
+            np.testing.assert_array_equal(a, b, err_msg=label)
+
+
 @pytest.mark.parametrize(("call", "match"), [
     (lambda s: s.brdf([0, 0, 1.0], [0, 0, 1.0], 300.0, backend="gpu"), "360-830 nm"),
     (lambda s: s.sample([0, 0, 1.0], [0.5] * 3, 900.0, backend="gpu"), "360-830 nm"),

@@ -252,15 +252,19 @@ def uniforms(rng, pixels: int, spp: int, dims: int, sobol: bool) -> np.ndarray:
     """The numbers a model's samples are drawn from, shape (pixels, spp, dims): independent,
     or (``sobol``) one scrambled Sobol' set of ``spp`` points shifted per pixel by a random
     vector modulo 1 (a Cranley-Patterson rotation). Every number is uniform either way, so
-    every pixel's estimate is unbiased; the shifts keep pixels from sharing one pattern."""
+    every pixel's estimate is unbiased; the shifts keep pixels from sharing one pattern.
+    float32, what the kernel reads: a renderer's sampler would not make float64 numbers for
+    it (the simulation draws its own in the kernel)."""
     if not sobol:
-        return rng.random((pixels, spp, dims))
+        return rng.random((pixels, spp, dims), dtype=_F32)
     with warnings.catch_warnings():
         # 3072 points are not a power of 2: fine for a sampler, which scipy warns about.
         warnings.filterwarnings("ignore", message="The balance properties")
-        points = qmc.Sobol(dims, scramble=True, seed=rng).random(spp)
-    u = points[None] + rng.random((pixels, 1, dims))
-    return u - np.floor(u)
+        points = qmc.Sobol(dims, scramble=True, seed=rng).random(spp).astype(_F32)
+    u = points[None] + rng.random((pixels, 1, dims), dtype=_F32)
+    # Exact in float32: u <= 2, and subtracting floor(u) from it rounds nothing.
+    u -= np.floor(u)
+    return u
 
 
 def _model_spectral(s, view, frames, rng, spp, sobol):

@@ -40,7 +40,9 @@ POLARIZATIONS = ("s", "p", "unpolarized")
 BACKENDS = ("numpy", "gpu")
 
 
-def _as_float_array(name: str, value) -> np.ndarray:
+def _as_float_array(name: str, value, keep_float32: bool = False) -> np.ndarray:
+    """``value`` as float64, or as it is if ``keep_float32`` and it is float32 already (for a
+    float32 kernel's input: no copy there and back)."""
     message = f"{name} must be a real number or array of real numbers"
     try:
         raw = np.asarray(value)
@@ -50,7 +52,7 @@ def _as_float_array(name: str, value) -> np.ndarray:
     # refuse them rather than guess, as scalars are refused.
     if raw.dtype.kind not in "iuf":
         raise ValueError(f"{message}, got dtype {raw.dtype}")
-    array = raw.astype(np.float64)
+    array = raw if keep_float32 and raw.dtype == np.float32 else raw.astype(np.float64)
     if np.isnan(array).any():
         raise ValueError(f"{name} contains NaN")
     return array

@@ -669,7 +669,9 @@ class LayeredBragg:
             Unit direction towards the light (or viewer), in air, upper hemisphere.
         u : array_like, shape (..., 3), or (..., 4) with ``colour_method="hero"``
             Uniform numbers in [0, 1]: ``u[..., 0]`` picks the component, ``u[..., 1:3]`` the
-            direction, ``u[..., 3]`` offsets the hero wavelengths.
+            direction, ``u[..., 3]`` offsets the hero wavelengths. With ``backend="gpu"``,
+            float32 ``u`` reaches the kernel uncopied, and a ``wi`` shared along trailing
+            axes (one view, many samples) is uploaded once.
         wavelength_nm, method, backend, colour_method
             As for :meth:`brdf`: the weight is spectral or RGB. ``backend="gpu"``: the float32
             kernel draws the sample and computes its weight and pdf (same ``u``, same
@@ -692,8 +694,8 @@ class LayeredBragg:
             against light sampling).
         """
         wi = check_directions(wi, "wi")
-        u = _as_float_array("u", u)
         backend = check_backend(backend)
+        u = _as_float_array("u", u, keep_float32=backend == "gpu")
         if method not in BRDF_METHODS:
             raise ValueError(f"method must be one of {BRDF_METHODS}, got {method!r}")
         wavelength = _check_wavelength(wavelength_nm, method)

@@ -93,7 +93,8 @@ PARAMS_DTYPE = gpu.struct_dtype([
     ("base_rgb", "vec3<f32>"), ("host", "f32"), ("base_mean", "f32"), ("first_layer", "u32"),
     ("base_spectrum", "u32"), ("lut_rows", "u32"), ("lut_rows_per_radian", "f32"),
     ("_pad0", "u32"), ("_pad1", "u32"), ("_pad2", "u32"),
-    ("count", "u32"), ("wavelength_stride", "u32"),
+    ("count", "u32"), ("wavelength_stride", "u32"), ("incoming_repeat", "u32"),
+    ("operand_repeat", "u32"),
 ])
 """``Params`` of layered_brdf_eval.wgsl: a ``LayeredStructure`` (48 bytes), then the batch."""
 
@@ -331,11 +332,28 @@ def _batch(direction_shape: tuple, wavelength) -> _Batch:
 def _vec4(array, shape) -> np.ndarray:
     # Cast before broadcasting: a direction shared by many samples is converted once.
     array = np.asarray(array, np.float32)
+    if array.shape == (*shape, 4) and array.flags.c_contiguous:
+        return array.reshape(-1, 4)
     out = np.empty((*shape, 4), np.float32)
     out[..., :array.shape[-1]] = array
     if array.shape[-1] == 3:
         out[..., 3] = 0.0
     return out.reshape(-1, 4)
+
+
+def _shared_vec4(array, shape) -> tuple[np.ndarray, int]:
+    """``array`` (leading shape broadcast to ``shape``, one trailing axis) as vec4 rows without
+    its trailing broadcast axes, and how many consecutive invocations share each row: a view
+    direction shared by all of a pixel's samples is uploaded once, not once per sample."""
+    leading = array.shape[:-1]
+    padded = (1,) * (len(shape) - len(leading)) + leading
+    kept = len(shape)
+    while kept > 0 and padded[kept - 1] == 1:
+        kept -= 1
+    repeat = int(np.prod(shape[kept:], dtype=np.int64))
+    compact = np.reshape(array, (*padded, array.shape[-1]))[(..., *(0,) * (len(shape) - kept),
+                                                              slice(None))]
+    return _vec4(compact, shape[:kept]), max(repeat, 1)
 
 
 def _setup(structure, operation: str, first, second, wavelength, batch: _Batch, method: str,
@@ -350,8 +368,9 @@ def _setup(structure, operation: str, first, second, wavelength, batch: _Batch, 
     params["count"], params["wavelength_stride"] = batch.count, batch.stride
     channels = 1 if operation == "pdf" else (batch.wavelengths or 3)
     directions = batch.count if operation == "sample" else 1
-    inputs = [_vec4(first, batch.invocations), _vec4(second, batch.invocations),
-              batch.wavelength, variant.layers, variant.tables]
+    incoming, params["incoming_repeat"] = _shared_vec4(first, batch.invocations)
+    operand, params["operand_repeat"] = _shared_vec4(second, batch.invocations)
+    inputs = [incoming, operand, batch.wavelength, variant.layers, variant.tables]
     outputs = [(batch.count * channels, np.float32), ((directions, 4), np.float32),
                (batch.count, np.uint32)]
     return kernel, inputs, outputs, params

@@ -404,6 +404,10 @@ fn layered_pdf(s: LayeredStructure, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
         factor = (1.0 - coating_reflectance(wi.z, n)) * wo.z / (n * n * o.z);
     }
     let h = half_vector(i, o);
+    if (component_count() == 1u) {
+        // The one layer's share is 1, whatever the probabilities (as (1 - p) / (1 - p) is).
+        return factor * layer_lobe_pdf(i.z, h, layers[s.first_layer].alpha);
+    }
     let theta = angle_from(i.z, length(i.xy));
     let total = component_total(s, theta, i.z);
     // No component has weight (transparent layers over an absorbing base): the numpy twin's
@@ -453,10 +457,15 @@ fn layered_sample(s: LayeredStructure, wi: vec3<f32>, u: vec3<f32>) -> LayeredSa
         pick = (u.x - fresnel) / (1.0 - fresnel);
         i = refract_in(wi, s.host);
     }
-    let theta = angle_from(i.z, length(i.xy));
-    let total = component_total(s, theta, i.z);
     let components = component_count();
     var chosen = components - 1u;
+    // One component (one layer over an absorbing base) needs no probabilities: the pick is
+    // that layer either way.
+    let theta = angle_from(i.z, length(i.xy));
+    var total = 0.0;
+    if (components > 1u) {
+        total = component_total(s, theta, i.z);
+    }
     if (total > 0.0) {
         let goal = pick * total;
         var cumulative = 0.0;

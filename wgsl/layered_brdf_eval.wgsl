@@ -29,6 +29,8 @@ struct Params {
     structure: LayeredStructure,
     count: u32,               // invocations
     wavelength_stride: u32,   // WAVELENGTHS, or 0 when every invocation has the same ones
+    incoming_repeat: u32,     // consecutive invocations sharing one wi (e.g. a pixel's samples)
+    operand_repeat: u32,      // ... sharing one wo or u
 }
 
 @group(0) @binding(0) var<storage, read> incoming: array<vec4<f32>>;   // wi (xyz)
@@ -43,6 +45,14 @@ struct Params {
 
 fn wavelength_at(index: u32, k: u32) -> f32 {
     return wavelengths[index * params.wavelength_stride + k];
+}
+
+fn incoming_at(index: u32) -> vec3<f32> {
+    return incoming[index / params.incoming_repeat].xyz;
+}
+
+fn operand_at(index: u32) -> vec4<f32> {
+    return operand[index / params.operand_repeat];
 }
 
 fn store_rgb(index: u32, rgb: vec3<f32>) {
@@ -76,7 +86,7 @@ fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>,
         return;
     }
     let s = params.structure;
-    let pair = layered_pair(s, incoming[index].xyz, operand[index].xyz);
+    let pair = layered_pair(s, incoming_at(index), operand_at(index).xyz);
     if (WAVELENGTHS == 0u) {
         store_rgb(index, layered_eval_rgb(s, pair));
     } else {
@@ -96,8 +106,9 @@ fn sample(@builtin(global_invocation_id) gid: vec3<u32>,
         return;
     }
     let s = params.structure;
-    let wi = incoming[index].xyz;
-    let drawn = layered_sample(s, wi, operand[index].xyz);
+    let wi = incoming_at(index);
+    let u = operand_at(index);
+    let drawn = layered_sample(s, wi, u.xyz);
     directions[index] = vec4<f32>(drawn.wo, drawn.pdf);
     // The Dirac lobe and rejected directions need no evaluation.
     let continuous = drawn.cos_over_pdf > 0.0;
@@ -105,7 +116,7 @@ fn sample(@builtin(global_invocation_id) gid: vec3<u32>,
     if (WAVELENGTHS == 0u) {
         var weight = vec3<f32>(drawn.dirac);
         if (continuous && HERO) {
-            weight += layered_eval_hero(s, pair, operand[index].w) * drawn.cos_over_pdf;
+            weight += layered_eval_hero(s, pair, u.w) * drawn.cos_over_pdf;
         } else if (continuous) {
             weight += layered_eval_rgb(s, pair) * drawn.cos_over_pdf;
         }
@@ -130,6 +141,6 @@ fn density(@builtin(global_invocation_id) gid: vec3<u32>,
     if (index >= params.count) {
         return;
     }
-    value[index] = layered_pdf(params.structure, incoming[index].xyz, operand[index].xyz);
+    value[index] = layered_pdf(params.structure, incoming_at(index), operand_at(index).xyz);
     cut[index] = u32(loops_were_cut(params.count));
 }
