@@ -122,10 +122,11 @@ class Config:
 FIG7 = (("A, \u03c1_d = 0", 250.0, 0.1, None), ("A, \u03c1_d = 0.5", 250.0, 0.1, 0.5),
         ("B, \u03c1_d = 0.5", 494.0, 0.05, 0.5))
 # 64 samples: where noise dominates; 3072: the paper's Table 2 (3K spp against 30K, 40 x 40),
-# where the single-reflection bias does. GT has 4x the paper's samples: at 32768 its own noise
-# (SMAPE 0.018 over the absorbing base) was as large as the errors measured at 3072.
+# where the single-reflection bias does. GT has 8x the paper's samples: at 32768 its own noise
+# (SMAPE 0.018 over the absorbing base) was as large as the errors measured at 3072, and at
+# 131072 (0.009) still half the models' there.
 PAPER_SPP = 3072
-FULL = Config("full", size=40, points=((64, 9), (PAPER_SPP, 5)), gt_spp=131072, chunk=2**20,
+FULL = Config("full", size=40, points=((64, 9), (PAPER_SPP, 5)), gt_spp=262144, chunk=2**20,
               structures=FIG7)
 QUICK = Config("quick", size=6, points=((16, 2), (32, 1)), gt_spp=64, chunk=256,
                structures=FIG7[:2])
@@ -501,8 +502,8 @@ def render_section(results: Results, command: str) -> str:
         "GT is rendered in two independent halves, and half their SMAPE against each other "
         "estimates GT's against its expectation (an estimator's SMAPE cannot be read much "
         f"below it). At the paper's 30K samples (32768) that noise was 0.018 over the "
-        f"absorbing base, as large as the errors measured at {PAPER_SPP} spp, hence "
-        f"{cfg.gt_spp} here. The SR "
+        f"absorbing base, as large as the errors measured at {PAPER_SPP} spp, and at 131072 "
+        f"still half the models' errors there, hence {cfg.gt_spp} here. The SR "
         "simulation and the model estimate the same single-reflection image. The factored RGB "
         "of model-LUT adds its colour bias over a Lambertian base (README, Layered Bragg "
         "structures: median 2-4 % of the brightest channel). That the model and the SR "

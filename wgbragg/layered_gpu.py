@@ -155,8 +155,8 @@ def _variant(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
 
 
 def _header() -> list[np.ndarray]:
-    """The tables' fixed start: the CMF block, XYZ -> linear sRGB, the 1 nm XYZ weights, the
-    hero wavelengths' inverse CDF."""
+    """The tables' fixed start: the CMF block, XYZ -> linear sRGB, the 1 nm XYZ weights in
+    linear sRGB, the hero wavelengths' inverse CDF."""
     grid, weights = colorimetry.xyz_weights()
     if grid.size != _VISIBLE_NODES or grid[0] != WAVELENGTH_RANGE_NM[0]:
         raise RuntimeError("layered_brdf.wgsl assumes the 1 nm grid 360..830 nm")
@@ -164,7 +164,8 @@ def _header() -> list[np.ndarray]:
         raise RuntimeError(f"wgsl/hero.wgsl assumes {_HERO_SEGMENTS} inverse-CDF segments")
     matrix = np.zeros((3, 4), np.float32)
     matrix[:, :3] = colorimetry.XYZ_TO_LINEAR_SRGB
-    return [_cmf_table().ravel(), matrix.ravel(), weights.astype(np.float32).ravel(),
+    rgb_weights = weights @ colorimetry.XYZ_TO_LINEAR_SRGB.T
+    return [_cmf_table().ravel(), matrix.ravel(), rgb_weights.astype(np.float32).ravel(),
             colorimetry.hero_inverse_cdf()]
 
 

@@ -22,9 +22,10 @@
 //     [0, 3768)     the CMF block of colour_landmarks_gpu: 471 vec4 (xyz, 0) of the XYZ
 //                   density at 360, 361, ..., 830 nm, then 471 of its cumulative integral.
 //     [3768, 3780)  XYZ -> linear sRGB: three rows, each a vec4 (xyz, 0).
-//     [3780, 5193)  the D65-weighted XYZ weights of the 1 nm nodes (471 x 3,
-//                   colorimetry.xyz_weights): the "reference" colour, INTEGRATED and the
-//                   hero colour of layered_brdf_eval.wgsl.
+//     [3780, 5193)  the D65-weighted XYZ weights of the 1 nm nodes in linear sRGB (471 x 3,
+//                   colorimetry.xyz_weights times XYZ -> linear sRGB): the "reference"
+//                   colour, INTEGRATED and the hero colour of layered_brdf_eval.wgsl, summed
+//                   in sRGB (no matrix per colour).
 //     [5193, 5706)  the hero wavelengths' inverse CDF (colorimetry.hero_inverse_cdf: 513
 //                   wavelengths, nm), read by an includer's hero_cdf_node at HERO_INVERSE_CDF.
 //     At the offsets of a RoughLayer (each a row-major table, "rows" its filter's theta_i
@@ -82,8 +83,8 @@ const BASE_LAMBERTIAN: u32 = 1u;
 // Nodes of a wavelength axis: 360..830 nm at 1 nm (colorimetry.xyz_weights).
 const VISIBLE_NODES: u32 = 471u;
 const SRGB_MATRIX: u32 = 8u * VISIBLE_NODES;
-const XYZ_WEIGHTS: u32 = SRGB_MATRIX + 12u;
-const HERO_INVERSE_CDF: u32 = XYZ_WEIGHTS + 3u * VISIBLE_NODES;
+const RGB_WEIGHTS: u32 = SRGB_MATRIX + 12u;
+const HERO_INVERSE_CDF: u32 = RGB_WEIGHTS + 3u * VISIBLE_NODES;
 const COLOUR_REFERENCE: u32 = 3u;
 // s of "subdivided": the default of BraggMirror.rgb.
 const SUBDIVISIONS: i32 = 3;
@@ -242,8 +243,8 @@ fn node_wavelength(j: u32) -> f32 {
     return LAMBDA_LO_NM + f32(j);
 }
 
-fn node_weights(j: u32) -> vec3<f32> {
-    return table_vec3(XYZ_WEIGHTS + 3u * j);
+fn node_rgb_weights(j: u32) -> vec3<f32> {
+    return table_vec3(RGB_WEIGHTS + 3u * j);
 }
 
 fn layer_colour(s: LayeredStructure, layer: RoughLayer, theta_d: f32) -> vec3<f32> {
@@ -253,12 +254,12 @@ fn layer_colour(s: LayeredStructure, layer: RoughLayer, theta_d: f32) -> vec3<f3
     //! if COLOUR_METHOD == COLOUR_REFERENCE
     let m = layer_mirror(layer);
     let angle = angle_geometry(m, theta_d);
-    var xyz = vec3<f32>(0.0);
+    var rgb = vec3<f32>(0.0);
     for (var j = 0u; j < VISIBLE_NODES; j++) {
         let g = geometry_at(m, angle, node_wavelength(j));
-        xyz += bragg_reflectance_at(m, g, 2u, HOST_MATCHED) * node_weights(j);
+        rgb += bragg_reflectance_at(m, g, 2u, HOST_MATCHED) * node_rgb_weights(j);
     }
-    return xyz_to_linear_srgb(xyz);
+    return rgb;
     //! else
     return xyz_to_linear_srgb(landmark_colour_unpolarized(
         layer_mirror(layer), theta_d, COLOUR_METHOD, SUBDIVISIONS, HOST_MATCHED, MATCHED_LAYERS));
@@ -336,11 +337,11 @@ fn layered_eval_rgb(s: LayeredStructure, p: LayeredPair) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     //! if INTEGRATED
-    var xyz = vec3<f32>(0.0);
+    var rgb = vec3<f32>(0.0);
     for (var j = 0u; j < VISIBLE_NODES; j++) {
-        xyz += layered_eval_spectral(s, p, node_wavelength(j)) * node_weights(j);
+        rgb += layered_eval_spectral(s, p, node_wavelength(j)) * node_rgb_weights(j);
     }
-    return xyz_to_linear_srgb(xyz);
+    return rgb;
     //! else
     var total = vec3<f32>(0.0);
     var through = vec3<f32>(1.0);

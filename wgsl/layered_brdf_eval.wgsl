@@ -70,12 +70,13 @@ fn hero_cdf_node(j: u32) -> f32 {
 fn layered_eval_hero(s: LayeredStructure, pair: LayeredPair, offset: f32) -> vec3<f32> {
     let hero = hero_wavelengths(offset);
     let f = layered_eval_spectral4(s, pair, hero.nm) * hero.scale;
-    var xyz = vec3<f32>(0.0);
+    var rgb = vec3<f32>(0.0);
     for (var k = 0u; k < 4u; k++) {
         let at = wavelength_lerp(hero.nm[k]);
-        xyz += f[k] * mix(node_weights(at.index), node_weights(at.index + 1u), at.fraction);
+        rgb += f[k] * mix(node_rgb_weights(at.index), node_rgb_weights(at.index + 1u),
+                          at.fraction);
     }
-    return xyz_to_linear_srgb(xyz);
+    return rgb;
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
