@@ -478,6 +478,14 @@ def test_benchmark_refuses_more_wavelengths_than_one_dispatch_takes(structures):
                               np.linspace(400.0, 700.0, most + 1))
 
 
+def test_benchmark_of_nothing_takes_no_time(structures):
+    """An empty request whose shared axes would hold more than 2**32 repeats: nothing to run."""
+    wi = np.zeros((0, 1, 1, 3))
+    u = np.zeros((0, 70000, 70000, 4))
+    assert layered_gpu.benchmark(structures["one-layer"], "sample", wi, u,
+                                 colour_method="hero") == 0.0
+
+
 @pytest.mark.parametrize(("method", "colour_method"), [
     ("single-reflection", "integrated"),
     ("single-reflection-lut", "integrated"),

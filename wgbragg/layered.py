@@ -670,8 +670,9 @@ class LayeredBragg:
         u : array_like, shape (..., 3), or (..., 4) with ``colour_method="hero"``
             Uniform numbers in [0, 1]: ``u[..., 0]`` picks the component, ``u[..., 1:3]`` the
             direction, ``u[..., 3]`` offsets the hero wavelengths. With ``backend="gpu"``,
-            float32 ``u`` reaches the kernel uncopied, and a ``wi`` shared along trailing
-            axes (one view, many samples) is uploaded once.
+            a ``wi`` shared along trailing axes (one view, many samples) is uploaded once,
+            and float32 ``u`` is not converted to float64 (contiguous, of the full sample
+            shape and width 4, it is uploaded as it is).
         wavelength_nm, method, backend, colour_method
             As for :meth:`brdf`: the weight is spectral or RGB. ``backend="gpu"``: the float32
             kernel draws the sample and computes its weight and pdf (same ``u``, same

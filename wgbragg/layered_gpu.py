@@ -8,7 +8,8 @@ its buffers and runs one invocation per pair ``(wi, wo)`` or sample ``(wi, u)``:
 - ``layers``: one :data:`LAYER_DTYPE` record per rough layer (its mirror, ``alpha``, filter
   grid and the offsets of its tables);
 - ``tables``: float32, a fixed header (the colour-matching block of the landmark colour kernel,
-  XYZ -> linear sRGB, the 1 nm XYZ weights, the hero wavelengths' inverse CDF), then per layer
+  XYZ -> linear sRGB, the 1 nm XYZ weights in linear sRGB, the hero wavelengths' inverse
+  CDF), then per layer
   the tables a variant reads: those derived from the layer's 1 nm transmissivity table
   (:meth:`RoughBraggLayer.transmissivity_table`, computed on the GPU) and, for
   ``"single-reflection-lut"``, the structure's reflectance LUTs (computed on the GPU);
@@ -550,6 +551,8 @@ def benchmark(structure, operation: str, wi, second, wavelength=None,
             f"{len(structure.layers)} layers (llvmpipe's loop budget), got "
             f"{np.broadcast_shapes(shape, wavelength.shape)[-1]}")
     batch = _batch(shape, wavelength)
+    if batch.count == 0:
+        return 0.0
     kernel, inputs, outputs, params = _setup(structure, operation, wi, second, wavelength,
                                              batch, method, colour_method)
     return kernel.benchmark(inputs, outputs, params, repeats=repeats, count=batch.count)
