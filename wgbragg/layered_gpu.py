@@ -9,10 +9,10 @@ its buffers and runs one invocation per pair ``(wi, wo)`` or sample ``(wi, u)``:
   grid and the offsets of its tables);
 - ``tables``: float32, a fixed header (the colour-matching block of the landmark colour kernel,
   XYZ -> linear sRGB, the 1 nm XYZ weights in linear sRGB, the hero wavelengths' inverse
-  CDF), then per layer
-  the tables a variant reads: those derived from the layer's 1 nm transmissivity table
-  (:meth:`RoughBraggLayer.transmissivity_table`, computed on the GPU) and, for
-  ``"single-reflection-lut"``, the structure's reflectance LUTs (computed on the GPU);
+  CDF), then per layer the tables a variant reads: those derived from the layer's 1 nm
+  transmissivity table (:meth:`RoughBraggLayer.transmissivity_table`, computed on the GPU)
+  and, for ``"single-reflection-lut"``, the structure's reflectance LUTs (computed on the
+  GPU);
 - the structure's own values (host index, base albedo) in the uniform.
 
 They are built once per structure and kind (spectral, factored RGB, density; LUT or not) and
