@@ -531,9 +531,10 @@ def render_section(results: Results, command: str) -> str:
         "30K, 40 x 40) what remains is mostly bias: the SR simulation and the published model "
         "both leave out the paths that reflect more than once, which \"+ base IR\" puts back "
         "over the grey base. Over the absorbing base there is no such bias to remove; the "
-        "model's gain there is mostly its lower noise, at less than the simulation's time per sample "
-        "(the paper's own ratio for that structure is its lowest, 2.1x), and the models' SMAPE "
-        "there is within a few times GT's own noise (note 1), which compresses their ratios.",
+        "model's gain there is mostly its lower noise, at less than the simulation's time per "
+        "sample (the paper's own ratio for that structure is its lowest, 2.1x), and the "
+        "models' SMAPE there is within a few times GT's own noise (note 1), which compresses "
+        "their ratios.",
         "5. \"+ Sobol\": one scrambled Sobol' set per GPU call, XORed per pixel with random "
         "bits (a digital shift); every number stays uniform, so every pixel's estimate stays "
         "unbiased. A model's sample is a fixed function of three (RGB) or four (hero) "
