@@ -40,6 +40,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import inspect
+import math
 import shlex
 import sys
 import time
@@ -451,8 +452,6 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
 
 def dense_host_range(mirror) -> tuple[float, float]:
     """Angles (degrees) past n2's critical angle, 0.5 degrees inside it, before n1's or 89."""
-    import math
-
     first = math.degrees(math.asin(mirror.n2 / mirror.host)) + 0.5
     last = 89.0 if mirror.host <= mirror.n1 else math.degrees(
         math.asin(mirror.n1 / mirror.host)) - 0.5
