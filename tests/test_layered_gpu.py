@@ -30,13 +30,14 @@ tables; the float64 model keeps the oscillation, sampled at whatever angles it i
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 
 from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer
-from wgbragg import layered_gpu
+from wgbragg import gpu, layered_gpu
 from wgbragg.layered import _refract_in
 from wgbragg.transmission_filter import TransmissionFilter
 
@@ -381,6 +382,22 @@ def test_a_view_shared_by_many_samples_is_uploaded_once(structures, name, monkey
             shared, repeated = (shared,), (repeated,)
         for a, b in zip(shared, repeated, strict=True):
             np.testing.assert_array_equal(a, b, err_msg=label)
+
+
+def test_tables_stay_on_the_device(structures, monkeypatch):
+    """The read-only layer tables are uploaded by the first call of each kind (the model's and
+    the simulation's), not by the calls after it; each call uploads only its own inputs."""
+    s = dataclasses.replace(structures["two-layers"])  # fresh caches: nothing uploaded yet
+    uploaded = []
+    real = gpu.DeviceArray.upload
+    monkeypatch.setattr(gpu.DeviceArray, "upload", classmethod(
+        lambda cls, array, **kw: uploaded.append(kw.get("what")) or real(array, **kw)))
+    wi, u = random_directions(6, seed=50), np.full((6, 4), 0.5, np.float32)
+    for _ in range(3):
+        s.sample(wi, u, backend="gpu", colour_method="hero")
+        s.simulate(wi, paths=4, mode="single", seed=1)
+    assert uploaded.count("layer tables") == 2
+    assert len(uploaded) > 6  # the per-call inputs still go up every call
 
 
 @pytest.mark.parametrize(("call", "match"), [

@@ -166,12 +166,15 @@ def _flat(direction: np.ndarray) -> np.ndarray:
 def environment(direction: np.ndarray) -> np.ndarray:
     """Linear sRGB radiance of the procedural environment towards world ``direction`` (z up)."""
     flat = _flat(direction)
-    glow = np.exp(_F32(LAMP_KAPPA) * (flat @ _lamp_axes().T - _F32(1.0)))
-    radiance = glow @ np.array([colour for _, colour in LAMPS], _F32)
-    z = flat[:, 2]
-    up = z > 0.0
-    radiance += np.where(up, _F32(0.4) + _F32(0.6) * z, _F32(0.0))[:, None] * np.array(SKY, _F32)
-    radiance[~up] += np.array(GROUND, _F32)
+    # In place and one `where` for sky and ground: every estimator pays this per sample, and
+    # the boolean-indexed form took 35 % longer (4.6 against 3.4 ms for 80 000 directions).
+    glow = flat @ _lamp_axes().T
+    glow -= _F32(1.0)
+    glow *= _F32(LAMP_KAPPA)
+    radiance = np.exp(glow, out=glow) @ np.array([colour for _, colour in LAMPS], _F32)
+    z = flat[:, 2:]
+    radiance += np.where(z > 0.0, (_F32(0.4) + _F32(0.6) * z) * np.array(SKY, _F32),
+                         np.array(GROUND, _F32))
     return radiance.reshape(np.shape(direction))
 
 
@@ -264,7 +267,12 @@ def uniforms(rng, pixels: int, spp: int, dims: int, sobol: bool) -> np.ndarray:
         warnings.filterwarnings("ignore", message="The balance properties")
         points = qmc.Sobol(dims, scramble=True, seed=rng, bits=32).random(spp)
     bits = (points * 2.0**32).astype(np.uint32)  # exact: multiples of 2**-32 below 1
-    shifted = bits[None] ^ rng.integers(0, 2**32, (pixels, 1, dims), dtype=np.uint32)
+    shifts = rng.integers(0, 2**32, (pixels, dims), dtype=np.uint32)
+    shifted = np.empty((pixels, spp, dims), np.uint32)
+    # One dimension at a time: numpy's broadcast over a trailing axis of 3 or 4 took 2.5x
+    # longer (0.76 ms at 1184 pixels x 64 x 4).
+    for d in range(dims):
+        np.bitwise_xor(bits[None, :, d], shifts[:, None, d], out=shifted[:, :, d])
     # The top 24 bits: float32 in [0, 1) without rounding up to 1.
     return (shifted >> np.uint32(8)).astype(_F32) * _F32(2.0**-24)
 
