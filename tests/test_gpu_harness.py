@@ -406,6 +406,15 @@ def test_llvmpipe_loop_budget_is_what_kernels_plan_for():
     gpu.check_loops(cut[:32], "toy kernel")
 
 
+@pytest.mark.parametrize(("cut", "where"), [
+    (np.array([0, 1, 1, 0]), "at 2 of 4 points"),
+    (np.array([1], np.uint32), "at some points"),  # one word shared by every invocation
+])
+def test_loop_cut_message_counts_only_what_it_knows(cut, where):
+    with pytest.raises(gpu.LoopBudgetError, match=rf"toy kernel: .* early {where} \("):
+        gpu.check_loops(cut, "toy kernel")
+
+
 # ------------------------------------------------------------------ adapters
 
 ADAPTERS = [

@@ -167,7 +167,8 @@ def environment(direction: np.ndarray) -> np.ndarray:
     """Linear sRGB radiance of the procedural environment towards world ``direction`` (z up)."""
     flat = _flat(direction)
     # In place and one `where` for sky and ground: every estimator pays this per sample, and
-    # the boolean-indexed form took 35 % longer (4.6 against 3.4 ms for 80 000 directions).
+    # the previous form (fresh arrays, a boolean-indexed ground) took 4.6 against 3.4 ms for
+    # 80 000 directions.
     glow = flat @ _lamp_axes().T
     glow -= _F32(1.0)
     glow *= _F32(LAMP_KAPPA)
@@ -270,7 +271,7 @@ def uniforms(rng, pixels: int, spp: int, dims: int, sobol: bool) -> np.ndarray:
     shifts = rng.integers(0, 2**32, (pixels, dims), dtype=np.uint32)
     shifted = np.empty((pixels, spp, dims), np.uint32)
     # One dimension at a time: numpy's broadcast over a trailing axis of 3 or 4 took 2.5x
-    # longer (0.76 ms at 1184 pixels x 64 x 4).
+    # longer (0.76 against 0.29 ms at 1184 pixels x 64 x 4).
     for d in range(dims):
         np.bitwise_xor(bits[None, :, d], shifts[:, None, d], out=shifted[:, :, d])
     # The top 24 bits: float32 in [0, 1) without rounding up to 1.

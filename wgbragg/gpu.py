@@ -151,16 +151,20 @@ def check_loops(cut, what: str) -> None:
     Parameters
     ----------
     cut : array_like
-        The kernel's flags (non-zero = cut), any shape.
+        The kernel's flags (non-zero = cut), any shape: one per point, or a single word
+        that any cut invocation sets.
     what : str
         The work and the input that sizes it, for the message.
     """
     cut = np.asarray(cut)
     if np.any(cut != 0):
+        # Kernels that report in one shared word cannot say where.
+        where = (" at some points" if cut.size == 1
+                 else f" at {np.count_nonzero(cut)} of {cut.size} points")
         raise LoopBudgetError(
-            f"{what}: the GPU ({adapter_info()['name']}) ended the kernel's loops early at "
-            f"{np.count_nonzero(cut)} of {cut.size} points (llvmpipe allows {LOOP_BUDGET} loop "
-            "iterations per invocation); use backend='numpy', or ask for less work per point"
+            f"{what}: the GPU ({adapter_info()['name']}) ended the kernel's loops early{where} "
+            f"(llvmpipe allows {LOOP_BUDGET} loop iterations per invocation); use "
+            "backend='numpy', or ask for less work per point"
         )
 
 

@@ -143,9 +143,9 @@ class _Variant:
     _device: dict = dataclasses.field(default_factory=dict, repr=False, compare=False)
 
     def device_tables(self) -> gpu.DeviceArray:
-        """``tables`` on the device, uploaded on first use: they are read-only and often
-        larger than a call's own inputs (700 KB per layer spectral, against 1.2 MB of ``u``
-        for 80 000 samples)."""
+        """``tables`` on the device, uploaded on first use: they are read-only and as large as
+        a call's own inputs (700 KB per layer spectral, against 1.2 MB of ``u`` for 80 000
+        samples), larger from two layers on."""
         if "tables" not in self._device:
             self._device["tables"] = gpu.DeviceArray.upload(self.tables, what="layer tables")
         return self._device["tables"]

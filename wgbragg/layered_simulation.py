@@ -230,10 +230,9 @@ def _layers(structure: LayeredBragg, wavelength, ballistic: bool):
         return np.concatenate([t.astype(np.float32).ravel() for t in tables])
 
     key = ("simulation", None if wavelength is None else wavelength.tobytes())
-    host_tables = structure._cached(key, build)
-    # Uploaded once, as the model's (layered_gpu._Variant.device_tables): read-only.
-    tables = structure._cached(("device", *key),
-                               lambda: gpu.DeviceArray.upload(host_tables, what="layer tables"))
+    # Kept on the device, as the model's (layered_gpu._Variant.device_tables): read-only,
+    # and no call needs them on the host.
+    tables = structure._cached(key, lambda: gpu.DeviceArray.upload(build(), what="layer tables"))
     columns = colorimetry.xyz_weights()[0].size if wavelength is None else wavelength.size
     offset = 0
     for index, layer in enumerate(structure.layers):

@@ -6,8 +6,8 @@
 //   density:   pdf(wi, wo)                                             -> value
 // value holds WAVELENGTHS floats per invocation (spectral) or 3 (RGB, WAVELENGTHS = 0); cut[0]
 // becomes 1 if llvmpipe ended any invocation's loops early (wgbragg.gpu, "Loop budget"), which
-// the host refuses (one word, as simulate_layered.wgsl: a word per invocation was 12 % of the
-// readback): the batching keeps the planned loops within budget, but a landmark
+// the host refuses (one word, as simulate_layered.wgsl: a word per invocation was 12 % of
+// sample's readback): the batching keeps the planned loops within budget, but a landmark
 // colour's loops grow with the mirror's thickness in a way the host does not model.
 //! include "harness.wgsl"
 //! include "numerics.wgsl"
@@ -41,7 +41,7 @@ struct Params {
 @group(0) @binding(4) var<storage, read> tables: array<f32>;
 @group(0) @binding(5) var<storage, read_write> value: array<f32>;
 @group(0) @binding(6) var<storage, read_write> directions: array<vec4<f32>>;
-@group(0) @binding(7) var<storage, read_write> cut: array<u32>;         // one flag word
+@group(0) @binding(7) var<storage, read_write> cut: array<u32>;
 @group(0) @binding(8) var<uniform> params: Params;
 
 // Every writer stores the same value, so the race is harmless.
