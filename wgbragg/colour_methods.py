@@ -325,7 +325,7 @@ def _snap_edge_phases(phase, at_edge):
     return np.where(snap, np.where(near_pi, np.pi, 0.0), phase)
 
 
-def _quadrature(mirror, omega_lo, omega_hi, pass_band_share, evanescent=False):
+def _quadrature(mirror, omega_lo, omega_hi, pass_band_share, evanescent):
     """How each zone is integrated: its Gauss panels, and whether through the exact R.
 
     Parameters

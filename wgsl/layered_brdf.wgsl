@@ -460,10 +460,10 @@ fn layered_sample(s: LayeredStructure, wi: vec3<f32>, u: vec3<f32>) -> LayeredSa
     }
     let components = component_count();
     var chosen = components - 1u;
-    // One component (one layer over an absorbing base) needs no probabilities: the pick is
-    // that layer either way.
     let theta = angle_from(i.z, length(i.xy));
     var total = 0.0;
+    // One component (one layer over an absorbing base) needs no probabilities: the pick is
+    // that layer either way.
     if (components > 1u) {
         total = component_total(s, theta, i.z);
     }
