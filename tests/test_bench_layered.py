@@ -64,6 +64,28 @@ def test_every_estimator_is_timed_and_scored(bench, run):
     assert all(r[3] in ("yes", "no") for r in targets)
 
 
+def test_environment_is_its_formula(bench):
+    """The float32 environment against its formula in float64: each lamp a von Mises-Fisher
+    glow exp(kappa (d . axis - 1)) times its colour, plus the sky (0.4 + 0.6 z) above the
+    horizon and the ground below; on lamp axes, near the horizon and everywhere."""
+    rng = np.random.default_rng(4)
+    direction = rng.standard_normal((5, 3000, 3))
+    direction[0, :2] = bench._lamp_axes()
+    direction[1, :, 2] = rng.choice([-1e-7, 0.0, 1e-7], direction.shape[1])
+    direction /= np.linalg.norm(direction, axis=-1, keepdims=True)
+    expected = np.zeros(direction.shape)
+    for axis, colour in bench.LAMPS:
+        axis = np.asarray(axis) / np.linalg.norm(axis)
+        glow = np.exp(bench.LAMP_KAPPA * (direction @ axis - 1.0))
+        expected += glow[..., None] * np.asarray(colour)
+    z = direction[..., 2:]
+    expected += np.where(z > 0.0, (0.4 + 0.6 * z) * np.asarray(bench.SKY), bench.GROUND)
+    radiance = bench.environment(direction)
+    assert radiance.shape == direction.shape and radiance.dtype == np.float32
+    np.testing.assert_allclose(radiance, expected, rtol=2e-5, atol=1e-6)
+    assert radiance[0, 0].sum() > 25.0  # looking into the first lamp
+
+
 def test_environment_sampling_matches_its_density(bench):
     """The environment sampler's density integrates to 1 and its samples follow it (mean of
     1 / pdf estimates the sphere's area)."""

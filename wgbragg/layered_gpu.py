@@ -138,17 +138,20 @@ class _Variant:
 
     layers: np.ndarray
     tables: np.ndarray
+    node_colours: np.ndarray
     params: np.ndarray
     constants: dict
     _device: dict = dataclasses.field(default_factory=dict, repr=False, compare=False)
 
-    def device_tables(self) -> gpu.DeviceArray:
-        """``tables`` on the device, uploaded on first use: they are read-only and as large as
-        a call's own inputs (700 KB per layer spectral, against 1.2 MB of ``u`` for 80 000
-        samples), larger from two layers on."""
+    def device_tables(self) -> tuple[gpu.DeviceArray, gpu.DeviceArray]:
+        """``tables`` and ``node_colours`` on the device, uploaded on first use: they are
+        read-only and as large as a call's own inputs (700 KB per layer spectral, against
+        1.2 MB of ``u`` for 80 000 samples), larger from two layers on."""
         if "tables" not in self._device:
             self._device["tables"] = gpu.DeviceArray.upload(self.tables, what="layer tables")
-        return self._device["tables"]
+            self._device["node_colours"] = gpu.DeviceArray.upload(self.node_colours,
+                                                                  what="node colours")
+        return self._device["tables"], self._device["node_colours"]
 
 
 def _kind(operation: str, wavelength, colour_method: str) -> str:
@@ -164,18 +167,22 @@ def _variant(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
     return structure._cached(key, lambda: _build(structure, kind, lut, colour_method))
 
 
-def _header() -> list[np.ndarray]:
-    """The tables' fixed start: the CMF block, XYZ -> linear sRGB, the 1 nm XYZ weights in
-    linear sRGB, the hero wavelengths' inverse CDF."""
+def _rgb_weights() -> np.ndarray:
+    """The D65-weighted XYZ weights of the 1 nm nodes in linear sRGB, shape (471, 3)."""
     grid, weights = colorimetry.xyz_weights()
     if grid.size != _VISIBLE_NODES or grid[0] != WAVELENGTH_RANGE_NM[0]:
         raise RuntimeError("layered_brdf.wgsl assumes the 1 nm grid 360..830 nm")
+    return weights @ colorimetry.XYZ_TO_LINEAR_SRGB.T
+
+
+def _header() -> list[np.ndarray]:
+    """The tables' fixed start: the CMF block, XYZ -> linear sRGB, the 1 nm XYZ weights in
+    linear sRGB, the hero wavelengths' inverse CDF."""
     if colorimetry.HERO_SEGMENTS != _HERO_SEGMENTS:
         raise RuntimeError(f"wgsl/hero.wgsl assumes {_HERO_SEGMENTS} inverse-CDF segments")
     matrix = np.zeros((3, 4), np.float32)
     matrix[:, :3] = colorimetry.XYZ_TO_LINEAR_SRGB
-    rgb_weights = weights @ colorimetry.XYZ_TO_LINEAR_SRGB.T
-    return [_cmf_table().ravel(), matrix.ravel(), rgb_weights.astype(np.float32).ravel(),
+    return [_cmf_table().ravel(), matrix.ravel(), _rgb_weights().astype(np.float32).ravel(),
             colorimetry.hero_inverse_cdf()]
 
 
@@ -221,10 +228,16 @@ def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
     lut_grid = structure._lut_grid()
     params["lut_rows"] = lut_grid.size
     params["lut_rows_per_radian"] = 1.0 / (lut_grid[1] - lut_grid[0])
+    # Per 1 nm node, the rgb weights and the base's albedo in one vec4 (the hero colour reads
+    # both at each of a sample's wavelengths: two vec4 loads for eight scalar ones).
+    node_colours = np.zeros((_VISIBLE_NODES, 4), np.float32)
+    node_colours[:, :3] = _rgb_weights()
     if kind == _SPECTRAL and not structure.absorbing_base:
-        params["base_spectrum"] = append(base.spectrum(colorimetry.xyz_weights()[0]))
+        albedo = base.spectrum(colorimetry.xyz_weights()[0])
+        params["base_spectrum"] = append(albedo)
+        node_colours[:, 3] = albedo
     tables = np.concatenate(blocks)
-    for array in (tables, records, params):
+    for array in (tables, node_colours, records, params):
         array.setflags(write=False)
     host_matched = all(np.float32(r["host"]) == np.float32(r["n1"]) for r in records)
     constants = {
@@ -236,7 +249,7 @@ def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
             not r["bulk"] and np.float32(r["n2"]) >= np.float32(r["n1"]) for r in records),
         "WORKGROUP_SIZE": WORKGROUP_SIZE,
     }
-    return _Variant(records, tables, params, constants)
+    return _Variant(records, tables, node_colours, params, constants)
 
 
 def _constants(variant: _Variant, kind: str, lut: bool, colour_method: str,
@@ -381,7 +394,7 @@ def _setup(structure, operation: str, first, second, wavelength, batch: _Batch, 
     directions = batch.count if operation == "sample" else 1
     incoming, params["incoming_repeat"] = _shared_vec4(first, batch.invocations)
     operand, params["operand_repeat"] = _shared_vec4(second, batch.invocations)
-    inputs = [incoming, operand, batch.wavelength, variant.layers, variant.device_tables()]
+    inputs = [incoming, operand, batch.wavelength, variant.layers, *variant.device_tables()]
     outputs = [(batch.count * channels, np.float32), ((directions, 4), np.float32),
                (1, np.uint32)]
     return kernel, inputs, outputs, params

@@ -4,6 +4,8 @@
 //   layered_pair(s, wi, wo) -> LayeredPair          what eq 34 needs of (wi, wo), per pair
 //   layered_eval_spectral(s, pair, wavelength_nm)   f (1/sr) at one wavelength (eq 34)
 //   layered_eval_spectral4(s, pair, wavelengths)    the same at four (a path's hero wavelengths)
+//   layered_eval_spectral4_over(s, pair, wavelengths, base_albedo)
+//                                                   the same with the base's albedo given
 //   layered_eval_rgb(s, pair)                       f as linear sRGB
 //   layered_pdf(s, wi, wo)                          density (1/sr) of layered_sample's lobes
 //   layered_sample(s, wi, u) -> LayeredSample       eq 35, then the chosen lobe
@@ -295,6 +297,19 @@ fn layered_eval_spectral(s: LayeredStructure, p: LayeredPair, wavelength_nm: f32
 // (angle_geometry), or unrolling the wavelength loop, ran 20-30 % slower on lavapipe.
 fn layered_eval_spectral4(s: LayeredStructure, p: LayeredPair, wavelength_nm: vec4<f32>)
     -> vec4<f32> {
+    var albedo = vec4<f32>(0.0);
+    if (BASE == BASE_LAMBERTIAN) {
+        for (var k = 0u; k < 4u; k++) {
+            albedo[k] = table_lerp(s.base_spectrum, wavelength_lerp(wavelength_nm[k]));
+        }
+    }
+    return layered_eval_spectral4_over(s, p, wavelength_nm, albedo);
+}
+
+// layered_eval_spectral4 with the base's albedo at the four wavelengths given (read by the
+// caller wherever it keeps it; ignored over an absorbing base).
+fn layered_eval_spectral4_over(s: LayeredStructure, p: LayeredPair, wavelength_nm: vec4<f32>,
+                               base_albedo: vec4<f32>) -> vec4<f32> {
     if (p.scale == 0.0) {
         return vec4<f32>(0.0);
     }
@@ -323,11 +338,7 @@ fn layered_eval_spectral4(s: LayeredStructure, p: LayeredPair, wavelength_nm: ve
         through *= transmitted;
     }
     if (BASE == BASE_LAMBERTIAN) {
-        var albedo: vec4<f32>;
-        for (var k = 0u; k < 4u; k++) {
-            albedo[k] = table_lerp(s.base_spectrum, columns[k]);
-        }
-        total += albedo / PI * through;
+        total += base_albedo / PI * through;
     }
     return total * p.scale;
 }
