@@ -461,3 +461,26 @@ def test_missing_adapter_skips_locally_and_fails_in_ci(expect, outcome):
     )
     assert outcome in result.stdout, result.stdout + result.stderr
     assert (result.returncode == 0) == (expect == "0")
+
+
+def test_bilinear_quads_hold_each_cells_corners():
+    """Bilinear interpolation from a cell's quad is the table's own, at every cell."""
+    rng = np.random.default_rng(5)
+    table = rng.random((4, 6))
+    quads = gpu.bilinear_quads(table)
+    assert quads.shape == (3 * 5, 4) and quads.dtype == np.float32
+    r, c = np.meshgrid(np.arange(3), np.arange(5), indexing="ij")
+    expected = np.stack([table[r, c], table[r, c + 1], table[r + 1, c], table[r + 1, c + 1]], -1)
+    np.testing.assert_array_equal(quads, expected.reshape(-1, 4).astype(np.float32))
+    fr, fc = 0.3, 0.8
+    q = quads[2 * 5 + 4]
+    direct = ((1 - fr) * ((1 - fc) * table[2, 4] + fc * table[2, 5])
+              + fr * ((1 - fc) * table[3, 4] + fc * table[3, 5]))
+    from_quad = (1 - fr) * ((1 - fc) * q[0] + fc * q[1]) + fr * ((1 - fc) * q[2] + fc * q[3])
+    assert from_quad == pytest.approx(direct, rel=1e-6)
+
+
+@pytest.mark.parametrize("shape", [(5,), (1, 4), (4, 1), (2, 2, 2)])
+def test_bilinear_quads_refuse_tables_without_cells(shape):
+    with pytest.raises(ValueError, match="table must be 2-D"):
+        gpu.bilinear_quads(np.zeros(shape))

@@ -223,11 +223,19 @@ def _layers(structure: LayeredBragg, wavelength, ballistic: bool):
             records[index][name] = mirror[name]
         records[index]["alpha"] = layer.alpha
     if not ballistic:
-        return records, np.zeros(1, np.float32)
+        return records, np.zeros((1, 4), np.float32)
+
+    def vec4_rows(table: np.ndarray) -> np.ndarray:
+        """A layer's table as the kernel reads it in one load per lookup: the corners of its
+        cells on the 1 nm grid (RGB), or its rows in groups of four wavelengths."""
+        if wavelength is None:
+            return gpu.bilinear_quads(table)
+        return np.asarray(table, np.float32).reshape(-1, 4)
 
     def build():
-        tables = [layer.transmissivity_table(wavelength, "gpu") for layer in structure.layers]
-        return np.concatenate([t.astype(np.float32).ravel() for t in tables])
+        tables = [vec4_rows(layer.transmissivity_table(wavelength, "gpu"))
+                  for layer in structure.layers]
+        return np.concatenate(tables)
 
     key = ("simulation", None if wavelength is None else wavelength.tobytes())
     # Kept on the device, as the model's (layered_gpu._Variant.device_tables): read-only,
@@ -239,7 +247,7 @@ def _layers(structure: LayeredBragg, wavelength, ballistic: bool):
         grid = layer.filter.theta_i
         records[index]["table"], records[index]["rows"] = offset, grid.size
         records[index]["row_step"] = grid[1] - grid[0]
-        offset += grid.size * columns
+        offset += (grid.size - 1) * (columns - 1) if wavelength is None else grid.size * columns // 4
     return records, tables
 
 

@@ -282,8 +282,8 @@ fn layered_eval_spectral(s: LayeredStructure, p: LayeredPair, wavelength_nm: f32
         total += shape * layer_reflectance(s, layer, p.theta_d, wavelength_nm, column) * through;
         // Nothing lies below the last layer over an absorbing base.
         if (l + 1u < LAYERS || BASE == BASE_LAMBERTIAN) {
-            through *= table_bilinear(layer.transmissivity, filter_row(layer, p.theta_i), column)
-                * table_bilinear(layer.transmissivity, filter_row(layer, p.theta_o), column);
+            through *= layer_transmissivity(layer, filter_row(layer, p.theta_i), column)
+                * layer_transmissivity(layer, filter_row(layer, p.theta_o), column);
         }
     }
     if (BASE == BASE_LAMBERTIAN) {
@@ -330,8 +330,8 @@ fn layered_eval_spectral4_over(s: LayeredStructure, p: LayeredPair, wavelength_n
         for (var k = 0u; k < 4u; k++) {
             reflectance[k] = layer_reflectance(s, layer, p.theta_d, wavelength_nm[k], columns[k]);
             if (below) {
-                transmitted[k] = table_bilinear(layer.transmissivity, row_i, columns[k])
-                    * table_bilinear(layer.transmissivity, row_o, columns[k]);
+                transmitted[k] = layer_transmissivity(layer, row_i, columns[k])
+                    * layer_transmissivity(layer, row_o, columns[k]);
             }
         }
         total += shape * reflectance * through;

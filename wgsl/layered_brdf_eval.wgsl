@@ -42,16 +42,25 @@ struct Params {
 // Per 1 nm node (360..830 nm): its linear sRGB weights (node_rgb_weights) and the base's albedo
 // (0 over an absorbing base), one load for what `tables` holds in four.
 @group(0) @binding(5) var<storage, read> node_colours: array<vec4<f32>>;
-@group(0) @binding(6) var<storage, read_write> value: array<f32>;
-@group(0) @binding(7) var<storage, read_write> directions: array<vec4<f32>>;
-@group(0) @binding(8) var<storage, read_write> cut: array<u32>;
-@group(0) @binding(9) var<uniform> params: Params;
+// Each layer's transmissivity table (rows x 471) as the corners of its cells, from the quad at
+// RoughLayer.transmissivity: a bilinear lookup in one load, not four.
+@group(0) @binding(6) var<storage, read> transmissivity_quads: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read_write> value: array<f32>;
+@group(0) @binding(8) var<storage, read_write> directions: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read_write> cut: array<u32>;
+@group(0) @binding(10) var<uniform> params: Params;
 
 // Every writer stores the same value, so the race is harmless.
 fn report_cut() {
     if (loops_were_cut(params.count)) {
         cut[0] = 1u;
     }
+}
+
+fn layer_transmissivity(layer: RoughLayer, row: Lerp, column: Lerp) -> f32 {
+    let q = transmissivity_quads[layer.transmissivity + row.index * (VISIBLE_NODES - 1u)
+                                 + column.index];
+    return mix(mix(q.x, q.y, column.fraction), mix(q.z, q.w, column.fraction), row.fraction);
 }
 
 fn wavelength_at(index: u32, k: u32) -> f32 {

@@ -140,6 +140,11 @@ fn spectra_at(first_row: u32, wavelength_nm: f32) -> vec3<f32> {
                at - f32(lower)).xyz;
 }
 
+// layered_brdf.wgsl's transmissivity lookup: the layer's table in `tables`.
+fn layer_transmissivity(layer: RoughLayer, row: Lerp, column: Lerp) -> f32 {
+    return table_bilinear(layer.transmissivity, row, column);
+}
+
 fn hero_cdf_node(j: u32) -> f32 {
     return spectra[2u * SPECTRUM_NODES + j].x;
 }

@@ -43,7 +43,7 @@ const ABSORBED: vec4<f32> = vec4<f32>(0.0);
 struct Layer {
     mirror: BraggMirror,
     alpha: f32,
-    table: u32,       // offset of its transmissivity table in `transmissivity`
+    table: u32,       // offset of its transmissivity table in `transmissivity` (vec4s)
     rows: u32,        // theta_i entries of the table (the filter's grid from 0 to pi/2)
     row_step: f32,    // their spacing, radians
 }
@@ -66,7 +66,9 @@ struct SimulationParams {
 // [query] wi in air, wi and wo refracted into n1.
 @group(0) @binding(0) var<storage, read> queries: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read> layers: array<Layer>;
-@group(0) @binding(2) var<storage, read> transmissivity: array<f32>;  // [layer][row][column]
+// [layer] its table in one load per lookup: RGB, the corners of each cell of the 1 nm grid,
+// (t[r][c], t[r][c + 1], t[r + 1][c], t[r + 1][c + 1]) at [r][c]; spectral, [row][group].
+@group(0) @binding(2) var<storage, read> transmissivity: array<vec4<f32>>;
 // RGB: [471] linear sRGB density per nm (xyz), base albedo (w) at 360, 361, ... nm.
 // Spectral: [4 groups] wavelength in nm (x), base albedo (w).
 @group(0) @binding(3) var<storage, read> spectrum: array<vec4<f32>>;
@@ -113,21 +115,19 @@ fn transmissivity_at(layer: Layer, theta: f32) -> vec4<f32> {
     let position = min(theta / layer.row_step, f32(layer.rows - 1u));
     let r0 = min(u32(position), layer.rows - 2u);
     let fr = position - f32(r0);
-    let row0 = layer.table + r0 * params.columns;
-    let row1 = row0 + params.columns;
+    if (!RGB) {
+        let groups = params.columns / 4u;
+        let row0 = layer.table + r0 * groups + group;
+        return mix(transmissivity[row0], transmissivity[row0 + groups], fr);
+    }
+    let row = layer.table + r0 * (params.columns - 1u);
     var t: vec4<f32>;
     for (var k = 0u; k < 4u; k++) {
-        if (RGB) {
-            let c = clamp(wavelength[k] - FIRST_NM, 0.0, f32(params.columns - 1u));
-            let c0 = min(u32(c), params.columns - 2u);
-            let fc = c - f32(c0);
-            let lower = mix(transmissivity[row0 + c0], transmissivity[row0 + c0 + 1u], fc);
-            let upper = mix(transmissivity[row1 + c0], transmissivity[row1 + c0 + 1u], fc);
-            t[k] = mix(lower, upper, fr);
-        } else {
-            let c = 4u * group + k;
-            t[k] = mix(transmissivity[row0 + c], transmissivity[row1 + c], fr);
-        }
+        let c = clamp(wavelength[k] - FIRST_NM, 0.0, f32(params.columns - 1u));
+        let c0 = min(u32(c), params.columns - 2u);
+        let fc = c - f32(c0);
+        let q = transmissivity[row + c0];
+        t[k] = mix(mix(q.x, q.y, fc), mix(q.z, q.w, fc), fr);
     }
     return t;
 }
