@@ -52,16 +52,17 @@ def test_every_estimator_is_timed_and_scored(bench, run):
     assert [(r[0], r[1], r[2]) for r in rows] == expected
     assert {r[1] for r in rows} == {"GT (all paths)", *bench.ESTIMATORS[1:]}
     for row in rows:
+        assert all(row[k] != "—" for k in (3, 4))  # both clocks timed every estimator
         if row[1] == "GT (all paths)":
-            noise, label = row[4].split(" ", 1)
+            noise, label = row[5].split(" ", 1)
             assert 0.0 < float(noise) < 1.0 and label == "(own noise)"
         else:
-            assert 0.0 <= float(row[4]) < 1.0
-            assert float(row[5].replace(",", "")) >= 0.0
+            assert 0.0 <= float(row[5]) < 1.0
+            assert float(row[6].replace(",", "")) >= 0.0
     targets = _rows(text, "### Targets")
     assert len(targets) == 4 * len(cfg.points)
     assert [r[1] for r in targets] == [str(spp) for _ in range(4) for spp, _ in cfg.points]
-    assert all(r[3] in ("yes", "no") for r in targets)
+    assert all(r[3] in ("yes", "no") and r[5] in ("yes", "no") for r in targets)
 
 
 def test_environment_is_its_formula(bench):
@@ -133,19 +134,23 @@ def test_sobol_uniforms_are_stratified_per_pixel(bench):
         assert stats.kstest(first[:, axis], "uniform").pvalue > 1e-3
 
 
-def _results(bench, fast):
+def _results(bench, fast, sr_gpu_seconds=0.5):
     """Made-up results of the quick configuration: every estimator as efficient as the SR
-    simulation, except those whose name holds one of ``fast``: 100 times."""
+    simulation, except those whose name holds one of ``fast``: 100 times; on GPU time, every
+    estimator takes 0.5 s but the SR simulation ``sr_gpu_seconds``."""
     cfg = bench.QUICK
     environment = {"date": "-", "adapter": "-", "cpu": "-", "cores": 2, "python": "-",
                    "versions": {}, "background_cores": 0.0}
     results = bench.Results(cfg, environment)
     for label, *_, albedo in cfg.structures:
         results.seconds[label, "GT", cfg.gt_spp] = 1.0
+        results.gpu_seconds[label, "GT", cfg.gt_spp] = 0.5
         results.errors[label, "GT", cfg.gt_spp] = 0.001
         for spp, _ in cfg.points:
             for estimator in bench.estimators(albedo)[1:]:
                 results.seconds[label, estimator, spp] = 1.0
+                results.gpu_seconds[label, estimator, spp] = (
+                    sr_gpu_seconds if estimator == "SR sim." else 0.5)
                 results.errors[label, estimator, spp] = (
                     0.001 if any(name in estimator for name in fast) else 0.1)
     return results
@@ -157,8 +162,21 @@ def test_targets_as_published_leave_out_sobol_and_base_interreflection(bench):
     section = bench.render_section(_results(bench, (bench.SOBOL, bench.BASE_IR)), "-")
     rows = _rows(section, "### Targets")
     assert len(rows) == 4 * len(bench.QUICK.points)
-    for text, _, measured, met in rows:
+    for text, _, measured, met, measured_gpu, met_gpu in rows:
         published = "as published" in text
-        ratio = float(measured.split()[1].rstrip("\u00d7"))
-        assert ratio == pytest.approx(1.0 if published else 100.0), (text, measured)
-        assert met == ("no" if published else "yes")
+        for value, verdict in ((measured, met), (measured_gpu, met_gpu)):
+            ratio = float(value.split()[1].rstrip("\u00d7"))
+            assert ratio == pytest.approx(1.0 if published else 100.0), (text, value)
+            assert verdict == ("no" if published else "yes")
+
+
+def test_gpu_time_targets_read_the_gpu_clock(bench):
+    """An SR simulation four times slower on the GPU clock only: every GPU-time ratio is four
+    times its wall-clock twin, in the targets and in the table."""
+    section = bench.render_section(_results(bench, (), sr_gpu_seconds=2.0), "-")
+    for _, _, measured, met, measured_gpu, met_gpu in _rows(section, "### Targets"):
+        assert measured.startswith("worst 1") and met == "no"
+        assert measured_gpu.startswith("worst 4") and met_gpu == "yes"
+    for row in _rows(section, "### Time, SMAPE"):
+        if row[1] not in ("GT (all paths)", "SR sim."):
+            assert (float(row[7].rstrip("\u00d7")), float(row[8].rstrip("\u00d7"))) == (1.0, 4.0)

@@ -9,6 +9,7 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -484,3 +485,44 @@ def test_bilinear_quads_hold_each_cells_corners():
 def test_bilinear_quads_refuse_tables_without_cells(shape):
     with pytest.raises(ValueError, match="table must be 2-D"):
         gpu.bilinear_quads(np.zeros(shape))
+
+
+def test_pass_clock_counts_the_passes_of_its_block():
+    """Every submission inside the block is timed, nested blocks both count, and the GPU time
+    lies within the block's wall time; results are unchanged and nothing is counted after."""
+    x = np.arange(4096, dtype=np.float32)
+    y = np.ones(4096, np.float32)
+    kernel = gpu.compute_pipeline("test_kernels/saxpy.wgsl")
+    with gpu.pass_clock() as outer:
+        start = time.perf_counter()
+        (first,) = kernel.run([x, y], [(x.size, np.float32)], saxpy_params(2.0))
+        with gpu.pass_clock() as inner:
+            dispatch = kernel.bind([x, y], [(x.size, np.float32)], saxpy_params(3.0))
+            (second,) = gpu.submit([dispatch, dispatch], read=dispatch.outputs)
+        wall = time.perf_counter() - start
+    np.testing.assert_array_equal(first, 2.0 * x + y)
+    np.testing.assert_array_equal(second, 3.0 * x + y)
+    assert (outer.passes, inner.passes) == (3, 2)
+    assert 0.0 < inner.seconds < outer.seconds <= wall
+    kernel.run([x, y], [(x.size, np.float32)], saxpy_params(2.0))
+    assert outer.passes == 3
+
+
+def test_pass_clock_times_more_passes_than_a_query_set_holds():
+    x = np.arange(64, dtype=np.float32)
+    kernel = gpu.compute_pipeline("test_kernels/saxpy.wgsl")
+    dispatch = kernel.bind([x, x], [(x.size, np.float32)], saxpy_params(1.0))
+    with gpu.pass_clock() as clock:
+        (out,) = gpu.submit([dispatch] * 2100, read=dispatch.outputs)
+    np.testing.assert_array_equal(out, 2.0 * x)
+    assert clock.passes == 2100 and clock.seconds > 0.0
+
+
+def test_pass_clock_needs_timestamps(monkeypatch):
+    class NoTimestamps:
+        features = frozenset()
+
+    monkeypatch.setattr(gpu, "get_device", lambda: NoTimestamps())
+    with pytest.raises(RuntimeError, match="timestamp-query"):
+        with gpu.pass_clock():
+            pass

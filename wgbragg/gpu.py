@@ -84,6 +84,7 @@ Environment
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import math
@@ -94,7 +95,7 @@ import tempfile
 import textwrap
 import time
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -110,6 +111,7 @@ __all__ = [
     "Dispatch",
     "Kernel",
     "LoopBudgetError",
+    "PassClock",
     "ShaderCompileError",
     "ShaderSource",
     "adapter_info",
@@ -120,6 +122,7 @@ __all__ = [
     "get_device",
     "load_shader",
     "max_buffer_bytes",
+    "pass_clock",
     "pipeline_cache_info",
     "select_adapter",
     "shader_dir",
@@ -1198,6 +1201,61 @@ def _unstage(staging: Sequence[Any], arrays: Sequence[DeviceArray]) -> list[np.n
     return result
 
 
+class PassClock:
+    """GPU time of the compute passes submitted while a :func:`pass_clock` block is open.
+
+    Attributes
+    ----------
+    seconds : float
+        Their durations summed, from GPU timestamps: the kernels' own work, without uploads,
+        readbacks or the host's.
+    passes : int
+        Compute passes timed.
+    """
+
+    def __init__(self) -> None:
+        self.seconds = 0.0
+        self.passes = 0
+
+
+_OPEN_CLOCKS: list[PassClock] = []
+
+
+@contextlib.contextmanager
+def pass_clock() -> Iterator[PassClock]:
+    """Time the GPU work of a block of code, whatever submits it (:func:`submit`, through
+    :meth:`Kernel.run` and every dispatching function of the package).
+
+    Each submission inside the block writes timestamps around its passes and waits for them,
+    so a :func:`submit` without readback no longer returns before its work is done. Blocks may
+    nest: every open clock counts the passes.
+
+    Yields
+    ------
+    PassClock
+
+    Raises
+    ------
+    RuntimeError
+        Where the adapter lacks the ``timestamp-query`` feature.
+
+    Examples
+    --------
+    >>> with pass_clock() as clock:  # doctest: +SKIP
+    ...     structure.sample(wi, u, backend="gpu")
+    >>> clock.seconds  # doctest: +SKIP
+    """
+    if "timestamp-query" not in get_device().features:
+        raise RuntimeError("pass_clock needs the adapter's timestamp-query feature, which "
+                           f"{adapter_info()['name']!r} lacks")
+    clock = PassClock()
+    _OPEN_CLOCKS.append(clock)
+    try:
+        yield clock
+    finally:
+        _OPEN_CLOCKS.remove(clock)
+
+
 def submit(dispatches: Sequence[Dispatch], read: Sequence[DeviceArray] = ()) -> list[np.ndarray]:
     """Run ``dispatches`` in order in one command submission, then read arrays back.
 
@@ -1214,11 +1272,35 @@ def submit(dispatches: Sequence[Dispatch], read: Sequence[DeviceArray] = ()) -> 
         Copies of ``read``, with their shapes and dtypes. Without ``read`` this returns as
         soon as the work is submitted.
     """
-    encoder = get_device().create_command_encoder()
-    _record(encoder, dispatches, 1, None)
+    timed = bool(_OPEN_CLOCKS) and len(dispatches) > 0
+    if timed and 2 * len(dispatches) > _MAX_QUERIES:
+        # One query set per submission: time the rest in further ones, in order.
+        first = _MAX_QUERIES // 2
+        submit(dispatches[:first])
+        return submit(dispatches[first:], read)
+    device = get_device()
+    encoder = device.create_command_encoder()
+    query_set = None
+    if timed:
+        count = 2 * len(dispatches)
+        query_set = device.create_query_set(type="timestamp", count=count)
+    _record(encoder, dispatches, 1, query_set)
+    if timed:
+        resolved = device.create_buffer(
+            size=8 * count, usage=wgpu.BufferUsage.QUERY_RESOLVE | wgpu.BufferUsage.COPY_SRC
+        )
+        encoder.resolve_query_set(query_set, 0, count, resolved, 0)
+        read = [*read, DeviceArray(resolved, (count,), np.dtype("<u8"), False)]
     staging = _stage(encoder, read)
-    get_device().queue.submit([encoder.finish()])
-    return _unstage(staging, read)
+    device.queue.submit([encoder.finish()])
+    result = _unstage(staging, read)
+    if timed:
+        ticks = result.pop().astype(np.int64)
+        seconds = float(np.sum(ticks[1::2] - ticks[0::2])) * _timestamp_period(device) * 1e-9
+        for clock in _OPEN_CLOCKS:
+            clock.seconds += seconds
+            clock.passes += len(dispatches)
+    return result
 
 
 def _timings(dispatches: Sequence[Dispatch], repeats: int) -> list[list[float]]:

@@ -247,7 +247,8 @@ def _layers(structure: LayeredBragg, wavelength, ballistic: bool):
         grid = layer.filter.theta_i
         records[index]["table"], records[index]["rows"] = offset, grid.size
         records[index]["row_step"] = grid[1] - grid[0]
-        offset += (grid.size - 1) * (columns - 1) if wavelength is None else grid.size * columns // 4
+        cells = (grid.size - 1) * (columns - 1)
+        offset += cells if wavelength is None else grid.size * columns // 4
     return records, tables
 
 
