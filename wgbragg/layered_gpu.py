@@ -13,6 +13,11 @@ its buffers and runs one invocation per pair ``(wi, wo)`` or sample ``(wi, u)``:
   transmissivity table (:meth:`RoughBraggLayer.transmissivity_table`, computed on the GPU)
   and, for ``"single-reflection-lut"``, the structure's reflectance LUTs (computed on the
   GPU);
+- ``node_colours``: per 1 nm node, its linear sRGB weights and the base's albedo in one vec4
+  (the hero colour reads both at each of a sample's wavelengths in two loads);
+- ``transmissivity_quads``: each layer's transmissivity table itself, spectral kinds only, as
+  the corners of its cells (:func:`gpu.bilinear_quads`): one load per lookup, not four
+  (llvmpipe bounds-checks every load);
 - the structure's own values (host index, base albedo) in the uniform.
 
 They are built once per structure and kind (spectral, factored RGB, density; LUT or not) and

@@ -15,7 +15,12 @@
 // LayeredStructure, read by the caller from wherever it keeps its materials.
 //
 // Requires numerics, complex, layer, yeh, landmarks, colour_landmark, ggx and layered.wgsl.
-// Provides colour_landmark's cmf_density and cmf_cumulative (from `tables`).
+// Provides colour_landmark's cmf_density and cmf_cumulative (from `tables`). The includer
+// provides
+//   fn layer_transmissivity(layer: RoughLayer, row: Lerp, column: Lerp) -> f32
+// the layer's transmissivity table (below) bilinear at (row, column), from wherever it keeps
+// it: `tables` at RoughLayer.transmissivity (render.wgsl), or a table of cell corners, one
+// load per lookup (layered_brdf_eval.wgsl).
 //
 // Buffers. No bindings here: the including entry point declares, under these names,
 //   layers: array<RoughLayer>  one record per rough layer, top down; the structure's layers
@@ -32,7 +37,8 @@
 //                   wavelengths, nm), read by an includer's hero_cdf_node at HERO_INVERSE_CDF.
 //     At the offsets of a RoughLayer (each a row-major table, "rows" its filter's theta_i
 //     rows, uniform over [0, pi/2]; a wavelength axis has 471 nodes, 360..830 nm):
-//       transmissivity        rows x 471   f_t cos (eq 28)                   spectral
+//       transmissivity        rows x 471   f_t cos (eq 28)                   spectral (read
+//                                                                    by layer_transmissivity)
 //       transmissivity_mean   rows         its mean over wavelength (eq 33)  always
 //       transmissivity_rgb    rows x 3     its linear sRGB                   factored RGB
 //       reflectance           lut x 471    R over theta_d (LUT rows)         spectral, LUT
