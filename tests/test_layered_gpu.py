@@ -143,7 +143,8 @@ def assert_close(gpu, reference, rtol, what):
 
 
 def test_struct_layouts():
-    assert layered_gpu.LAYER_DTYPE.itemsize == 64
+    assert layered_gpu.LAYER_DTYPE.itemsize == 80  # 20 words, a multiple of 16 as numpy pads
+    assert layered_gpu.LAYER_DTYPE.fields["transmissivity_elsewhere"][1] == 64
     assert layered_gpu.PARAMS_DTYPE.itemsize == 64
     assert layered_gpu.PARAMS_DTYPE.fields["count"][1] == 48  # after a 48-byte LayeredStructure
 

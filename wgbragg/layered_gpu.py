@@ -15,9 +15,10 @@ its buffers and runs one invocation per pair ``(wi, wo)`` or sample ``(wi, u)``:
   GPU);
 - ``node_colours``: per 1 nm node, its linear sRGB weights and the base's albedo in one vec4
   (the hero colour reads both at each of a sample's wavelengths in two loads);
-- ``transmissivity_quads``: each layer's transmissivity table itself, spectral kinds only, as
-  the corners of its cells (:func:`gpu.bilinear_quads`): one load per lookup, not four
-  (llvmpipe bounds-checks every load);
+- ``transmissivity_quads``: each layer's transmissivity table again, spectral kinds only, as
+  the corners of its cells (:func:`gpu.bilinear_quads`) from the record's
+  ``transmissivity_elsewhere``: one load per lookup, not four (llvmpipe bounds-checks every
+  load); the renderer, which includes the same physics, reads the table in ``tables``;
 - the structure's own values (host index, base albedo) in the uniform.
 
 They are built once per structure and kind (spectral, factored RGB, density; LUT or not) and
@@ -92,8 +93,9 @@ LAYER_DTYPE = gpu.struct_dtype([
     ("alpha", "f32"), ("rows", "u32"), ("rows_per_radian", "f32"),
     ("transmissivity", "u32"), ("transmissivity_mean", "u32"), ("transmissivity_rgb", "u32"),
     ("reflectance", "u32"), ("reflectance_rgb", "u32"),
+    ("transmissivity_elsewhere", "u32"), ("_pad0", "u32"), ("_pad1", "u32"), ("_pad2", "u32"),
 ])
-"""``RoughLayer`` of layered_brdf.wgsl: 16 four-byte words (no padding in storage either)."""
+"""``RoughLayer`` of layered_brdf.wgsl: 20 four-byte words (no padding in storage either)."""
 
 PARAMS_DTYPE = gpu.struct_dtype([
     ("base_rgb", "vec3<f32>"), ("host", "f32"), ("base_mean", "f32"), ("first_layer", "u32"),
@@ -221,7 +223,9 @@ def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
         record["rows_per_radian"] = 1.0 / (theta_i[1] - theta_i[0])
         record["transmissivity_mean"] = append(visible.mean(axis=1))
         if kind == _SPECTRAL:
-            record["transmissivity"] = quad_count
+            # In `tables` for the renderer (render.wgsl), as quads for layered_brdf_eval.wgsl.
+            record["transmissivity"] = append(visible)
+            record["transmissivity_elsewhere"] = quad_count
             quads.append(gpu.bilinear_quads(visible))
             quad_count += quads[-1].shape[0]
             if lut:

@@ -97,7 +97,7 @@ const COLOUR_REFERENCE: u32 = 3u;
 // s of "subdivided": the default of BraggMirror.rgb.
 const SUBDIVISIONS: i32 = 3;
 
-// One rough Bragg layer (RoughBraggLayer): 16 words.
+// One rough Bragg layer (RoughBraggLayer): 20 words.
 struct RoughLayer {
     mirror: BraggMirror,
     alpha: f32,
@@ -108,6 +108,12 @@ struct RoughLayer {
     transmissivity_rgb: u32,
     reflectance: u32,
     reflectance_rgb: u32,
+    // Where an includer keeps the transmissivity table elsewhere (layer_transmissivity): its
+    // own offset there. Three words pad the record to 20.
+    transmissivity_elsewhere: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // What a structure holds beyond its layers: 48 bytes (uniform and storage layouts agree).

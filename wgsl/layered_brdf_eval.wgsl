@@ -43,7 +43,7 @@ struct Params {
 // (0 over an absorbing base), one load for what `tables` holds in four.
 @group(0) @binding(5) var<storage, read> node_colours: array<vec4<f32>>;
 // Each layer's transmissivity table (rows x 471) as the corners of its cells, from the quad at
-// RoughLayer.transmissivity: a bilinear lookup in one load, not four.
+// RoughLayer.transmissivity_elsewhere: a bilinear lookup in one load, not four.
 @group(0) @binding(6) var<storage, read> transmissivity_quads: array<vec4<f32>>;
 @group(0) @binding(7) var<storage, read_write> value: array<f32>;
 @group(0) @binding(8) var<storage, read_write> directions: array<vec4<f32>>;
@@ -58,8 +58,8 @@ fn report_cut() {
 }
 
 fn layer_transmissivity(layer: RoughLayer, row: Lerp, column: Lerp) -> f32 {
-    let q = transmissivity_quads[layer.transmissivity + row.index * (VISIBLE_NODES - 1u)
-                                 + column.index];
+    let q = transmissivity_quads[layer.transmissivity_elsewhere
+                                 + row.index * (VISIBLE_NODES - 1u) + column.index];
     return mix(mix(q.x, q.y, column.fraction), mix(q.z, q.w, column.fraction), row.fraction);
 }
 
