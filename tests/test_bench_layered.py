@@ -175,8 +175,8 @@ def test_gpu_time_targets_read_the_gpu_clock(bench):
     times its wall-clock twin, in the targets and in the table."""
     section = bench.render_section(_results(bench, (), sr_gpu_seconds=2.0), "-")
     for _, _, measured, met, measured_gpu, met_gpu in _rows(section, "### Targets"):
-        assert measured.startswith("worst 1") and met == "no"
-        assert measured_gpu.startswith("worst 4") and met_gpu == "yes"
+        assert measured.startswith("worst 1.00\u00d7 (") and met == "no"
+        assert measured_gpu.startswith("worst 4.00\u00d7 (") and met_gpu == "yes"
     for row in _rows(section, "### Time, SMAPE"):
         if row[1] not in ("GT (all paths)", "SR sim."):
             assert (float(row[7].rstrip("\u00d7")), float(row[8].rstrip("\u00d7"))) == (1.0, 4.0)

@@ -401,10 +401,12 @@ def test_tables_stay_on_the_device(structures, monkeypatch):
         s.simulate(wi, paths=4, mode="single", seed=1)
         per_round.append(list(uploaded))
     first, second, third = per_round
+    tables = ("layer tables", "node colours", "transmissivity quads")
     # The first round also builds the tables (on the GPU, with uploads of its own).
     assert first.count("layer tables") == 2  # the model's and the simulation's
+    assert first.count("node colours") == first.count("transmissivity quads") == 1  # model
     # Later rounds upload the per-call inputs alone (wi, u, layer records, spectra).
-    assert "layer tables" not in second + third
+    assert not set(tables) & set(second + third)
     assert len(second) == len(third) > 0
 
 
@@ -544,3 +546,32 @@ def test_landmark_colours_beyond_the_loop_budget_are_refused(filters):
     else:
         assert_close(s.brdf(wi, wo, backend="gpu", colour_method="averaged"),
                      s.brdf(wi, wo, colour_method="averaged"), LANDMARK_RTOL, "thick")
+
+
+def test_layers_on_different_filter_grids(filters):
+    """Each layer's transmissivity is read on its own filter's grid (0.25 and 1 degree here),
+    from the tables as cell corners (one offset per layer)."""
+    s = LayeredBragg([RoughBraggLayer(A, 0.1),
+                      RoughBraggLayer(B, 0.4, transmission_filter=filters[0.4])], base_albedo=0.5)
+    assert s.layers[0].filter.theta_i.size != s.layers[1].filter.theta_i.size
+    wi, wo = pairs(200, seed=8)
+    args = (wi[:, None], wo[:, None], WAVELENGTHS)
+    assert_close(s.brdf(*args, backend="gpu"), s.brdf(*args), F_RTOL, "different grids")
+
+
+def test_plain_transmissivity_tables_give_the_quads_results(structures, monkeypatch):
+    """Past gpu.BILINEAR_QUADS_MAX_BYTES the kernel reads the plain tables, four loads per
+    lookup: the same arithmetic, so the same samples."""
+    wi = random_directions(64, seed=54)
+    u = np.random.default_rng(55).random((64, 4))
+    with_quads = dataclasses.replace(structures["two-layers"])  # fresh caches
+    expected = with_quads.sample(wi, u, backend="gpu", colour_method="hero")
+    monkeypatch.setattr(gpu, "BILINEAR_QUADS_MAX_BYTES", 0)
+    plain = dataclasses.replace(structures["two-layers"])
+    got = plain.sample(wi, u, backend="gpu", colour_method="hero")
+    for layout, s in ((True, with_quads), (False, plain)):
+        variant = layered_gpu._variant(s, "spectral", False, "hero")
+        assert variant.constants["TRANSMISSIVITY_QUADS"] is layout
+    for a, b in zip(got, expected, strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-7)
+    assert np.any(expected[1] != 0.0)

@@ -19,6 +19,7 @@ noise.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -27,7 +28,7 @@ from conftest import LAYERED_PAIRS, coating_internal_reflectance, cosine_mean
 from conftest import paper_smape as smape
 from conftest import unit_direction as direction
 
-from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer, layered_simulation
+from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer, gpu, layered_simulation
 from wgbragg.colorimetry import linear_srgb_to_xyz, xyz_to_linear_srgb, xyz_weights
 from wgbragg.layered import coating_reflectance
 from wgbragg.microfacet import ggx_G1
@@ -415,3 +416,30 @@ def test_walks_cut_short_are_refused(filters, monkeypatch, wo):
     with pytest.raises(gpu.LoopBudgetError, match="4 layers with max_bounces=1000"):
         _trap(filters, 4).simulate(direction(10.0), wo, paths=2048, transmission="naive",
                                    max_bounces=1000)
+
+
+def test_single_ballistic_on_different_grids_and_several_groups(filters):
+    """Two layers on filters of different resolutions (0.25 and 1 degree) over a grey base and
+    nine wavelengths (three groups of four, the last padded): each layer's table and each
+    group's columns are read where they lie."""
+    coarse = TransmissionFilter.bake(0.4, resolution_deg=1.0, psi_samples=128, backend="numpy")
+    s = LayeredBragg([RoughBraggLayer(A, 0.1, transmission_filter=filters[0.1]),
+                      RoughBraggLayer(B, 0.4, transmission_filter=coarse)], base_albedo=0.5)
+    wavelength = np.linspace(400.0, 700.0, 9)
+    f, error = s.simulate(WI, WO, wavelength, paths=256, mode="single", return_error=True)
+    assert np.all(error == 0.0)
+    np.testing.assert_allclose(f, s.brdf(WI[:, None], WO[:, None], wavelength), rtol=F32_RTOL)
+
+
+def test_plain_rgb_tables_give_the_quads_results(structures, monkeypatch):
+    """Past gpu.BILINEAR_QUADS_MAX_BYTES the walk reads the plain 1 nm tables, four loads per
+    lookup: the same arithmetic and random numbers, so the same estimates."""
+    with_quads = dataclasses.replace(structures["A over B, base None"])  # fresh caches
+    expected = with_quads.simulate(WI, WO, paths=64, mode="single", seed=3)
+    assert layered_simulation._layers(with_quads, None, True)[2] is True
+    monkeypatch.setattr(gpu, "BILINEAR_QUADS_MAX_BYTES", 0)
+    plain = dataclasses.replace(structures["A over B, base None"])
+    got = plain.simulate(WI, WO, paths=64, mode="single", seed=3)
+    assert layered_simulation._layers(plain, None, True)[2] is False
+    np.testing.assert_allclose(got, expected, rtol=1e-6, atol=1e-7)
+    assert np.all(np.isfinite(expected)) and np.any(expected != 0.0)

@@ -395,6 +395,8 @@ class Results:
     errors: dict = dataclasses.field(default_factory=dict)
 
     def efficiency(self, label: str, estimator: str, spp: int, clock: str = "wall") -> float:
+        if clock not in CLOCKS:
+            raise ValueError(f"clock must be one of {CLOCKS}, got {clock!r}")
         times = self.seconds if clock == "wall" else self.gpu_seconds
         gt = times[label, "GT", self.config.gt_spp]
         return gt / (times[label, estimator, spp] * self.errors[label, estimator, spp])

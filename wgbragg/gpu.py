@@ -105,6 +105,7 @@ import wgpu
 from ._specialise import BlockError, lines_in_block_comments, specialise, strip_comments
 
 __all__ = [
+    "BILINEAR_QUADS_MAX_BYTES",
     "LOOP_BUDGET",
     "SAFE_LOOP_ITERATIONS",
     "DeviceArray",
@@ -117,6 +118,7 @@ __all__ = [
     "adapter_info",
     "benchmark",
     "bilinear_quads",
+    "bilinear_quads_fit",
     "check_loops",
     "compute_pipeline",
     "get_device",
@@ -493,6 +495,18 @@ def _wgsl_type(name: str) -> tuple[str, int, int, int]:
     scalar = match.group(2) or {"f": "f32", "u": "u32", "i": "i32"}[match.group(3)]
     align = 8 if n == 2 else 16
     return _SCALARS[scalar], n, align, 4 * n
+
+
+BILINEAR_QUADS_MAX_BYTES = 64 * 2**20
+"""Most bytes of cell corners (:func:`bilinear_quads`) a kernel's tables take: four times the
+tables' own size, so past it (some 23 layers of 361 x 471 transmissivities) kernels read the
+plain tables instead, with four loads per lookup."""
+
+
+def bilinear_quads_fit(cells: int) -> bool:
+    """Whether ``cells`` quads fit :data:`BILINEAR_QUADS_MAX_BYTES` and the device's largest
+    buffer (:func:`max_buffer_bytes`)."""
+    return 16 * cells <= min(BILINEAR_QUADS_MAX_BYTES, max_buffer_bytes())
 
 
 def bilinear_quads(table: np.ndarray) -> np.ndarray:
@@ -1223,12 +1237,15 @@ _OPEN_CLOCKS: list[PassClock] = []
 
 @contextlib.contextmanager
 def pass_clock() -> Iterator[PassClock]:
-    """Time the GPU work of a block of code, whatever submits it (:func:`submit`, through
-    :meth:`Kernel.run` and every dispatching function of the package).
+    """Time the GPU work of a block of code: every compute pass that :func:`submit` runs
+    inside it, which is how :meth:`Kernel.run` (without ``timestamps``) and every dispatching
+    function of the package run theirs. :meth:`Kernel.run` with ``timestamps`` and the
+    benchmarks (:func:`benchmark`, :meth:`Kernel.benchmark`), which time their passes
+    themselves, are not counted.
 
     Each submission inside the block writes timestamps around its passes and waits for them,
     so a :func:`submit` without readback no longer returns before its work is done. Blocks may
-    nest: every open clock counts the passes.
+    nest: every open clock counts the passes (those of empty dispatches too).
 
     Yields
     ------
@@ -1270,7 +1287,8 @@ def submit(dispatches: Sequence[Dispatch], read: Sequence[DeviceArray] = ()) -> 
     -------
     list of numpy.ndarray
         Copies of ``read``, with their shapes and dtypes. Without ``read`` this returns as
-        soon as the work is submitted.
+        soon as the work is submitted, except inside a :func:`pass_clock` block, where it
+        waits for the timestamps (and splits more than 2048 dispatches over submissions).
     """
     timed = bool(_OPEN_CLOCKS) and len(dispatches) > 0
     if timed and 2 * len(dispatches) > _MAX_QUERIES:
@@ -1296,7 +1314,9 @@ def submit(dispatches: Sequence[Dispatch], read: Sequence[DeviceArray] = ()) -> 
     result = _unstage(staging, read)
     if timed:
         ticks = result.pop().astype(np.int64)
-        seconds = float(np.sum(ticks[1::2] - ticks[0::2])) * _timestamp_period(device) * 1e-9
+        # A pass's end never precedes its start, but ticks are the driver's: clamp.
+        elapsed = np.maximum(ticks[1::2] - ticks[0::2], 0)
+        seconds = float(np.sum(elapsed)) * _timestamp_period(device) * 1e-9
         for clock in _OPEN_CLOCKS:
             clock.seconds += seconds
             clock.passes += len(dispatches)

@@ -146,20 +146,33 @@ class _Variant:
     layers: np.ndarray
     tables: np.ndarray
     node_colours: np.ndarray
-    transmissivity_quads: np.ndarray
     params: np.ndarray
     constants: dict
     _device: dict = dataclasses.field(default_factory=dict, repr=False, compare=False)
 
+    def transmissivity_quads(self) -> np.ndarray:
+        """The layers' transmissivity tables as cell corners, from ``tables``, after one
+        unused quad (a buffer is never empty); that quad alone without
+        ``TRANSMISSIVITY_QUADS``. Built here, not with the variant: the renderer, which
+        reads ``tables``, never needs them."""
+        quads = [np.zeros((1, 4), np.float32)]
+        if self.constants["TRANSMISSIVITY_QUADS"]:
+            for record in self.layers:
+                start, rows = int(record["transmissivity"]), int(record["rows"])
+                table = self.tables[start:start + rows * _VISIBLE_NODES]
+                quads.append(gpu.bilinear_quads(table.reshape(rows, _VISIBLE_NODES)))
+        return np.concatenate(quads)
+
     def device_tables(self) -> tuple[gpu.DeviceArray, ...]:
-        """``tables``, ``node_colours`` and ``transmissivity_quads`` on the device, uploaded
+        """``tables``, ``node_colours`` and the transmissivity quads on the device, uploaded
         on first use: they are read-only and larger than a call's own inputs (2.7 MB of
         quads per layer spectral, against 1.2 MB of ``u`` for 80 000 samples)."""
         if "tables" not in self._device:
             self._device["tables"] = (
                 gpu.DeviceArray.upload(self.tables, what="layer tables"),
                 gpu.DeviceArray.upload(self.node_colours, what="node colours"),
-                gpu.DeviceArray.upload(self.transmissivity_quads, what="transmissivity quads"))
+                gpu.DeviceArray.upload(self.transmissivity_quads(),
+                                       what="transmissivity quads"))
         return self._device["tables"]
 
 
@@ -206,9 +219,6 @@ def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
         size += blocks[-1].size
         return offset
 
-    quads = [np.zeros((1, 4), np.float32)]  # a buffer is never empty
-    quad_count = 1
-
     records = np.zeros(len(structure.layers), LAYER_DTYPE)
     for index, layer in enumerate(structure.layers):
         record = records[index]  # a view: structured scalars write through
@@ -223,11 +233,7 @@ def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
         record["rows_per_radian"] = 1.0 / (theta_i[1] - theta_i[0])
         record["transmissivity_mean"] = append(visible.mean(axis=1))
         if kind == _SPECTRAL:
-            # In `tables` for the renderer (render.wgsl), as quads for layered_brdf_eval.wgsl.
             record["transmissivity"] = append(visible)
-            record["transmissivity_elsewhere"] = quad_count
-            quads.append(gpu.bilinear_quads(visible))
-            quad_count += quads[-1].shape[0]
             if lut:
                 record["reflectance"] = append(structure._reflectance_lut(index, "gpu"))
         elif kind == _FACTORED:
@@ -252,6 +258,13 @@ def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
         albedo = base.spectrum(colorimetry.xyz_weights()[0])
         params["base_spectrum"] = append(albedo)
         node_colours[:, 3] = albedo
+    # layered_brdf_eval.wgsl reads the transmissivity tables as cell corners (one load per
+    # lookup, not four) where they fit the budget: at 4x a table's size they need 2.7 MB per
+    # layer at the filters' default resolution.
+    cells = (records["rows"].astype(np.int64) - 1) * (_VISIBLE_NODES - 1)
+    quads = kind == _SPECTRAL and gpu.bilinear_quads_fit(1 + int(cells.sum()))
+    if quads:
+        records["transmissivity_elsewhere"] = 1 + np.concatenate([[0], np.cumsum(cells)[:-1]])
     tables = np.concatenate(blocks)
     for array in (tables, node_colours, records, params):
         array.setflags(write=False)
@@ -264,10 +277,9 @@ def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
         "MATCHED_LAYERS": host_matched and all(
             not r["bulk"] and np.float32(r["n2"]) >= np.float32(r["n1"]) for r in records),
         "WORKGROUP_SIZE": WORKGROUP_SIZE,
+        "TRANSMISSIVITY_QUADS": quads,
     }
-    transmissivity_quads = np.concatenate(quads)
-    transmissivity_quads.setflags(write=False)
-    return _Variant(records, tables, node_colours, transmissivity_quads, params, constants)
+    return _Variant(records, tables, node_colours, params, constants)
 
 
 def _constants(variant: _Variant, kind: str, lut: bool, colour_method: str,
@@ -282,6 +294,8 @@ def _constants(variant: _Variant, kind: str, lut: bool, colour_method: str,
     constants["WAVELENGTHS"] = wavelengths
     constants["INTEGRATED"] = kind == _SPECTRAL
     constants["HERO"] = kind == _SPECTRAL and wavelengths == 0 and colour_method == HERO
+    if kind == _SPECTRAL:
+        constants["TRANSMISSIVITY_QUADS"] = variant.constants["TRANSMISSIVITY_QUADS"]
     if kind == _FACTORED and not lut:
         constants["COLOUR_METHOD"] = FACTORED_COLOUR_METHODS[colour_method]
         if colour_method in GPU_LANDMARK_METHODS:

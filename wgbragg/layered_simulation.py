@@ -213,8 +213,9 @@ def _padded(wavelength: np.ndarray) -> np.ndarray:
 
 
 def _layers(structure: LayeredBragg, wavelength, ballistic: bool):
-    """Per-layer parameters and, for ballistic transmission, their transmissivity tables
-    concatenated (kept in the structure's table cache)."""
+    """Per-layer parameters, their transmissivity tables for ballistic transmission
+    (concatenated, kept in the structure's table cache) and whether the tables are cell
+    corners (RGB, where they fit :func:`gpu.bilinear_quads_fit`)."""
     records = np.zeros(len(structure.layers), _LAYER_DTYPE)
     for index, layer in enumerate(structure.layers):
         m = layer.mirror
@@ -223,33 +224,40 @@ def _layers(structure: LayeredBragg, wavelength, ballistic: bool):
             records[index][name] = mirror[name]
         records[index]["alpha"] = layer.alpha
     if not ballistic:
-        return records, np.zeros((1, 4), np.float32)
+        return records, np.zeros((1, 4), np.float32), False
+    columns = colorimetry.xyz_weights()[0].size if wavelength is None else wavelength.size
+    rows = np.array([layer.filter.theta_i.size for layer in structure.layers], np.int64)
+    # One load per lookup (llvmpipe bounds-checks every load): RGB tables as the corners of
+    # their cells, at 4x their size where that fits; spectral rows in groups of four
+    # wavelengths, a path's. Else the plain RGB tables, four floats per vec4.
+    quads = wavelength is None and gpu.bilinear_quads_fit(int(((rows - 1) * (columns - 1)).sum()))
 
     def vec4_rows(table: np.ndarray) -> np.ndarray:
-        """A layer's table as the kernel reads it in one load per lookup: the corners of its
-        cells on the 1 nm grid (RGB), or its rows in groups of four wavelengths."""
-        if wavelength is None:
-            return gpu.bilinear_quads(table)
-        return np.asarray(table, np.float32).reshape(-1, 4)
+        return gpu.bilinear_quads(table) if quads else np.asarray(table, np.float32).ravel()
 
     def build():
-        tables = [vec4_rows(layer.transmissivity_table(wavelength, "gpu"))
-                  for layer in structure.layers]
-        return np.concatenate(tables)
+        tables = np.concatenate([vec4_rows(layer.transmissivity_table(wavelength, "gpu"))
+                                 for layer in structure.layers])
+        if not quads:
+            tables = np.concatenate([tables, np.zeros(-tables.size % 4, np.float32)])
+        return tables.reshape(-1, 4)
 
     key = ("simulation", None if wavelength is None else wavelength.tobytes())
     # Kept on the device, as the model's (layered_gpu._Variant.device_tables): read-only,
     # and no call needs them on the host.
     tables = structure._cached(key, lambda: gpu.DeviceArray.upload(build(), what="layer tables"))
-    columns = colorimetry.xyz_weights()[0].size if wavelength is None else wavelength.size
-    offset = 0
+    if quads:
+        sizes = (rows - 1) * (columns - 1)  # vec4s
+    elif wavelength is None:
+        sizes = rows * columns  # floats
+    else:
+        sizes = rows * columns // 4  # vec4s
+    records["table"] = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    records["rows"] = rows
     for index, layer in enumerate(structure.layers):
         grid = layer.filter.theta_i
-        records[index]["table"], records[index]["rows"] = offset, grid.size
         records[index]["row_step"] = grid[1] - grid[0]
-        cells = (grid.size - 1) * (columns - 1)
-        offset += cells if wavelength is None else grid.size * columns // 4
-    return records, tables
+    return records, tables, quads
 
 
 def _combine(counts, means, squares):
@@ -375,7 +383,7 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
         return (empty, empty.copy()) if return_error else empty
     groups = 1 if lanes is None else lanes.size // PATH_WAVELENGTHS
     n = structure.host_index
-    records, tables = _layers(structure, lanes, ballistic)
+    records, tables, quads = _layers(structure, lanes, ballistic)
     kernel = gpu.compute_pipeline("simulate_layered.wgsl", constants={
         "WORKGROUP_SIZE": _WORKGROUP_SIZE,
         "LAYERS": layers,
@@ -385,6 +393,7 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
         "SINGLE": mode == "single",
         "NEXT_EVENT": next_event,
         "RGB": lanes is None,
+        "QUADS": quads,
         # Layers share their host (LayeredBragg); Appendix D where it is not their n1.
         "HOST_MATCHED": all(layer.ballistic for layer in structure.layers),
     })

@@ -109,7 +109,8 @@ struct RoughLayer {
     reflectance: u32,
     reflectance_rgb: u32,
     // Where an includer keeps the transmissivity table elsewhere (layer_transmissivity): its
-    // own offset there. Three words pad the record to 20.
+    // own offset there. Three words pad the record to 20: storage lays out an all-scalar
+    // struct at a 4-byte stride (17 words: 68 bytes), gpu.struct_dtype at a multiple of 16.
     transmissivity_elsewhere: u32,
     _pad0: u32,
     _pad1: u32,
@@ -310,7 +311,7 @@ fn layered_eval_spectral(s: LayeredStructure, p: LayeredPair, wavelength_nm: f32
 fn layered_eval_spectral4(s: LayeredStructure, p: LayeredPair, wavelength_nm: vec4<f32>)
     -> vec4<f32> {
     var albedo = vec4<f32>(0.0);
-    if (BASE == BASE_LAMBERTIAN) {
+    if (BASE == BASE_LAMBERTIAN && p.scale != 0.0) {
         for (var k = 0u; k < 4u; k++) {
             albedo[k] = table_lerp(s.base_spectrum, wavelength_lerp(wavelength_nm[k]));
         }

@@ -25,6 +25,9 @@
 override WAVELENGTHS: u32 = 0u;
 // sample in RGB: the colour from four hero wavelengths offset by u.w, not the 471 nodes.
 override HERO: bool = false;
+// Spectral: the layers' transmissivity tables read as cell corners (transmissivity_quads),
+// where they fit gpu.bilinear_quads_fit; else from `tables`, four loads per lookup.
+override TRANSMISSIVITY_QUADS: bool = true;
 
 struct Params {
     structure: LayeredStructure,
@@ -58,6 +61,9 @@ fn report_cut() {
 }
 
 fn layer_transmissivity(layer: RoughLayer, row: Lerp, column: Lerp) -> f32 {
+    if (!TRANSMISSIVITY_QUADS) {
+        return table_bilinear(layer.transmissivity, row, column);
+    }
     let q = transmissivity_quads[layer.transmissivity_elsewhere
                                  + row.index * (VISIBLE_NODES - 1u) + column.index];
     return mix(mix(q.x, q.y, column.fraction), mix(q.z, q.w, column.fraction), row.fraction);

@@ -30,6 +30,9 @@ override SINGLE: bool = false;
 // true: the BRDF at wo by next-event estimation; false: exit particles.
 override NEXT_EVENT: bool = true;
 override RGB: bool = true;
+// RGB tables as the corners of their cells (one load per lookup); else plain, four floats per
+// vec4, where the corners would not fit (gpu.bilinear_quads_fit).
+override QUADS: bool = true;
 // Every layer's mirror sits in its own n1 (else Appendix D: seen from the walk's medium).
 override HOST_MATCHED: bool = true;
 
@@ -66,8 +69,9 @@ struct SimulationParams {
 // [query] wi in air, wi and wo refracted into n1.
 @group(0) @binding(0) var<storage, read> queries: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read> layers: array<Layer>;
-// [layer] its table in one load per lookup: RGB, the corners of each cell of the 1 nm grid,
-// (t[r][c], t[r][c + 1], t[r + 1][c], t[r + 1][c + 1]) at [r][c]; spectral, [row][group].
+// [layer] its table, in one load per lookup: RGB, the corners of each cell of the 1 nm grid,
+// (t[r][c], t[r][c + 1], t[r + 1][c], t[r + 1][c + 1]) at [r][c] (QUADS; else [row][column],
+// four per vec4); spectral, [row][group].
 @group(0) @binding(2) var<storage, read> transmissivity: array<vec4<f32>>;
 // RGB: [471] linear sRGB density per nm (xyz), base albedo (w) at 360, 361, ... nm.
 // Spectral: [4 groups] wavelength in nm (x), base albedo (w).
@@ -109,6 +113,10 @@ fn base_albedo() -> vec4<f32> {
                      spectrum_at(wavelength.z).w, spectrum_at(wavelength.w).w);
 }
 
+fn table_float(index: u32) -> f32 {
+    return transmissivity[index / 4u][index % 4u];
+}
+
 // t = f_t cos (eq 28) at theta for the path's wavelengths, interpolated linearly in theta (and
 // in wavelength on the 1 nm grid in RGB mode), as RoughBraggLayer._interpolate_rows does.
 fn transmissivity_at(layer: Layer, theta: f32) -> vec4<f32> {
@@ -116,18 +124,23 @@ fn transmissivity_at(layer: Layer, theta: f32) -> vec4<f32> {
     let r0 = min(u32(position), layer.rows - 2u);
     let fr = position - f32(r0);
     if (!RGB) {
-        let groups = params.columns / 4u;
-        let row0 = layer.table + r0 * groups + group;
-        return mix(transmissivity[row0], transmissivity[row0 + groups], fr);
+        let row0 = layer.table + r0 * params.groups + group;
+        return mix(transmissivity[row0], transmissivity[row0 + params.groups], fr);
     }
-    let row = layer.table + r0 * (params.columns - 1u);
     var t: vec4<f32>;
     for (var k = 0u; k < 4u; k++) {
         let c = clamp(wavelength[k] - FIRST_NM, 0.0, f32(params.columns - 1u));
         let c0 = min(u32(c), params.columns - 2u);
         let fc = c - f32(c0);
-        let q = transmissivity[row + c0];
-        t[k] = mix(mix(q.x, q.y, fc), mix(q.z, q.w, fc), fr);
+        if (QUADS) {
+            let q = transmissivity[layer.table + r0 * (params.columns - 1u) + c0];
+            t[k] = mix(mix(q.x, q.y, fc), mix(q.z, q.w, fc), fr);
+        } else {
+            let row0 = layer.table + r0 * params.columns + c0;
+            let row1 = row0 + params.columns;
+            t[k] = mix(mix(table_float(row0), table_float(row0 + 1u), fc),
+                       mix(table_float(row1), table_float(row1 + 1u), fc), fr);
+        }
     }
     return t;
 }
