@@ -1313,14 +1313,19 @@ def submit(dispatches: Sequence[Dispatch], read: Sequence[DeviceArray] = ()) -> 
     device.queue.submit([encoder.finish()])
     result = _unstage(staging, read)
     if timed:
-        ticks = result.pop().astype(np.int64)
-        # A pass's end never precedes its start, but ticks are the driver's: clamp.
-        elapsed = np.maximum(ticks[1::2] - ticks[0::2], 0)
-        seconds = float(np.sum(elapsed)) * _timestamp_period(device) * 1e-9
+        seconds = float(np.sum(_pass_seconds(result.pop())))
         for clock in _OPEN_CLOCKS:
             clock.seconds += seconds
             clock.passes += len(dispatches)
     return result
+
+
+def _pass_seconds(ticks: np.ndarray) -> np.ndarray:
+    """Seconds of each pass from its (begin, end) timestamps, resolved in that order."""
+    ticks = ticks.astype(np.int64)
+    # A pass's end never precedes its start, but ticks are the driver's: clamp.
+    elapsed = np.maximum(ticks[1::2] - ticks[0::2], 0)
+    return elapsed * (_timestamp_period(get_device()) * 1e-9)
 
 
 def _timings(dispatches: Sequence[Dispatch], repeats: int) -> list[list[float]]:
@@ -1352,8 +1357,7 @@ def _timings(dispatches: Sequence[Dispatch], repeats: int) -> list[list[float]]:
     )
     encoder.resolve_query_set(query_set, 0, count, resolved, 0)
     device.queue.submit([encoder.finish()])
-    ticks = np.frombuffer(device.queue.read_buffer(resolved), np.uint64).astype(np.int64)
-    durations = (ticks[1::2] - ticks[0::2]) * (_timestamp_period(device) * 1e-9)
+    durations = _pass_seconds(np.frombuffer(device.queue.read_buffer(resolved), np.uint64))
     return [[float(s) for s in column] for column in durations.reshape(repeats, -1).T]
 
 
