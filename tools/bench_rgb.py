@@ -925,11 +925,12 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
         "3. dE2000 from linear sRGB (D65) through CIELAB (`wgbragg.colorimetry.delta_e_2000`); "
         "p95 is the 95th percentile over the angles and mirrors of the column.")
     out.append(
-        "4. numpy against GPU: the kernels take float32 inputs, and at N = 100 next to sharp "
-        "transmission resonances one float32 ulp of the wavelength or angle moves R by up to "
-        "~1e-2 (README, 'Accuracy of the float32 kernel'); with few spectral nodes each node "
-        "carries a large weight, so that input rounding alone can move a colour by a few "
-        "tenths of a dE2000.")
+        "4. numpy against GPU: at N = 100 next to sharp transmission resonances one float32 "
+        "ulp of a phase moves R by up to ~3e-2 (README, 'Accuracy of the float32 kernel'), and "
+        "with few spectral nodes each node carries a large weight. The reference/spectral "
+        "kernel therefore takes each angle's geometry and its layer phases split into "
+        "float32 pairs from the host in float64, so that float32 rounds only fractions of a "
+        "turn; a node next to a band edge can still move a colour by a few tenths of a dE2000.")
     if plot is not None:
         try:
             shown = plot.resolve().relative_to(REPO_ROOT)

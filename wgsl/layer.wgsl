@@ -16,8 +16,16 @@ struct HalfPhase {
 }
 
 fn layer_half_phase(q: f32, evanescent: bool, d_over_wavelength: f32) -> HalfPhase {
-    var h: HalfPhase;
     let cycles = q * d_over_wavelength;
+    return layer_half_phase_of(q, evanescent, d_over_wavelength, cycles, cycles);
+}
+
+// layer_half_phase given the phase q d / lambda in cycles, and `fraction`: the same up to
+// whole turns, possibly more accurate (yeh.wgsl, split_cycles). The sinc form of a layer under
+// half a cycle and the evanescent decay use `cycles`.
+fn layer_half_phase_of(q: f32, evanescent: bool, d_over_wavelength: f32, cycles: f32,
+                       fraction: f32) -> HalfPhase {
+    var h: HalfPhase;
     if (evanescent) {
         let y = min(PI * cycles, 0.5 * MAX_DECAY);
         let e = exp(y);
@@ -27,13 +35,13 @@ fn layer_half_phase(q: f32, evanescent: bool, d_over_wavelength: f32) -> HalfPha
         h.c = 0.5 * (e + 1.0 / e);
         h.s_over_q = select(h.s / q, PI * d_over_wavelength * sinhc, small);
     } else {
-        let turns = round(cycles);
-        let x = PI * (cycles - turns);
+        let unreduced = round(cycles) == 0.0;
+        let x = PI * select(fraction - round(fraction), cycles, unreduced);
         let sc = sinc_cos_reduced(x);
         h.s = x * sc.x;
         h.c = sc.y;
         // Unreduced (cycles < 1/2): sin(pi q d / lambda) / q = (pi d / lambda) sinc.
-        h.s_over_q = select(h.s / q, PI * d_over_wavelength * sc.x, turns == 0.0);
+        h.s_over_q = select(h.s / q, PI * d_over_wavelength * sc.x, unreduced);
     }
     return h;
 }

@@ -32,7 +32,8 @@ struct CellGeometry {
     ca: f32,            // cos(delta1 / 2), reduced
     half2: HalfPhase,   // delta2 / 2 of the n2 layer
     delta1_cycles: f32,
-    cell_cycles: f32,   // |delta1| + |delta2| in turns: scales the rounding error of x
+    cell_cycles: f32,   // the phase in turns whose rounding the layer phases carry: scales
+                        // the rounding error of x (|delta1| + |delta2|, or see split_cycles)
 }
 
 fn cell_geometry(m: BraggMirror, wavelength_nm: f32, theta: f32) -> CellGeometry {
@@ -52,18 +53,65 @@ fn angle_geometry(m: BraggMirror, theta: f32) -> CellGeometry {
     return g;
 }
 
+// The angle fields of a CellGeometry given on the host (s, cos theta, q1, q2^2): formed in
+// float64 from the float64 angle, they keep their relative accuracy at grazing incidence,
+// where cos(theta) from a float32 angle carries its absolute rounding (3e-6 relative at 89
+// degrees).
+fn angle_geometry_given(fields: vec4<f32>) -> CellGeometry {
+    var g: CellGeometry;
+    g.s = fields.x;
+    g.cos_theta = fields.y;
+    g.q1 = fields.z;
+    g.q2sq = fields.w;
+    return g;
+}
+
 // The wavelength-dependent fields of a CellGeometry whose angle fields (angle_geometry) are
 // already set: one angle's setup serves every wavelength of a sweep.
 fn geometry_at(m: BraggMirror, angle: CellGeometry, wavelength_nm: f32) -> CellGeometry {
-    var g = angle;
     let inv_wavelength = 1.0 / wavelength_nm;
-    g.delta1_cycles = g.q1 * m.d1_nm * inv_wavelength;
-    let sc_a = half_phase_sin_cos(g.delta1_cycles);
+    let cycles = vec2<f32>(angle.q1 * m.d1_nm, sqrt(abs(angle.q2sq)) * m.d2_nm) * inv_wavelength;
+    return geometry_of_cycles(m, angle, inv_wavelength, cycles, cycles, cycles.x + cycles.y);
+}
+
+// The layer phases q d / lambda (cycles) from optical paths q d split on the host into a head
+// of 12 significant bits and the rest (paths = (head1, rest1, head2, rest2), nm; the rest of n2
+// 0 where it is evanescent), and 1 / lambda split alike: head x head is exact in float32, so
+// its fraction is, and the other products are below 2^-11 of the phase. The fraction then
+// carries float32's rounding of a number below 1 (plus 2^-11 of the phase's) instead of that
+// of q d / lambda in turns: at N = 100 one ulp of a 2-cycle phase moved R by 1e-2 next to a
+// transmission resonance (README, 'Accuracy of the float32 kernel').
+fn split_cycles(path: vec2<f32>, inv_wavelength: vec2<f32>) -> f32 {
+    let head = path.x * inv_wavelength.x;
+    return (head - floor(head)) + (path.x * inv_wavelength.y + path.y * inv_wavelength.x);
+}
+
+// geometry_at from split optical paths and 1 / lambda (see split_cycles).
+fn geometry_at_split(m: BraggMirror, angle: CellGeometry, inv_wavelength: vec2<f32>,
+                     paths: vec4<f32>) -> CellGeometry {
+    let inv = inv_wavelength.x + inv_wavelength.y;
+    let cycles = vec2<f32>(angle.q1 * m.d1_nm, sqrt(abs(angle.q2sq)) * m.d2_nm) * inv;
+    let fractions = vec2<f32>(split_cycles(paths.xy, inv_wavelength),
+                              split_cycles(paths.zw, inv_wavelength));
+    // The fractions' rounding: of a number below 2, and of the small products.
+    let rounding = 2.0 + (cycles.x + cycles.y) * (1.0 / 2048.0);
+    return geometry_of_cycles(m, angle, inv, cycles, fractions, rounding);
+}
+
+// cycles: q1 d1 / lambda and |q2| d2 / lambda; fractions: the same up to whole turns (of n2
+// only where it propagates), possibly more accurate; rounding_cycles: the phase, in turns,
+// whose float32 rounding the fractions carry (CellGeometry.cell_cycles).
+fn geometry_of_cycles(m: BraggMirror, angle: CellGeometry, inv_wavelength: f32,
+                      cycles: vec2<f32>, fractions: vec2<f32>,
+                      rounding_cycles: f32) -> CellGeometry {
+    var g = angle;
+    g.delta1_cycles = fractions.x;
+    let sc_a = half_phase_sin_cos(fractions.x);
     g.sa = sc_a.x;
     g.ca = sc_a.y;
-    let q2 = sqrt(abs(g.q2sq));
-    g.half2 = layer_half_phase(q2, g.q2sq < 0.0, m.d2_nm * inv_wavelength);
-    g.cell_cycles = g.delta1_cycles + q2 * m.d2_nm * inv_wavelength;
+    g.half2 = layer_half_phase_of(sqrt(abs(g.q2sq)), g.q2sq < 0.0, m.d2_nm * inv_wavelength,
+                                  cycles.y, fractions.y);
+    g.cell_cycles = rounding_cycles;
     return g;
 }
 
