@@ -6,8 +6,8 @@ float32 kernels to the issue's target, numpy and GPU within CIE dE2000 0.1.
 
 Tolerance policy for "spectral" on the GPU. Each of its K nodes carries 1/K of the colour, so
 the float32 kernel's pointwise error passes to the colour undiluted. The kernel takes its angle
-geometry and split layer phases from the host in float64 (``colour_gpu.angle_fields``,
-``optical_paths``), which brought the issue's K = 16 within 0.01 of numpy on the benchmark
+geometry and split layer phases from the host in float64 (``colour_gpu.angle_inputs``),
+which brought the issue's K = 16 within 0.01 of numpy on the benchmark
 grid (0.18 before). Next to a band edge at N = 100, though, R still moves by ~3e-2 per 1e-7
 relative change of the wavelength: a phase below one turn carries that much rounding in
 float32 whatever its arithmetic. The general criterion is therefore the one of
@@ -350,25 +350,28 @@ def test_split_float32_heads_multiply_exactly():
     mantissa, _ = np.frexp(head)
     scaled = mantissa * 2.0**colour_gpu.SPLIT_BITS
     assert np.array_equal(scaled, np.round(scaled))
-    assert np.all(np.abs(rest) <= np.abs(x) * 2.0**-colour_gpu.SPLIT_BITS)
+    assert np.all(np.abs(rest) <= np.abs(x) * 2.0 ** (1 - colour_gpu.SPLIT_BITS))
     products = head[:-1] * head[1:]
     assert np.array_equal(products.astype(np.float32).astype(np.float64), products)
     assert np.array_equal(colour_gpu.split_float32(0.0), np.zeros(2, np.float32))
 
 
-def test_angle_fields_keep_grazing_accuracy():
+def test_angle_inputs_keep_grazing_accuracy():
     mirror = BraggMirror(1.0, 1.5, 100.0, 100.0, 10)
     theta = np.radians([0.0, 45.0, 89.0, 89.99, 90.0])
-    s, cos_theta, q1, q2sq = colour_gpu.angle_fields(mirror, theta).T.astype(np.float64)
+    inputs = colour_gpu.angle_inputs(mirror, theta).astype(np.float64)
+    s, cos_theta, q1, q2sq = inputs[:, :4].T
     assert np.allclose(cos_theta, np.cos(theta), rtol=1e-7, atol=0.0)
     assert np.allclose(q1, np.cos(theta), rtol=1e-7, atol=0.0)
     assert np.allclose(q2sq, 2.25 - np.sin(theta) ** 2, rtol=1e-7)
     assert np.allclose(s, np.sin(theta), rtol=1e-7)
-    paths = colour_gpu.optical_paths(mirror, theta).astype(np.float64)
-    assert np.allclose(paths[:, 0] + paths[:, 1], 100.0 * np.cos(theta), rtol=1e-9, atol=0.0)
+    assert np.allclose(inputs[:, 4] + inputs[:, 5], 100.0 * np.cos(theta), rtol=1e-9, atol=0.0)
+    q2 = np.sqrt(2.25 - np.sin(theta) ** 2)
+    assert np.allclose(inputs[:, 6] + inputs[:, 7], 100.0 * q2, rtol=1e-9, atol=0.0)
     dense = BraggMirror(1.5, 1.0, 100.0, 200.0, 10, host=1.5)  # n2 evanescent past 41.8 deg
-    evanescent = colour_gpu.optical_paths(dense, np.radians([60.0]))
-    assert np.array_equal(evanescent[:, 2:], np.zeros((1, 2)))
+    evanescent = colour_gpu.angle_inputs(dense, np.radians([60.0]))
+    assert evanescent[0, 3] < 0.0
+    assert np.array_equal(evanescent[:, 6:], np.zeros((1, 2)))
 
 
 @pytest.mark.gpu

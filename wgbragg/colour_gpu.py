@@ -7,9 +7,9 @@ float32 sum, ``R`` unpolarized. Pipelines are specialised like :mod:`wgbragg.ker
 Bragg kernel compiles Appendix D out when the host equals ``n1``, the film kernel reads a
 dispersive base's index per node (``DISPERSIVE``).
 
-The Bragg kernel takes each angle's geometry (:func:`angle_fields`) from the host in float64,
-and ``1 / lambda`` and the optical paths ``q1 d1``, ``q2 d2`` split into float32 heads of 12
-significant bits and their rests (:func:`split_float32`, :func:`optical_paths`): the kernel then
+The Bragg kernel takes each angle's geometry and optical paths ``q1 d1``, ``q2 d2`` from the
+host in float64 (:func:`angle_inputs`), the paths and ``1 / lambda`` split into float32 heads of
+12 significant bits and their rests (:func:`split_float32`): the kernel then
 forms the fractional layer phases in turns to float32's accuracy (``split_cycles`` in
 ``wgsl/yeh.wgsl``), not to that of the whole phase, and ``cos(theta)`` keeps its relative
 accuracy at grazing incidence. Few spectral nodes at a sharp resonance (N = 100) magnify
@@ -32,10 +32,9 @@ __all__ = [
     "CHUNK_NODES",
     "SPLIT_BITS",
     "WORKGROUP_SIZE",
-    "angle_fields",
+    "angle_inputs",
     "benchmark_xyz",
     "integrate_xyz",
-    "optical_paths",
     "split_float32",
 ]
 
@@ -77,40 +76,41 @@ SPLIT_BITS = 12
 def split_float32(x) -> np.ndarray:
     """float64 ``x`` as float32 pairs ``(head, rest)``, shape ``x.shape + (2,)``.
 
-    ``head`` keeps :data:`SPLIT_BITS` significant bits of ``x`` (so a product of two heads is
-    exact in float32) and ``rest = x - head`` rounded to float32 (relative error 2^-36 of x).
+    ``head`` is float32 ``x`` cut to :data:`SPLIT_BITS` significant bits (so a product of two
+    heads is exact in float32), ``rest = x - head`` rounded to float32: below ``2^-11 |x|``,
+    the pair within ``2^-35 |x|`` of ``x``.
     """
     x = np.asarray(x, np.float64)
-    mantissa, exponent = np.frexp(x)
-    head = np.ldexp(np.round(mantissa * 2.0**SPLIT_BITS), exponent - SPLIT_BITS)
-    return np.stack([head, x - head], axis=-1).astype(np.float32)
+    out = np.empty((*x.shape, 2), np.float32)
+    head = out[..., 0]
+    head[...] = x
+    bits = head.view(np.uint32)
+    bits &= np.uint32((0xFFFFFFFF << (24 - SPLIT_BITS)) & 0xFFFFFFFF)
+    out[..., 1] = x - head
+    return out
 
 
-def _normal_components(mirror: BraggMirror, theta):
-    """float64 (s, cos theta, q1, q2^2) at the 1-D float64 ``theta``, formed as the kernel's
-    ``angle_geometry``: ``q1 = n1 cos(theta)`` when the host is ``n1`` in float32."""
+def angle_inputs(mirror: BraggMirror, theta) -> np.ndarray:
+    """The Bragg kernel's per-angle inputs, formed in float64 from the 1-D float64 ``theta``:
+    float32 of shape ``(theta.size, 8)``.
+
+    Columns 0-3: the angle geometry ``(s, cos theta, q1, q2^2)`` of the kernel's
+    ``angle_geometry`` (``q1 = n1 cos(theta)`` when the host is ``n1`` in float32).
+    Columns 4-7: the optical paths ``q1 d1`` and ``q2 d2`` (nm) split by
+    :func:`split_float32`, those of ``q2 d2`` 0 where n2 is evanescent.
+    """
+    out = np.empty((np.size(theta), 8), np.float32)
     s = mirror.host * np.sin(theta)
     cos_theta = np.cos(theta)
     if np.float32(mirror.host) == np.float32(mirror.n1):
         q1 = mirror.n1 * cos_theta
     else:
         q1 = np.sqrt(np.maximum((mirror.n1 - s) * (mirror.n1 + s), 0.0))
-    return s, cos_theta, q1, (mirror.n2 - s) * (mirror.n2 + s)
-
-
-def angle_fields(mirror: BraggMirror, theta) -> np.ndarray:
-    """float32 ``(s, cos theta, q1, q2^2)`` per angle of the 1-D ``theta``, shape
-    ``(theta.size, 4)``: the kernel's angle geometry, formed in float64."""
-    return np.stack(_normal_components(mirror, theta), axis=-1).astype(np.float32)
-
-
-def optical_paths(mirror: BraggMirror, theta) -> np.ndarray:
-    """float32 ``(head, rest)`` of ``q1 d1`` and ``q2 d2`` (nm) per angle of the 1-D
-    ``theta``, shape ``(theta.size, 4)``; those of ``q2 d2`` are 0 where n2 is evanescent."""
-    _, _, q1, q2sq = _normal_components(mirror, theta)
-    q2 = np.sqrt(np.maximum(q2sq, 0.0))
-    return np.concatenate([split_float32(q1 * mirror.d1), split_float32(q2 * mirror.d2)],
-                          axis=-1)
+    q2sq = (mirror.n2 - s) * (mirror.n2 + s)
+    out[:, 0], out[:, 1], out[:, 2], out[:, 3] = s, cos_theta, q1, q2sq
+    out[:, 4:6] = split_float32(q1 * mirror.d1)
+    out[:, 6:8] = split_float32(np.sqrt(np.maximum(q2sq, 0.0)) * mirror.d2)
+    return out
 
 
 def _dispatches(material, theta, wavelength_nm, weights):
@@ -133,8 +133,7 @@ def _dispatches(material, theta, wavelength_nm, weights):
         return [], angle.shape
     if bragg:
         exact = np.asarray(angle, np.float64).ravel()
-        per_angle = [gpu.DeviceArray.upload(angle_fields(material, exact)),
-                     gpu.DeviceArray.upload(optical_paths(material, exact))]
+        per_angle = [gpu.DeviceArray.upload(angle_inputs(material, exact))]
     else:
         per_angle = [gpu.DeviceArray.upload(flat)]
     dispatches = []

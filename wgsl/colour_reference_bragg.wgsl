@@ -22,11 +22,15 @@ override HOST_MATCHED: bool = true;
 
 @group(0) @binding(0) var<storage, read> inv_wavelength: array<vec2<f32>>;  // 1 / lambda, split
 @group(0) @binding(1) var<storage, read> weights: array<vec4<f32>>;  // xyz weight, w unused
-// Per angle (wgbragg/colour_gpu.py, angle_fields): s, cos theta, q1, q2^2; and q1 d1, q2 d2 split.
-@group(0) @binding(2) var<storage, read> angles: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> optical_paths: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read_write> xyz: array<vec4<f32>>;  // w = 0
-@group(0) @binding(5) var<uniform> mirror: BraggMirror;
+// Per angle, formed on the host in float64 (wgbragg/colour_gpu.py, angle_inputs).
+struct AngleInputs {
+    geometry: vec4<f32>,  // s, cos theta, q1, q2^2
+    paths: vec4<f32>,     // q1 d1 and q2 d2 (nm), split as split_cycles reads them
+}
+
+@group(0) @binding(2) var<storage, read> angles: array<AngleInputs>;
+@group(0) @binding(3) var<storage, read_write> xyz: array<vec4<f32>>;  // w = 0
+@group(0) @binding(4) var<uniform> mirror: BraggMirror;
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>,
@@ -35,8 +39,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
     if (i >= arrayLength(&xyz)) {
         return;
     }
-    let angle = angle_geometry_given(angles[i]);
-    let paths = optical_paths[i];
+    let inputs = angles[i];
+    let angle = angle_geometry_given(inputs.geometry);
+    let paths = inputs.paths;
     var acc = vec3<f32>(0.0);
     for (var k = 0u; k < arrayLength(&inv_wavelength); k++) {
         let g = geometry_at_split(mirror, angle, inv_wavelength[k], paths);
