@@ -341,6 +341,30 @@ def test_spectral_gpu_at_a_sharp_resonance():
     assert delta_e(gpu_xyz, spectral_xyz_stratified(mirror, theta, 16))[0] <= 0.02
 
 
+@pytest.mark.gpu
+@pytest.mark.parametrize(("thickness", "periods"), [(1e3, 100), (2e4, 5), (2e5, 3)])
+def test_gpu_phases_of_thick_cells(thickness, periods):
+    # One node at a time: R itself. Up to 700 turns a layer, float32 rounding of the whole phase
+    # put R 3e-4 (20 um) and 3e-3 (200 um) off; the split phases measure 3e-6 and 9e-6.
+    mirror = BraggMirror(1.0, 1.5, thickness, 1.3 * thickness, periods)
+    theta = np.radians([0.0, 30.0, 60.0, 85.0])
+    luminance = np.zeros((1, 3))
+    luminance[0, 1] = 1.0
+    for wavelength in np.linspace(380.0, 780.0, 17) + 0.37:
+        gpu_r = integrate_xyz(mirror, theta, [wavelength], luminance, "gpu")[:, 1]
+        exact = mirror.reflectance(wavelength, theta, "unpolarized")
+        # N = 100 keeps its band-edge sensitivity (3e-4 measured before and after).
+        assert np.abs(gpu_r - exact).max() <= (5e-4 if periods == 100 else 5e-5), wavelength
+
+
+@pytest.mark.gpu
+def test_gpu_grazing_incidence_is_white():
+    theta = np.array([math.pi / 2, math.pi / 2 - 1e-9])
+    for material in (MIRRORS[4], HOST_MIRRORS[0], HOST_MIRRORS[2]):
+        white = reference_xyz(PERFECT_REFLECTOR, 0.0)
+        assert np.allclose(reference_xyz(material, theta, backend="gpu"), white, rtol=1e-5)
+
+
 def test_split_float32_heads_multiply_exactly():
     rng = np.random.default_rng(3)
     x = rng.uniform(1e-4, 1e4, 1000) * 10.0 ** rng.integers(-3, 4, 1000)

@@ -70,20 +70,24 @@ fn angle_geometry_given(fields: vec4<f32>) -> CellGeometry {
 // already set: one angle's setup serves every wavelength of a sweep.
 fn geometry_at(m: BraggMirror, angle: CellGeometry, wavelength_nm: f32) -> CellGeometry {
     let inv_wavelength = 1.0 / wavelength_nm;
-    let cycles = vec2<f32>(angle.q1 * m.d1_nm, sqrt(abs(angle.q2sq)) * m.d2_nm) * inv_wavelength;
-    return geometry_of_cycles(m, angle, inv_wavelength, cycles, cycles, cycles.x + cycles.y);
+    let q2 = sqrt(abs(angle.q2sq));
+    let cycles = vec2<f32>(angle.q1 * m.d1_nm * inv_wavelength, q2 * (m.d2_nm * inv_wavelength));
+    return geometry_of_cycles(m, angle, inv_wavelength, cycles, cycles,
+                              cycles.x + q2 * m.d2_nm * inv_wavelength);
 }
 
 // The layer phases q d / lambda (cycles) from optical paths q d split on the host into a head
-// of 12 significant bits and the rest (paths = (head1, rest1, head2, rest2), nm; the rest of n2
-// 0 where it is evanescent), and 1 / lambda split alike: head x head is exact in float32, so
-// its fraction is, and the other products are below 2^-11 of the phase. The fraction then
-// carries float32's rounding of a number below 1 (plus 2^-11 of the phase's) instead of that
-// of q d / lambda in turns: at N = 100 one ulp of a 2-cycle phase moved R by 1e-2 next to a
-// transmission resonance (README, 'Accuracy of the float32 kernel').
+// of 12 significant bits and the rest (paths = (head1, rest1, head2, rest2), nm; those of n2
+// 0 where it is evanescent), and 1 / lambda split alike (wgbragg/colour_gpu.py, split_float32):
+// head x head is exact in float32, so its fraction is, and the other three products are below
+// 2^-10 of the phase, so their rounding is too. The fraction then carries float32's rounding of
+// a number below 1 + 2^-10 phase instead of that of the phase: at N = 100 one ulp of a 2-cycle
+// phase moved R by 1e-2 next to a transmission resonance (README, 'Accuracy of the float32
+// kernel'). Nothing here cancels algebraically: a reassociating driver cannot fold it away.
 fn split_cycles(path: vec2<f32>, inv_wavelength: vec2<f32>) -> f32 {
     let head = path.x * inv_wavelength.x;
-    return (head - floor(head)) + (path.x * inv_wavelength.y + path.y * inv_wavelength.x);
+    return (head - floor(head))
+        + (path.x * inv_wavelength.y + path.y * inv_wavelength.x + path.y * inv_wavelength.y);
 }
 
 // geometry_at from split optical paths and 1 / lambda (see split_cycles).
@@ -93,8 +97,10 @@ fn geometry_at_split(m: BraggMirror, angle: CellGeometry, inv_wavelength: vec2<f
     let cycles = vec2<f32>(angle.q1 * m.d1_nm, sqrt(abs(angle.q2sq)) * m.d2_nm) * inv;
     let fractions = vec2<f32>(split_cycles(paths.xy, inv_wavelength),
                               split_cycles(paths.zw, inv_wavelength));
-    // The fractions' rounding: of a number below 2, and of the small products.
-    let rounding = 2.0 + (cycles.x + cycles.y) * (1.0 / 2048.0);
+    // The fractions' rounding: of a number below 2 + 2^-10 of the phases; an evanescent n2
+    // layer's decay is float32's whole.
+    let n2_rounding = select(cycles.y * (1.0 / 1024.0), cycles.y, angle.q2sq < 0.0);
+    let rounding = 2.0 + cycles.x * (1.0 / 1024.0) + n2_rounding;
     return geometry_of_cycles(m, angle, inv, cycles, fractions, rounding);
 }
 
