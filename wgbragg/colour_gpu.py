@@ -9,11 +9,11 @@ dispersive base's index per node (``DISPERSIVE``).
 
 The Bragg kernel takes each angle's geometry and optical paths ``q1 d1``, ``q2 d2`` from the
 host in float64 (:func:`angle_inputs`), the paths and ``1 / lambda`` split into float32 heads of
-12 significant bits and their rests (:func:`split_float32`): the kernel then
-forms the fractional layer phases in turns to float32's accuracy (``split_cycles`` in
-``wgsl/yeh.wgsl``), not to that of the whole phase, and ``cos(theta)`` keeps its relative
-accuracy at grazing incidence. Few spectral nodes at a sharp resonance (N = 100) magnify
-either rounding: "spectral" (K = 16) was 0.18 dE2000 from its float64 twin, 0.4 at 89 degrees.
+12 significant bits and their rests (:func:`split_float32`). The kernel then forms the
+fractional layer phases in turns to float32's accuracy (``split_cycles`` in ``wgsl/yeh.wgsl``),
+not to that of the whole phase, and ``cos(theta)`` keeps its relative accuracy at grazing
+incidence. Few spectral nodes at a sharp resonance (N = 100) magnify either rounding:
+"spectral" (K = 16) was 0.18 dE2000 from its float64 twin, K = 32 0.4 at 86 degrees.
 
 The kernels' node loop has no inner loop, so one dispatch takes at most :data:`CHUNK_NODES`
 nodes (llvmpipe's loop budget, see :mod:`wgbragg.gpu`); more nodes ("spectral" takes up to

@@ -7,7 +7,7 @@
 // phases from optical paths and 1 / lambda split on the host (split_cycles), so their fractions
 // keep float32's accuracy whatever the phase: with a few heavily weighted nodes ("spectral"),
 // one ulp of the phase at a sharp resonance moved a colour by 0.18 dE2000 from its float64
-// twin, and a float32 angle 0.4 at 89 degrees.
+// twin, and a float32 angle 0.4 at 86 degrees (K = 32).
 // Plain float32 sum: its rounding (bound 470 ulp relative, 1.3e-6 measured) is far below the
 // reflectance's own float32 error; a Kahan carry would be folded away by the driver's float
 // reassociation (measured).
