@@ -607,13 +607,12 @@ def render_section(results: Results, command: str) -> str:
         "bits (a digital shift); every number stays uniform, so every pixel's estimate stays "
         "unbiased. The numbers are made in numpy (0.6 ms per 300 000), as the environment "
         "is looked up there: a renderer's sampler would make them in the kernel. A model's "
-        "sample is a fixed function of "
-        "three (RGB) or four (hero) numbers; this simulation kernel draws its walk's "
-        "numbers itself (a renderer could feed a walk's first ones from a padded sampler), "
-        "so part of the gain is the sampler's, not the model's. \"As published\" in the "
-        "targets excludes it, and base IR. Near a target, yes or no is within the run-to-run "
-        "drift of the times (10-30 %) and, over the absorbing base at 3072 spp, GT's own "
-        "noise.",
+        "sample is a fixed function of three (RGB) or four (hero) numbers; this simulation "
+        "kernel draws its walk's numbers itself (a renderer could feed a walk's first ones "
+        "from a padded sampler), so part of the gain is the sampler's, not the model's. \"As "
+        "published\" in the targets excludes it, and base IR. Near a target, yes or no is "
+        "within the run-to-run drift of the times (10-30 %) and, over the absorbing base at "
+        "3072 spp, GT's own noise.",
         END_MARKER,
     ]
     return "\n".join(lines)
