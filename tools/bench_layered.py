@@ -605,7 +605,7 @@ def render_section(results: Results, command: str) -> str:
         "their ratios.",
         "5. \"+ Sobol\": one scrambled Sobol' set per GPU call, XORed per pixel with random "
         "bits (a digital shift); every number stays uniform, so every pixel's estimate stays "
-        "unbiased. The numbers are made in numpy (0.6 ms per 300 000), as the environment "
+        "unbiased. The numbers are made in numpy (0.7 ms per 300 000), as the environment "
         "is looked up there: a renderer's sampler would make them in the kernel. A model's "
         "sample is a fixed function of three (RGB) or four (hero) numbers; this simulation "
         "kernel draws its walk's numbers itself (a renderer could feed a walk's first ones "
