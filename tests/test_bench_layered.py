@@ -113,7 +113,7 @@ def test_gt_noise_is_half_the_halves_smape(bench):
 
 @pytest.mark.parametrize("sobol", [False, True])
 def test_uniforms_lie_in_the_unit_cube(bench, sobol):
-    u = bench.uniforms(np.random.default_rng(1), 50, 64, 4, sobol)
+    u = np.asarray(bench.uniforms(np.random.default_rng(1), 50, 64, 4, sobol))
     assert u.shape == (50, 64, 4) and u.min() >= 0.0 and u.max() < 1.0
 
 
@@ -122,7 +122,7 @@ def test_sobol_uniforms_are_stratified_per_pixel(bench):
     intervals of every axis, and one in each cell of an 8 x 8 grid over the first two axes (a
     shift modulo 1 keeps neither). Independent numbers leave about one interval in three
     empty. Across pixels the shifts differ, and a pixel's first number is uniform."""
-    u = bench.uniforms(np.random.default_rng(2), 400, 64, 4, sobol=True)
+    u = np.asarray(bench.uniforms(np.random.default_rng(2), 400, 64, 4, sobol=True))
     for pixel in u[:100]:
         for axis in range(4):
             assert np.array_equal(np.sort((pixel[:, axis] * 64).astype(int)), np.arange(64))

@@ -36,7 +36,7 @@ import math
 import numpy as np
 import pytest
 
-from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer
+from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer, ShiftedPoints
 from wgbragg import gpu, layered_gpu
 from wgbragg.layered import _refract_in
 from wgbragg.transmission_filter import TransmissionFilter
@@ -383,6 +383,39 @@ def test_a_view_shared_by_many_samples_is_uploaded_once(structures, name, monkey
             shared, repeated = (shared,), (repeated,)
         for a, b in zip(shared, repeated, strict=True):
             np.testing.assert_array_equal(a, b, err_msg=label)
+
+
+@pytest.mark.parametrize("name", ["one-layer", "coated"])
+def test_shifted_points_are_expanded_by_the_kernel(structures, name, monkeypatch):
+    """A ShiftedPoints u goes up as its points and one shift per group (not a number per
+    sample), and the kernel's expansion gives the samples of its float32 values bit for bit;
+    groups that are not the samples' leading axes, and the numpy backend, read the values."""
+    s = structures[name]
+    wi = random_directions(6, seed=60)[:, None]
+    uploads = []
+    real = layered_gpu._operand
+    monkeypatch.setattr(layered_gpu, "_operand",
+                        lambda a, shape: uploads.append(real(a, shape)) or uploads[-1])
+    for width, options in ((4, {"colour_method": "hero"}), (3, {})):
+        u = ShiftedPoints.sobol(16, width, (6,), seed=61)
+        uploads.clear()
+        compact = s.sample(wi, u, backend="gpu", **options)
+        rows, repeat, shifted = uploads[-1]
+        assert shifted and repeat == 16 and rows.shape == (16 + 6, 4)
+        expanded = s.sample(wi, u.values(np.float32), backend="gpu", **options)
+        assert not uploads[-1][2]
+        for a, b in zip(compact, expanded, strict=True):
+            np.testing.assert_array_equal(a, b)
+        # One group for all: the groups are not the samples' leading axes.
+        alone = ShiftedPoints(u.points, u.shifts[0])
+        fallback = s.sample(wi, alone, backend="gpu", **options)
+        assert not uploads[-1][2]
+        for a, b in zip(fallback, s.sample(wi, alone.values(np.float32), backend="gpu",
+                                           **options), strict=True):
+            np.testing.assert_array_equal(a, b)
+    u = ShiftedPoints.sobol(4, 3, (6,), seed=62)
+    for a, b in zip(s.sample(wi, u, 550.0), s.sample(wi, np.asarray(u), 550.0), strict=True):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_tables_stay_on_the_device(structures, monkeypatch):

@@ -21,6 +21,7 @@ Public API::
     s = LayeredBragg(layers=[RoughBraggLayer(m, alpha=0.1)], base_albedo=0.2)
     s.brdf(wi, wo, wavelength_nm=None, method="single-reflection")   # eq 34
     wo, weight, pdf = s.sample(wi, u)                                 # eq 35
+    u = ShiftedPoints.sobol(samples=64, dims=4, groups=(pixels,))     # u the kernel expands
     s.simulate(wi, wo, paths=65536, mode="all", transmission="ballistic")  # MC reference
 
     from wgbragg import EnvironmentMap, read_exr, write_exr
@@ -53,6 +54,7 @@ from .metrics import smape
 from .render import Renderer, save_png
 from .rough_layer import RoughBraggLayer
 from .rough_thin_film import RoughThinFilm
+from .sampling import ShiftedPoints
 from .scene import load_preset, load_scene
 from .transmission_filter import TransmissionFilter
 
@@ -65,6 +67,7 @@ __all__ = [
     "Renderer",
     "RoughBraggLayer",
     "RoughThinFilm",
+    "ShiftedPoints",
     "ThinFilm",
     "TransmissionFilter",
     "__version__",

@@ -46,6 +46,7 @@ from ._validation import (
 from .microfacet import _D, _G1_over_cos, ggx_sample_visible_normal, half_vector
 from .optics.yeh import yeh_reflectance
 from .rough_layer import RoughBraggLayer
+from .sampling import ShiftedPoints
 
 __all__ = ["BRDF_METHODS", "HERO", "INTEGRATED", "LayeredBragg", "coating_reflectance"]
 
@@ -669,7 +670,11 @@ class LayeredBragg:
             Unit direction towards the light (or viewer), in air, upper hemisphere.
         u : array_like, shape (..., 3), or (..., 4) with ``colour_method="hero"``
             Uniform numbers in [0, 1]: ``u[..., 0]`` picks the component, ``u[..., 1:3]`` the
-            direction, ``u[..., 3]`` offsets the hero wavelengths. With ``backend="gpu"``,
+            direction, ``u[..., 3]`` offsets the hero wavelengths. Or a
+            :class:`wgbragg.ShiftedPoints` (one point set shifted per group, e.g. per pixel):
+            with ``backend="gpu"`` and groups that are the samples' leading axes (``u.shape``
+            is the samples' shape plus the trailing axis), the kernel expands it, and the
+            host neither makes nor uploads a number per sample. With ``backend="gpu"``,
             a ``wi`` shared along trailing axes (one view, many samples) is uploaded once,
             and float32 ``u`` is not converted to float64 (contiguous, of the full sample
             shape and width 4, it is uploaded as it is).
@@ -696,7 +701,11 @@ class LayeredBragg:
         """
         wi = check_directions(wi, "wi")
         backend = check_backend(backend)
-        u = _as_float_array("u", u, keep_float32=backend == "gpu")
+        # A shifted point set goes to the kernel as it is; numpy reads its numbers.
+        shifted = isinstance(u, ShiftedPoints) and backend == "gpu"
+        if not shifted:
+            u = _as_float_array("u", u.values() if isinstance(u, ShiftedPoints) else u,
+                                keep_float32=backend == "gpu")
         if method not in BRDF_METHODS:
             raise ValueError(f"method must be one of {BRDF_METHODS}, got {method!r}")
         wavelength = _check_wavelength(wavelength_nm, method)
@@ -710,7 +719,7 @@ class LayeredBragg:
                              f"{' (colour_method=' + repr(HERO) + ')' if hero else ''}, got "
                              f"shape {u.shape}")
         # min/max: one pass each, and a NaN fails both.
-        if not (u.min(initial=0.0) >= 0.0 and u.max(initial=1.0) <= 1.0):
+        if not shifted and not (u.min(initial=0.0) >= 0.0 and u.max(initial=1.0) <= 1.0):
             raise ValueError("u must be in [0, 1]")
         if np.any(wi[..., 2] <= 0.0):
             raise ValueError("wi must lie strictly above the horizon: wi[..., 2] in (0, 1]")

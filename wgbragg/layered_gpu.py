@@ -60,6 +60,7 @@ import numpy as np
 from . import colorimetry, gpu, kernels
 from .colour_landmarks_gpu import GPU_LANDMARK_METHODS, _check_mirror, _cmf_table
 from .layered import HERO, INTEGRATED
+from .sampling import ShiftedPoints
 
 __all__ = [
     "FACTORED_COLOUR_METHODS",
@@ -412,20 +413,37 @@ def _shared_vec4(array, shape) -> tuple[np.ndarray, int]:
     return _vec4(compact, shape[:kept]), max(repeat, 1)
 
 
+def _operand(second, invocations) -> tuple[np.ndarray, int, bool]:
+    """The operand's vec4 rows, ``operand_repeat``, and whether they are a shifted point set:
+    :class:`ShiftedPoints` with one group per leading index of ``invocations`` (a pixel's
+    samples) goes as its points then its shifts (u32 bits), a few kB instead of 16 bytes per
+    sample; any other operand as :func:`_shared_vec4`."""
+    if isinstance(second, ShiftedPoints):
+        if tuple(second.shape[:-1]) != tuple(invocations):
+            return *_shared_vec4(second.values(np.float32), invocations), False
+        count, dims = second.points.shape
+        rows = np.zeros((count + second.shifts.size // dims, 4), np.uint32)
+        rows[:count, :dims] = second.points
+        rows[count:, :dims] = second.shifts.reshape(-1, dims)
+        return rows.view(np.float32), count, True
+    return *_shared_vec4(second, invocations), False
+
+
 def _setup(structure, operation: str, first, second, wavelength, batch: _Batch, method: str,
            colour_method: str):
     kind = _kind(operation, wavelength, colour_method)
     lut = method == "single-reflection-lut" and kind != _DENSITY
     variant = _variant(structure, kind, lut, colour_method)
-    kernel = gpu.compute_pipeline(
-        "layered_brdf_eval.wgsl", OPERATIONS[operation],
-        _constants(variant, kind, lut, colour_method, batch.wavelengths))
     params = variant.params.copy()
     params["count"], params["wavelength_stride"] = batch.count, batch.stride
     channels = 1 if operation == "pdf" else (batch.wavelengths or 3)
     directions = batch.count if operation == "sample" else 1
     incoming, params["incoming_repeat"] = _shared_vec4(first, batch.invocations)
-    operand, params["operand_repeat"] = _shared_vec4(second, batch.invocations)
+    operand, params["operand_repeat"], shifted = _operand(second, batch.invocations)
+    constants = _constants(variant, kind, lut, colour_method, batch.wavelengths)
+    if operation == "sample":
+        constants["SHIFTED_OPERAND"] = shifted
+    kernel = gpu.compute_pipeline("layered_brdf_eval.wgsl", OPERATIONS[operation], constants)
     inputs = [incoming, operand, batch.wavelength, variant.layers, *variant.device_tables()]
     outputs = [(batch.count * channels, np.float32), ((directions, 4), np.float32),
                (1, np.uint32)]
@@ -524,7 +542,8 @@ def sample(structure, wi, u, wavelength, method: str, colour_method: str):
     wi : numpy.ndarray, shape (..., 3)
         Unit directions in air with ``z > 0``.
     u : numpy.ndarray, shape (..., 3), or (..., 4) with ``colour_method="hero"``
-        Uniform numbers in [0, 1].
+        Uniform numbers in [0, 1]; or :class:`ShiftedPoints`, whose groups, when they are the
+        samples' leading shape, the kernel expands itself.
     wavelength, method, colour_method
         As for :func:`brdf`.
 
@@ -568,7 +587,8 @@ def benchmark(structure, operation: str, wi, second, wavelength=None,
     wi : array_like, shape (..., 3)
         Unit directions in air.
     second : array_like, shape (..., 3)
-        ``wo`` (brdf, pdf) or ``u`` (sample; shape (..., 4) with ``colour_method="hero"``).
+        ``wo`` (brdf, pdf) or ``u`` (sample; shape (..., 4) with ``colour_method="hero"``;
+        or :class:`ShiftedPoints`, expanded in the kernel).
     wavelength : array_like, optional
         nm, in 360-830; ``None``: RGB.
     method, colour_method
@@ -589,7 +609,9 @@ def benchmark(structure, operation: str, wi, second, wavelength=None,
     """
     if operation not in OPERATIONS:
         raise ValueError(f"operation must be one of {tuple(OPERATIONS)}, got {operation!r}")
-    wi, second = np.asarray(wi, np.float64), np.asarray(second, np.float64)
+    wi = np.asarray(wi, np.float64)
+    if not isinstance(second, ShiftedPoints):
+        second = np.asarray(second, np.float64)
     wavelength = None if wavelength is None else np.asarray(wavelength, np.float64)
     _check_request(structure, wavelength, method, colour_method)
     if colour_method == HERO and (operation != "sample" or second.shape[-1:] != (4,)):

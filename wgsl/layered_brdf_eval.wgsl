@@ -25,6 +25,10 @@
 override WAVELENGTHS: u32 = 0u;
 // sample in RGB: the colour from four hero wavelengths offset by u.w, not the 471 nodes.
 override HERO: bool = false;
+// sample: u comes as a point set digitally shifted per group of operand_repeat consecutive
+// invocations (wgbragg.sampling.ShiftedPoints): operand rows 0 .. operand_repeat - 1 hold the
+// points' digits, the rows after them one shift per group, as u32 bits.
+override SHIFTED_OPERAND: bool = false;
 // Spectral: the layers' transmissivity tables read as cell corners (transmissivity_quads),
 // where they fit gpu.bilinear_quads_fit; else from `tables`, four loads per lookup.
 override TRANSMISSIVITY_QUADS: bool = true;
@@ -34,7 +38,7 @@ struct Params {
     count: u32,               // invocations
     wavelength_stride: u32,   // WAVELENGTHS, or 0 when every invocation has the same ones
     incoming_repeat: u32,     // consecutive invocations sharing one wi (e.g. a pixel's samples)
-    operand_repeat: u32,      // ... sharing one wo or u
+    operand_repeat: u32,      // ... sharing one wo or u (SHIFTED_OPERAND: points per group)
 }
 
 @group(0) @binding(0) var<storage, read> incoming: array<vec4<f32>>;   // wi (xyz)
@@ -78,6 +82,14 @@ fn incoming_at(index: u32) -> vec3<f32> {
 }
 
 fn operand_at(index: u32) -> vec4<f32> {
+    if (SHIFTED_OPERAND) {
+        // The top 23 bits of the shifted digits as the mantissa of a float in [1, 2), minus 1:
+        // exactly ShiftedPoints.values.
+        let points = params.operand_repeat;
+        let digits = bitcast<vec4<u32>>(operand[index % points])
+            ^ bitcast<vec4<u32>>(operand[points + index / points]);
+        return bitcast<vec4<f32>>((digits >> vec4<u32>(9u)) | vec4<u32>(0x3f800000u)) - 1.0;
+    }
     return operand[index / params.operand_repeat];
 }
 
