@@ -395,7 +395,7 @@ def test_shifted_points_are_expanded_by_the_kernel(structures, name, monkeypatch
     uploads = []
     real = layered_gpu._operand
     monkeypatch.setattr(layered_gpu, "_operand",
-                        lambda a, shape: uploads.append(real(a, shape)) or uploads[-1])
+                        lambda *args: uploads.append(real(*args)) or uploads[-1])
     for width, options in ((4, {"colour_method": "hero"}), (3, {})):
         u = ShiftedPoints.sobol(16, width, (6,), seed=61)
         uploads.clear()
@@ -413,9 +413,38 @@ def test_shifted_points_are_expanded_by_the_kernel(structures, name, monkeypatch
         for a, b in zip(fallback, s.sample(wi, alone.values(np.float32), backend="gpu",
                                            **options), strict=True):
             np.testing.assert_array_equal(a, b)
-    u = ShiftedPoints.sobol(4, 3, (6,), seed=62)
-    for a, b in zip(s.sample(wi, u, 550.0), s.sample(wi, np.asarray(u), 550.0), strict=True):
+    # The numpy backend reads the same numbers: the same directions, up to float32.
+    u = ShiftedPoints.sobol(16, 3, (6,), seed=62)
+    wo_gpu = s.sample(wi, u, backend="gpu")[0].reshape(-1, 3)
+    wo_np = s.sample(wi, u)[0].reshape(-1, 3)
+    views = np.broadcast_to(wi, (6, 16, 3)).reshape(-1, 3)
+    same = ~near_component_boundary(s, views, np.asarray(u).reshape(-1, 3))
+    assert np.count_nonzero(same) > 0.9 * same.size
+    assert np.all(np.abs(wo_gpu - wo_np).max(axis=-1)[same] <= WO_ATOL)
+
+
+def test_shifted_points_beyond_one_buffer_are_expanded_by_the_host(structures, monkeypatch):
+    """Requests larger than the device's largest buffer are split over dispatches, where the
+    host expands a ShiftedPoints: the same samples as in one dispatch."""
+    s = structures["one-layer"]
+    wi = random_directions(6, seed=63)[:, None]
+    u = ShiftedPoints.sobol(16, 4, (6,), seed=64)
+    whole = s.sample(wi, u, backend="gpu", colour_method="hero")
+    monkeypatch.setattr(gpu, "max_buffer_bytes", lambda: 16 * 40)  # 40 samples a dispatch
+    split = s.sample(wi, u, backend="gpu", colour_method="hero")
+    for a, b in zip(whole, split, strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+def test_shifted_points_are_timed_as_sample_inputs_only(structures):
+    s = structures["one-layer"]
+    wi = random_directions(6, seed=65)[:, None]
+    u = ShiftedPoints.sobol(16, 4, (6,), seed=66)
+    assert layered_gpu.benchmark(s, "sample", wi, u, colour_method="hero", repeats=1) > 0.0
+    with pytest.raises(ValueError, match="second: a ShiftedPoints is the u of operation='sample'"):
+        layered_gpu.benchmark(s, "brdf", wi, ShiftedPoints.sobol(16, 3, (6,)), repeats=1)
+    with pytest.raises(ValueError, match="3 or 4 numbers per point"):
+        layered_gpu.benchmark(s, "sample", wi, ShiftedPoints.sobol(16, 5, (6,)), repeats=1)
 
 
 def test_tables_stay_on_the_device(structures, monkeypatch):

@@ -36,6 +36,11 @@ def test_groups_of_any_shape_and_none():
     np.testing.assert_array_equal(np.asarray(alone), np.asarray(u)[1, 2])
 
 
+def test_no_groups_give_no_numbers():
+    u = ShiftedPoints.sobol(8, 3, (0,), seed=1)
+    assert u.shape == (0, 8, 3) and np.asarray(u).shape == (0, 8, 3)
+
+
 def test_sobol_sets_are_stratified_per_group_and_shifted_apart():
     """Each group's 64 numbers keep one in each of the 64 equal intervals of every axis, and
     one in each cell of an 8 x 8 grid over the first two axes; the groups' first points are

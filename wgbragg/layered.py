@@ -674,7 +674,9 @@ class LayeredBragg:
             :class:`wgbragg.ShiftedPoints` (one point set shifted per group, e.g. per pixel):
             with ``backend="gpu"`` and groups that are the samples' leading axes (``u.shape``
             is the samples' shape plus the trailing axis), the kernel expands it, and the
-            host neither makes nor uploads a number per sample. With ``backend="gpu"``,
+            host neither makes nor uploads a number per sample (up to the device's largest
+            buffer, ``gpu.max_buffer_bytes() / 16`` samples per call; beyond, and for other
+            shapes, the host expands it). With ``backend="gpu"``,
             a ``wi`` shared along trailing axes (one view, many samples) is uploaded once,
             and float32 ``u`` is not converted to float64 (contiguous, of the full sample
             shape and width 4, it is uploaded as it is).

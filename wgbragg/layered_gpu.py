@@ -413,20 +413,22 @@ def _shared_vec4(array, shape) -> tuple[np.ndarray, int]:
     return _vec4(compact, shape[:kept]), max(repeat, 1)
 
 
-def _operand(second, invocations) -> tuple[np.ndarray, int, bool]:
-    """The operand's vec4 rows, ``operand_repeat``, and whether they are a shifted point set:
-    :class:`ShiftedPoints` with one group per leading index of ``invocations`` (a pixel's
-    samples) goes as its points then its shifts (u32 bits), a few kB instead of 16 bytes per
-    sample; any other operand as :func:`_shared_vec4`."""
+def _operand(second, invocations, sample: bool) -> tuple[np.ndarray, int, bool]:
+    """The operand's vec4 rows (u32 words), ``operand_repeat``, and whether they are a
+    shifted point set: a ``sample``'s :class:`ShiftedPoints` whose groups are the leading axes
+    of ``invocations`` (a pixel's samples) goes as its points then its shifts, a few kB instead
+    of 16 bytes per sample; any other operand as :func:`_shared_vec4`."""
     if isinstance(second, ShiftedPoints):
-        if tuple(second.shape[:-1]) != tuple(invocations):
-            return *_shared_vec4(second.values(np.float32), invocations), False
-        count, dims = second.points.shape
-        rows = np.zeros((count + second.shifts.size // dims, 4), np.uint32)
-        rows[:count, :dims] = second.points
-        rows[count:, :dims] = second.shifts.reshape(-1, dims)
-        return rows.view(np.float32), count, True
-    return *_shared_vec4(second, invocations), False
+        if not sample or tuple(second.shape[:-1]) != tuple(invocations):
+            second = second.values(np.float32)
+        else:
+            count, dims = second.points.shape
+            rows = np.zeros((count + second.shifts.size // dims, 4), np.uint32)
+            rows[:count, :dims] = second.points
+            rows[count:, :dims] = second.shifts.reshape(-1, dims)
+            return rows, count, True
+    rows, repeat = _shared_vec4(second, invocations)
+    return rows.view(np.uint32), repeat, False
 
 
 def _setup(structure, operation: str, first, second, wavelength, batch: _Batch, method: str,
@@ -439,7 +441,8 @@ def _setup(structure, operation: str, first, second, wavelength, batch: _Batch, 
     channels = 1 if operation == "pdf" else (batch.wavelengths or 3)
     directions = batch.count if operation == "sample" else 1
     incoming, params["incoming_repeat"] = _shared_vec4(first, batch.invocations)
-    operand, params["operand_repeat"], shifted = _operand(second, batch.invocations)
+    operand, params["operand_repeat"], shifted = _operand(second, batch.invocations,
+                                                          operation == "sample")
     constants = _constants(variant, kind, lut, colour_method, batch.wavelengths)
     if operation == "sample":
         constants["SHIFTED_OPERAND"] = shifted
@@ -460,7 +463,8 @@ def _run(structure, operation, first, second, wavelength, batch, method, colour_
     if batch.count <= step:
         return _dispatch(structure, operation, first, second, wavelength, batch, method,
                          colour_method)
-    # More than the device's largest buffer holds: dispatch consecutive invocations apart.
+    # More than the device's largest buffer holds: dispatch consecutive invocations apart
+    # (a ShiftedPoints expanded here: beyond max_buffer_bytes / 16 samples per call).
     first, second = _vec4(first, batch.invocations), _vec4(second, batch.invocations)
     values, drawn = [], []
     for start in range(0, batch.count, step):
@@ -588,7 +592,7 @@ def benchmark(structure, operation: str, wi, second, wavelength=None,
         Unit directions in air.
     second : array_like, shape (..., 3)
         ``wo`` (brdf, pdf) or ``u`` (sample; shape (..., 4) with ``colour_method="hero"``;
-        or :class:`ShiftedPoints`, expanded in the kernel).
+        or :class:`ShiftedPoints` of 3 or 4 numbers per point, expanded in the kernel).
     wavelength : array_like, optional
         nm, in 360-830; ``None``: RGB.
     method, colour_method
@@ -614,6 +618,11 @@ def benchmark(structure, operation: str, wi, second, wavelength=None,
         second = np.asarray(second, np.float64)
     wavelength = None if wavelength is None else np.asarray(wavelength, np.float64)
     _check_request(structure, wavelength, method, colour_method)
+    if isinstance(second, ShiftedPoints) and (operation != "sample"
+                                              or second.shape[-1] not in (3, 4)):
+        raise ValueError("second: a ShiftedPoints is the u of operation='sample', 3 or 4 "
+                         f"numbers per point; got operation={operation!r}, u shape "
+                         f"{second.shape}")
     if colour_method == HERO and (operation != "sample" or second.shape[-1:] != (4,)):
         raise ValueError("colour_method='hero' is timed for operation='sample' with u of "
                          f"trailing length 4; got operation={operation!r}, u shape "

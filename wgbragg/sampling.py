@@ -101,7 +101,7 @@ class ShiftedPoints:
         if np.dtype(dtype) not in (np.dtype(np.float32), np.dtype(np.float64)):
             raise ValueError(f"dtype must be float32 or float64, got {np.dtype(dtype)}")
         lead = self.shifts.shape[:-1]
-        digits = self.shifts.reshape((*lead, 1, -1)) ^ self.points
+        digits = self.shifts.reshape((*lead, 1, self.points.shape[1])) ^ self.points
         digits >>= np.uint32(32 - MANTISSA_BITS)
         return np.ldexp(digits.astype(dtype), -MANTISSA_BITS)
 

@@ -42,7 +42,9 @@ struct Params {
 }
 
 @group(0) @binding(0) var<storage, read> incoming: array<vec4<f32>>;   // wi (xyz)
-@group(0) @binding(1) var<storage, read> operand: array<vec4<f32>>;    // wo, or u of sample
+// wo, or u of sample: f32 bits, or SHIFTED_OPERAND's digits (u32 words, so that no digit
+// pattern is ever loaded as a float: some would be NaNs, which WGSL may assume away).
+@group(0) @binding(1) var<storage, read> operand: array<vec4<u32>>;
 @group(0) @binding(2) var<storage, read> wavelengths: array<f32>;      // nm
 @group(0) @binding(3) var<storage, read> layers: array<RoughLayer>;
 @group(0) @binding(4) var<storage, read> tables: array<f32>;
@@ -86,11 +88,10 @@ fn operand_at(index: u32) -> vec4<f32> {
         // The top 23 bits of the shifted digits as the mantissa of a float in [1, 2), minus 1:
         // exactly ShiftedPoints.values.
         let points = params.operand_repeat;
-        let digits = bitcast<vec4<u32>>(operand[index % points])
-            ^ bitcast<vec4<u32>>(operand[points + index / points]);
+        let digits = operand[index % points] ^ operand[points + index / points];
         return bitcast<vec4<f32>>((digits >> vec4<u32>(9u)) | vec4<u32>(0x3f800000u)) - 1.0;
     }
-    return operand[index / params.operand_repeat];
+    return bitcast<vec4<f32>>(operand[index / params.operand_repeat]);
 }
 
 fn store_rgb(index: u32, rgb: vec3<f32>) {
