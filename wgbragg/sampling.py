@@ -52,6 +52,8 @@ class ShiftedPoints:
 
     Attributes
     ----------
+    points, shifts : numpy.ndarray of uint32
+        Read-only copies of the arguments.
     shape : tuple
         ``shifts.shape[:-1] + (n, dims)``: the shape of the numbers, as an array's.
 
