@@ -703,11 +703,10 @@ class LayeredBragg:
         """
         wi = check_directions(wi, "wi")
         backend = check_backend(backend)
-        # A shifted point set goes to the kernel as it is; numpy reads its numbers.
+        # A shifted point set goes to the kernel as it is; numpy reads its numbers (__array__).
         shifted = isinstance(u, ShiftedPoints) and backend == "gpu"
         if not shifted:
-            u = _as_float_array("u", u.values() if isinstance(u, ShiftedPoints) else u,
-                                keep_float32=backend == "gpu")
+            u = _as_float_array("u", u, keep_float32=backend == "gpu")
         if method not in BRDF_METHODS:
             raise ValueError(f"method must be one of {BRDF_METHODS}, got {method!r}")
         wavelength = _check_wavelength(wavelength_nm, method)
