@@ -29,7 +29,7 @@ import functools
 import numpy as np
 
 from . import colorimetry, gpu, kernels
-from .colour_methods import check_subdivisions
+from .colour_methods import AVERAGING_MIN_PERIODS, check_subdivisions
 from .materials import BraggMirror
 
 __all__ = [
@@ -98,11 +98,14 @@ def _kernel_and_params(mirror: BraggMirror, method: str, subdivisions: int):
         params[name] = base[name]
     params["subdivisions"] = subdivisions
     host_matched = bool(np.float32(mirror.host) == np.float32(mirror.n1))
+    matched_layers = (host_matched and not params["bulk"]
+                      and bool(np.float32(mirror.n2) >= np.float32(mirror.n1)))
+    exact = method == "averaged" and matched_layers and mirror.N < AVERAGING_MIN_PERIODS
     constants = {
         "HOST_MATCHED": host_matched,
-        "MATCHED_LAYERS": host_matched and not params["bulk"]
-        and bool(np.float32(mirror.n2) >= np.float32(mirror.n1)),
+        "MATCHED_LAYERS": matched_layers,
         "METHOD": GPU_LANDMARK_METHODS[method],
+        "EXACT_PERIODS": int(mirror.N) if exact else 0,
         "WORKGROUP_SIZE": WORKGROUP_SIZE,
     }
     kernel = gpu.compute_pipeline("colour_landmarks_bragg.wgsl", constants=constants)

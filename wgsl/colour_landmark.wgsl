@@ -26,6 +26,10 @@ const PANEL_MARGIN: f32 = 0.05;
 const PHASE_SNAP: f32 = 0.15;
 const AVERAGING_MIN_PERIODS: u32 = 16u;
 const EXACT_MIN_OSCILLATION_NM: f32 = 0.1;
+// N compiled into the exact spectrum's recurrence (recurrence_reflectance): set by pipelines
+// whose zones are all exact and in the mode coordinate (N below AVERAGING_MIN_PERIODS, host
+// == n1 <= n2); 0 reads N at run time.
+override EXACT_PERIODS: u32 = 0u;
 // Three-point Gauss-Legendre on [0, 1] (colour_methods._GAUSS_NODES, _GAUSS_WEIGHTS).
 const GAUSS_OFFSET: f32 = 0.38729833;   // sqrt(0.6) / 2
 const GAUSS_OUTER: f32 = 0.27777778;    // 5 / 18
@@ -101,16 +105,62 @@ fn averaged_pass_band_reflectance(m: BraggMirror, g: CellGeometry, polarization:
     return phase_averaged_host(t, e1, root, fresnel_host_n1(m, g, polarization));
 }
 
+// Eq 9 inside a band gap (sin2 <= 0) or at its edge, as matched_reflectance there: the pass
+// band's branches are left out, since lavapipe runs both sides of every branch.
+fn gap_reflectance(t: CellTerms, periods: u32) -> f32 {
+    let w = min(abs(t.W), MAX_AMPLITUDE);
+    let w2 = w * w;
+    let n = f32(periods);
+    let root = sqrt(max(-t.sin2, 0.0));
+    let y = 2.0 * n * asinh_accurate(root);
+    let e = exp(-0.5 * y);
+    let one_minus = select(1.0 - e * e, y * (1.0 - y * (0.5 - y * (1.0 / 6.0 - y * (1.0 / 24.0)))),
+                           y < 0.03);
+    let numerator = w2 * one_minus * one_minus;
+    let denominator = numerator + 4.0 * root * root * e * e;
+    // The edge itself (root = 0): U = N.
+    let edge = w2 * n * n;
+    return clamp(select(numerator / max(denominator, 1e-37), edge / (1.0 + edge), root < 1e-30),
+                 0.0, 1.0);
+}
+
+// Largest |cos K Lambda| the recurrence sees: U_14(256) is below float32's range. Only
+// impedance ratios beyond 500 reach it, where R rounds to 1 anyway.
+const RECURRENCE_MAX_X: f32 = 256.0;
+
+// Eq 9 with U_{N-1}(x) from its three-term recurrence U_{k+1} = 2x U_k - U_{k-1}: one formula
+// for pass bands, band edges and gaps, with no branch and no transcendental, for the few
+// periods (below AVERAGING_MIN_PERIODS) where the loop is short; `periods` is a pipeline
+// constant, so the loop unrolls.
+fn recurrence_reflectance(t: CellTerms, periods: u32) -> f32 {
+    let x = clamp(t.x, -RECURRENCE_MAX_X, RECURRENCE_MAX_X);
+    var u_prev = 0.0;
+    var u = 1.0;
+    for (var k = 1u; k < periods; k++) {
+        let next = 2.0 * x * u - u_prev;
+        u_prev = u;
+        u = next;
+    }
+    let a = min(min(abs(t.W), MAX_AMPLITUDE) * abs(u), 1e18);
+    let a2 = a * a;
+    return a2 / (1.0 + a2);
+}
+
 // R of one polarisation at a node of "averaged", from its frame and the node's mode_phases:
 // exact in an exact zone (colour_methods._quadrature), else averaged in pass bands.
+// exact is a literal at every call, so each variant compiles only its own formulas.
 fn mode_node_reflectance(f: ModeFrame, phases: vec4<f32>, t: f32, periods: u32,
                          exact: bool) -> f32 {
     let terms = mode_terms_at(f, phases);
-    if (!exact && terms.sin2 > 0.0) {
-        let w = min(abs(terms.W), MAX_AMPLITUDE);
-        return clamp(1.0 - sqrt(terms.sin2 / (w * w + terms.sin2)), 0.0, 1.0);
+    if (exact) {
+        if (EXACT_PERIODS > 0u) {
+            return recurrence_reflectance(terms, EXACT_PERIODS);
+        }
+        return matched_reflectance(terms, 0.5 * t, periods);  // delta1 + delta2 = pi t
     }
-    return matched_reflectance(terms, 0.5 * t, periods);  // delta1 + delta2 = pi t
+    let w = min(abs(terms.W), MAX_AMPLITUDE);
+    let averaged = clamp(1.0 - sqrt(terms.sin2 / (w * w + terms.sin2)), 0.0, 1.0);
+    return select(gap_reflectance(terms, periods), averaged, terms.sin2 > 0.0);
 }
 
 fn geometry_node_reflectance(c: ColourSetup, g: CellGeometry, polarization: u32,
@@ -223,6 +273,31 @@ fn zone_map(u: f32, lower_edge: bool, upper_edge: bool) -> vec2<f32> {
     return vec2<f32>(u, 1.0);
 }
 
+// Sums of averaged_zone's Gauss rule.
+struct ZoneSums {
+    rule: vec3<f32>,        // sum w R density
+    rule_white: vec3<f32>,  // sum w density
+    rule_r: f32,            // sum w R
+}
+
+// Node n of averaged_zone (panel n / 3, Gauss point n % 3).
+fn zone_node(c: ColourSetup, sums: ptr<function, ZoneSums>, n: u32, lo: f32, span: f32,
+             inv_panels: f32, lower_edge: bool, upper_edge: bool, exact: bool) {
+    let k = n % 3u;
+    let offset = select(select(GAUSS_OFFSET, -GAUSS_OFFSET, k == 0u), 0.0, k == 1u);
+    let map = zone_map((f32(n / 3u) + 0.5 + offset) * inv_panels, lower_edge, upper_edge);
+    let omega = lo + span * map.x;
+    let wavelength = TWO_PI / omega;
+    // The rule's weight times d lambda = 2 pi / omega^2 d omega = lambda^2 / (2 pi) d omega.
+    let weight = select(GAUSS_OUTER, GAUSS_INNER, k == 1u) * inv_panels * span * map.y
+        * wavelength * wavelength * (1.0 / TWO_PI);
+    let r = weight * node_reflectance(c, omega, exact);
+    let density = density_xyz(wavelength);
+    (*sums).rule += r * density;
+    (*sums).rule_white += weight * density;
+    (*sums).rule_r += r;
+}
+
 // "averaged" over the zone [lo, hi] (rad/nm) between band edges or range ends, which holds
 // `share` of a pass band: the panels and exact flag of colour_methods._quadrature, three
 // Gauss nodes a panel.
@@ -246,25 +321,19 @@ fn averaged_zone(c: ColourSetup, lo: f32, hi: f32, lower_edge: bool, upper_edge:
     }
     let span = hi - lo;
     let inv_panels = 1.0 / f32(panels);
-    var rule = vec3<f32>(0.0);      // sum w R density
-    var rule_white = vec3<f32>(0.0); // sum w density
-    var rule_r = 0.0;               // sum w R
-    // One loop over every node keeps a single inlined copy of the reflectance.
-    for (var n = 0u; n < 3u * panels; n++) {
-        let k = n % 3u;
-        let offset = select(select(GAUSS_OFFSET, -GAUSS_OFFSET, k == 0u), 0.0, k == 1u);
-        let map = zone_map((f32(n / 3u) + 0.5 + offset) * inv_panels, lower_edge, upper_edge);
-        let omega = lo + span * map.x;
-        let wavelength = TWO_PI / omega;
-        // The rule's weight times d lambda = 2 pi / omega^2 d omega = lambda^2 / (2 pi) d omega.
-        let weight = select(GAUSS_OUTER, GAUSS_INNER, k == 1u) * inv_panels * span * map.y
-            * wavelength * wavelength * (1.0 / TWO_PI);
-        let r = weight * node_reflectance(c, omega, exact);
-        let density = density_xyz(wavelength);
-        rule += r * density;
-        rule_white += weight * density;
-        rule_r += r;
+    var sums: ZoneSums;
+    // Two loops, of which each zone enters one: lavapipe runs both sides of a branch but
+    // skips a loop that no invocation enters.
+    let nodes = 3u * panels;
+    for (var n = 0u; n < select(nodes, 0u, exact); n++) {
+        zone_node(c, &sums, n, lo, span, inv_panels, lower_edge, upper_edge, false);
     }
+    for (var n = 0u; n < select(0u, nodes, exact); n++) {
+        zone_node(c, &sums, n, lo, span, inv_panels, lower_edge, upper_edge, true);
+    }
+    let rule = sums.rule;
+    let rule_white = sums.rule_white;
+    let rule_r = sums.rule_r;
     // As the numpy twin: the zone's mean R times its exact box, plus the rule on the rest.
     let mean = rule_r / (lambda_hi - lambda_lo);
     return rule + mean * (cumulative_xyz(lambda_hi) - cumulative_xyz(lambda_lo) - rule_white);
