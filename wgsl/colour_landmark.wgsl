@@ -17,6 +17,15 @@
 // panels in the variable u of colour_methods._zone_map, which clusters nodes quadratically at
 // band edges (the square-root edge of the averaged spectrum is then smooth in u), against the
 // piecewise-linear XYZ density (colorimetry.xyz_density).
+//
+// Cost on lavapipe, which runs the invocations of a SIMD group in lockstep: it executes both
+// sides of every branch, masked, whatever the lanes take, but skips a loop that no lane
+// enters. So a node's formulas are branch-free and chosen per zone by which loop runs: the
+// averaged zones' nodes in one, the exact zones' in another (averaged_zone); below N = 16 the
+// exact R comes from an unrolled recurrence (EXACT_PERIODS) instead of matched_reflectance's
+// three branches. Writing the three Gauss points of a panel out in one iteration was measured
+// slower (1.91 against 1.55 us per colour): the larger loop body costs more than the loop's
+// bookkeeping.
 
 // colour_methods.PANEL_NM, PANELS_PER_OSCILLATION, PANEL_MARGIN, PHASE_SNAP,
 // AVERAGING_MIN_PERIODS and EXACT_MIN_OSCILLATION_NM.
@@ -124,22 +133,24 @@ fn gap_reflectance(t: CellTerms, periods: u32) -> f32 {
                  0.0, 1.0);
 }
 
-// Largest |cos K Lambda| the recurrence sees: U_14(256) is below float32's range. Only
-// impedance ratios beyond 500 reach it, where R rounds to 1 anyway.
-const RECURRENCE_MAX_X: f32 = 256.0;
+// Largest |x| - 1 (x = cos K Lambda) the recurrence sees: U_14(256) is below float32's
+// range. Only impedance ratios beyond 500 reach it, where R rounds to 1 anyway.
+const RECURRENCE_MAX_EXCESS: f32 = 255.0;
 
-// Eq 9 with U_{N-1}(x) from its three-term recurrence U_{k+1} = 2x U_k - U_{k-1}: one formula
-// for pass bands, band edges and gaps, with no branch and no transcendental, for the few
-// periods (below AVERAGING_MIN_PERIODS) where the loop is short; `periods` is a pipeline
-// constant, so the loop unrolls.
+// Eq 9 with U_{N-1}(x) from its three-term recurrence: one formula for pass bands, band edges
+// and gaps, with no branch and no transcendental, for the few periods (below
+// AVERAGING_MIN_PERIODS) where the loop is short; `periods` is a pipeline constant, so the
+// loop unrolls. R needs U^2 only, and U_k(-x) = (-1)^k U_k(x), so the recurrence runs at |x|
+// in Reinsch's form, driven by d = |x| - 1 = -sin^2 K Lambda / (1 + |x|): sin^2 keeps its
+// relative accuracy at band edges (mode_terms_at), where x itself is rounded by up to
+// rho ulp, far from 1 ulp at grazing incidence.
 fn recurrence_reflectance(t: CellTerms, periods: u32) -> f32 {
-    let x = clamp(t.x, -RECURRENCE_MAX_X, RECURRENCE_MAX_X);
-    var u_prev = 0.0;
-    var u = 1.0;
+    let d = min(-t.sin2 / (1.0 + abs(t.x)), RECURRENCE_MAX_EXCESS);
+    var u = 1.0;        // U_k
+    var change = 1.0;   // U_k - U_{k-1}
     for (var k = 1u; k < periods; k++) {
-        let next = 2.0 * x * u - u_prev;
-        u_prev = u;
-        u = next;
+        change += 2.0 * d * u;
+        u += change;
     }
     let a = min(min(abs(t.W), MAX_AMPLITUDE) * abs(u), 1e18);
     let a2 = a * a;
@@ -312,8 +323,10 @@ fn averaged_zone(c: ColourSetup, lo: f32, hi: f32, lower_edge: bool, upper_edge:
     let width_nm = TWO_PI / lo - TWO_PI / hi;
     var panels = u32(max(ceil(width_nm * (1.0 / PANEL_NM)), 1.0));
     let oscillations = f32(c.mirror.periods) * share;
-    let exact = (c.mirror.periods < AVERAGING_MIN_PERIODS
-                 && (!c.evanescent || width_nm >= EXACT_MIN_OSCILLATION_NM * oscillations))
+    // EXACT_PERIODS: every zone is exact, and the averaged loop compiles out.
+    let exact = EXACT_PERIODS > 0u
+        || (c.mirror.periods < AVERAGING_MIN_PERIODS
+            && (!c.evanescent || width_nm >= EXACT_MIN_OSCILLATION_NM * oscillations))
         || (share > 0.0 && width_nm > PANEL_NM * oscillations);
     if (exact) {
         panels = max(panels, u32(max(ceil(PANELS_PER_OSCILLATION * oscillations - PANEL_MARGIN),
