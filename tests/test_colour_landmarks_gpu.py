@@ -17,6 +17,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import load_tool
 
 from wgbragg import BraggMirror, colour_landmarks_gpu, gpu
 from wgbragg import colour_methods as cm
@@ -179,6 +180,58 @@ def test_averaged_zones_match_numpy_in_xyz(mirror, theta):
     expected = cm.averaged_xyz(mirror, theta32)
     gpu = colour_landmarks_gpu.landmark_xyz(mirror, theta32, "averaged")
     np.testing.assert_allclose(gpu, expected, rtol=0.0, atol=ZONES_ATOL)
+
+
+# Below N = 16 with host == n1 <= n2 every zone is exact, and the pipeline compiles N into an
+# unrolled recurrence for U_{N-1} (EXACT_PERIODS in wgsl/colour_landmark.wgsl): one pipeline
+# per N, with no branch between pass bands, band edges and gaps.
+EXACT_LAYERS = {
+    "n2=1.5": (1.5, 100.0, 150.0),
+    "n2=4": (4.0, 80.0, 60.0),
+    "n2=100": (100.0, 100.0, 5.0),  # |cos K Lambda| up to ~50: U_14 near float32's range
+}
+
+
+@pytest.mark.parametrize("periods", [1, 2, 7, 15, 16])
+@pytest.mark.parametrize("layers", EXACT_LAYERS.values(), ids=EXACT_LAYERS.keys())
+def test_averaged_exact_spectrum_pipelines_match_numpy(periods, layers):
+    n2, d1, d2 = layers
+    mirror = BraggMirror(1.0, n2, d1, d2, periods)
+    theta = np.float32(np.arange(0.0, 90.0, 7.5) * DEG).astype(np.float64)
+    expected = cm.averaged_xyz(mirror, theta)
+    got = colour_landmarks_gpu.landmark_xyz(mirror, theta, "averaged")
+    assert np.all(np.isfinite(got))
+    assert delta_e(got, expected).max() <= ISSUE_DE
+
+
+@pytest.mark.parametrize(("mirror", "specialised"), [
+    (BraggMirror(1.0, 1.5, 100.0, 150.0, 15), 15),
+    (BraggMirror(1.0, 1.5, 100.0, 150.0, 16), 0),  # averaged zones: N read at run time
+    (BraggMirror(1.5, 1.0, 100.0, 150.0, 5), 0),  # n2 evanescent at some angles
+    (BraggMirror(1.59, 1.67, 81.6, 78.4, 8, host=1.0), 0),  # Appendix D host
+])
+def test_exact_periods_specialise_only_pipelines_whose_zones_are_all_exact(mirror, specialised):
+    kernel, _ = colour_landmarks_gpu._kernel_and_params(mirror, "averaged", 3)
+    assert kernel.constants["EXACT_PERIODS"] == specialised
+
+
+def test_exact_periods_are_for_averaged_only():
+    kernel, _ = colour_landmarks_gpu._kernel_and_params(GRID[0], "subdivided", 3)
+    assert GRID[0].N < cm.AVERAGING_MIN_PERIODS
+    assert kernel.constants["EXACT_PERIODS"] == 0
+
+
+def test_averaged_exact_spectrum_at_extreme_grazing_is_near_the_converged_integral():
+    """At 89.99 degrees (|W| ~ 1e3) the exact spectrum has transmission dips narrower than
+    float32 resolves in x = cos K Lambda; the numpy twin's nodes land on some of them. Its
+    colour is then 0.78 dE2000 from a converged integral, the float32 kernel's 0.07, and the
+    twins 0.7 apart: here the GPU is the better of the two."""
+    mirror = BraggMirror(1.0, 1.50001, 100.0, 100.0, 12)
+    theta = np.array([float(np.float32(89.99 * DEG))])
+    with load_tool("bench_rgb") as bench_rgb:
+        converged = bench_rgb.fine_xyz(mirror, theta, 0.002)
+    got = colour_landmarks_gpu.landmark_xyz(mirror, theta, "averaged")
+    assert delta_e(got, converged).max() <= 0.2
 
 
 # --------------------------------------------------------------------------- API and edges
