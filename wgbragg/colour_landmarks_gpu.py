@@ -7,7 +7,11 @@ dispersion in the mode coordinate, ``wgsl/landmarks.wgsl``) and integrates each 
 interval as it is reached (``wgsl/colour_landmark.wgsl``): O(1) in N, no per-angle storage.
 "averaged" sweeps both polarisations at once, over the zones between their band edges.
 Pipelines are specialised on the method and on ``host == n1``; ``s`` of "subdivided" is a
-uniform, so any ``s`` reuses one pipeline.
+uniform, so any ``s`` reuses one pipeline. "averaged" below
+:data:`~wgbragg.colour_methods.AVERAGING_MIN_PERIODS` with ``host == n1 <= n2``, where every
+zone is integrated through the exact spectrum, is also specialised on N (``EXACT_PERIODS``):
+the kernel unrolls the recurrence of ``U_{N-1}`` and compiles the averaged zones out, one
+pipeline per N (lavapipe runs both sides of every branch, so what is compiled in is paid for).
 
 Table, built once per process in float64 and uploaded as a float32 storage buffer: ``cmf``,
 the XYZ density at the 1 nm nodes 360..830 nm (:func:`colorimetry.xyz_density`, linear in
