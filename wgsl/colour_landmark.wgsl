@@ -114,25 +114,6 @@ fn averaged_pass_band_reflectance(m: BraggMirror, g: CellGeometry, polarization:
     return phase_averaged_host(t, e1, root, fresnel_host_n1(m, g, polarization));
 }
 
-// Eq 9 inside a band gap (sin2 <= 0) or at its edge, as matched_reflectance there: the pass
-// band's branches are left out, since lavapipe runs both sides of every branch.
-fn gap_reflectance(t: CellTerms, periods: u32) -> f32 {
-    let w = min(abs(t.W), MAX_AMPLITUDE);
-    let w2 = w * w;
-    let n = f32(periods);
-    let root = sqrt(max(-t.sin2, 0.0));
-    let y = 2.0 * n * asinh_accurate(root);
-    let e = exp(-0.5 * y);
-    let one_minus = select(1.0 - e * e, y * (1.0 - y * (0.5 - y * (1.0 / 6.0 - y * (1.0 / 24.0)))),
-                           y < 0.03);
-    let numerator = w2 * one_minus * one_minus;
-    let denominator = numerator + 4.0 * root * root * e * e;
-    // The edge itself (root = 0): U = N.
-    let edge = w2 * n * n;
-    return clamp(select(numerator / max(denominator, 1e-37), edge / (1.0 + edge), root < 1e-30),
-                 0.0, 1.0);
-}
-
 // Largest |x| - 1 (x = cos K Lambda) the recurrence sees: U_14(256) is below float32's
 // range. Only impedance ratios beyond 500 reach it, where R rounds to 1 anyway.
 const RECURRENCE_MAX_EXCESS: f32 = 255.0;

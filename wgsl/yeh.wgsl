@@ -184,37 +184,46 @@ fn phase_unresolved(t: CellTerms, cell_cycles: f32, turns: f32, root: f32, n: f3
     return turns > 1.0 && phase_error > PHASE_TOLERANCE;
 }
 
-// Eqs 2 and 9 (host == n1): R = |C|^2 U^2 / (1 + |C|^2 U^2), U = U_{N-1}(x), formed as one
-// quotient that never overflows. Pass band: U = sin(N phi) / sin(phi), sin^2(phi) = sin2.
-// Gap: 1/U = sinh(mu) / sinh(N mu) with sinh(mu) = sqrt(-sin2), scaled by e^{-N mu}.
-fn matched_reflectance(t: CellTerms, cell_cycles: f32, periods: u32) -> f32 {
-    let w_capped = min(abs(t.W), MAX_AMPLITUDE);
-    let w2 = w_capped * w_capped;
+// Eq 9 (host == n1) inside a band gap (sin2 <= 0) or at a band edge: 1/U = sinh(mu) /
+// sinh(N mu) with sinh(mu) = sqrt(-sin2), scaled by e^{-N mu}; U = N at the edge. Apart from
+// matched_reflectance for callers that know the node is not in a pass band (lavapipe runs
+// both sides of every branch, so leaving the pass band's out saves its cost).
+fn gap_reflectance(t: CellTerms, periods: u32) -> f32 {
+    let w = min(abs(t.W), MAX_AMPLITUDE);
+    let w2 = w * w;
     let n = f32(periods);
+    let root = sqrt(max(-t.sin2, 0.0));
+    let y = 2.0 * n * asinh_accurate(root);
+    let e = exp(-0.5 * y);
+    let one_minus = select(1.0 - e * e, y * (1.0 - y * (0.5 - y * (1.0 / 6.0 - y * (1.0 / 24.0)))),
+                           y < 0.03);
+    let numerator = w2 * one_minus * one_minus;
+    let denominator = numerator + 4.0 * root * root * e * e;
+    // The edge itself (root = 0): U = N.
+    let edge = w2 * n * n;
+    return clamp(select(numerator / max(denominator, 1e-37), edge / (1.0 + edge), root < 1e-30),
+                 0.0, 1.0);
+}
+
+// Eqs 2 and 9 (host == n1): R = |C|^2 U^2 / (1 + |C|^2 U^2), U = U_{N-1}(x), formed as one
+// quotient that never overflows. Pass band: U = sin(N phi) / sin(phi), sin^2(phi) = sin2;
+// gaps and band edges: gap_reflectance.
+fn matched_reflectance(t: CellTerms, cell_cycles: f32, periods: u32) -> f32 {
     let root = sqrt(abs(t.sin2));
-    var numerator: f32;
-    var denominator: f32;
-    if (root < 1e-30) {
-        numerator = w2 * n * n;  // band edge: U = N
-        denominator = 1.0 + numerator;
-    } else if (t.sin2 > 0.0) {
+    if (t.sin2 > 0.0 && root >= 1e-30) {
+        let w_capped = min(abs(t.W), MAX_AMPLITUDE);
+        let w2 = w_capped * w_capped;
+        let n = f32(periods);
         let turns = n * atan2_cycles_positive(root, abs(t.x));
         if (phase_unresolved(t, cell_cycles, turns, root, n)) {
             // Mean over psi of W^2 sin^2 psi / (sin^2 phi + W^2 sin^2 psi).
             return clamp(1.0 - root / sqrt(w2 + t.sin2), 0.0, 1.0);
         }
         let s = sin_cycles(turns);
-        numerator = w2 * s * s;
-        denominator = t.sin2 + numerator;
-    } else {
-        let y = 2.0 * n * asinh_accurate(root);
-        let e = exp(-0.5 * y);
-        let one_minus = select(1.0 - e * e, y * (1.0 - y * (0.5 - y * (1.0 / 6.0 - y * (1.0 / 24.0)))),
-                               y < 0.03);
-        numerator = w2 * one_minus * one_minus;
-        denominator = numerator + 4.0 * root * root * e * e;
+        let numerator = w2 * s * s;
+        return clamp(numerator / max(t.sin2 + numerator, 1e-37), 0.0, 1.0);
     }
-    return clamp(numerator / max(denominator, 1e-37), 0.0, 1.0);
+    return gap_reflectance(t, periods);
 }
 
 // Appendix D host, averaged over psi: with z = e^{2 i psi} the host reflection is a Moebius map
