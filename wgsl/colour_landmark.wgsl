@@ -325,12 +325,10 @@ fn averaged_zone(c: ColourSetup, lo: f32, hi: f32, lower_edge: bool, upper_edge:
     for (var n = 0u; n < select(0u, nodes, exact); n++) {
         zone_node(c, &sums, n, lo, span, inv_panels, lower_edge, upper_edge, true);
     }
-    let rule = sums.rule;
-    let rule_white = sums.rule_white;
-    let rule_r = sums.rule_r;
     // As the numpy twin: the zone's mean R times its exact box, plus the rule on the rest.
-    let mean = rule_r / (lambda_hi - lambda_lo);
-    return rule + mean * (cumulative_xyz(lambda_hi) - cumulative_xyz(lambda_lo) - rule_white);
+    let mean = sums.rule_r / (lambda_hi - lambda_lo);
+    return sums.rule
+        + mean * (cumulative_xyz(lambda_hi) - cumulative_xyz(lambda_lo) - sums.rule_white);
 }
 
 // ----------------------------------------------------------------------------- the sweeps
