@@ -139,10 +139,12 @@ fn recurrence_reflectance(t: CellTerms, periods: u32) -> f32 {
 }
 
 // R of one polarisation at a node of "averaged", from its frame and the node's mode_phases:
-// exact in an exact zone (colour_methods._quadrature), else averaged in pass bands.
-// exact is a literal at every call, so each variant compiles only its own formulas.
+// exact in an exact zone (colour_methods._quadrature), else averaged in pass bands; gaps:
+// whether the zone may hold a band gap of either polarisation (else the gap formula, which
+// a zone between band edges of both pass bands never needs, is left out). exact and gaps
+// are literals at every call, so each variant compiles only its own formulas.
 fn mode_node_reflectance(f: ModeFrame, phases: vec4<f32>, t: f32, periods: u32,
-                         exact: bool) -> f32 {
+                         exact: bool, gaps: bool) -> f32 {
     let terms = mode_terms_at(f, phases);
     if (exact) {
         if (EXACT_PERIODS > 0u) {
@@ -152,6 +154,10 @@ fn mode_node_reflectance(f: ModeFrame, phases: vec4<f32>, t: f32, periods: u32,
     }
     let w = min(abs(terms.W), MAX_AMPLITUDE);
     let averaged = clamp(1.0 - sqrt(terms.sin2 / (w * w + terms.sin2)), 0.0, 1.0);
+    if (!gaps) {
+        // A node a rounding error past a band edge: R -> 1 there.
+        return select(1.0, averaged, terms.sin2 > 0.0);
+    }
     return select(gap_reflectance(terms, periods), averaged, terms.sin2 > 0.0);
 }
 
@@ -163,13 +169,13 @@ fn geometry_node_reflectance(c: ColourSetup, g: CellGeometry, polarization: u32,
     return averaged_pass_band_reflectance(c.mirror, g, polarization, c.host_matched);
 }
 
-// Unpolarised R at one quadrature node of "averaged".
-fn node_reflectance(c: ColourSetup, omega: f32, exact: bool) -> f32 {
+// Unpolarised R at one quadrature node of "averaged" (exact, gaps: mode_node_reflectance).
+fn node_reflectance(c: ColourSetup, omega: f32, exact: bool, gaps: bool) -> f32 {
     if (c.fast) {
         let t = omega * c.frame.n_plus * (1.0 / PI);
         let phases = mode_phases(c.frame, t);
-        return 0.5 * (mode_node_reflectance(c.frame, phases, t, c.mirror.periods, exact)
-            + mode_node_reflectance(c.frame_p, phases, t, c.mirror.periods, exact));
+        return 0.5 * (mode_node_reflectance(c.frame, phases, t, c.mirror.periods, exact, gaps)
+            + mode_node_reflectance(c.frame_p, phases, t, c.mirror.periods, exact, gaps));
     }
     let g = geometry_at(c.mirror, c.angle, TWO_PI / omega);
     return 0.5 * (geometry_node_reflectance(c, g, 0u, exact)
@@ -274,7 +280,7 @@ struct ZoneSums {
 
 // Node n of averaged_zone (panel n / 3, Gauss point n % 3).
 fn zone_node(c: ColourSetup, sums: ptr<function, ZoneSums>, n: u32, lo: f32, span: f32,
-             inv_panels: f32, lower_edge: bool, upper_edge: bool, exact: bool) {
+             inv_panels: f32, lower_edge: bool, upper_edge: bool, exact: bool, gaps: bool) {
     let k = n % 3u;
     let offset = select(select(GAUSS_OFFSET, -GAUSS_OFFSET, k == 0u), 0.0, k == 1u);
     let map = zone_map((f32(n / 3u) + 0.5 + offset) * inv_panels, lower_edge, upper_edge);
@@ -283,7 +289,7 @@ fn zone_node(c: ColourSetup, sums: ptr<function, ZoneSums>, n: u32, lo: f32, spa
     // The rule's weight times d lambda = 2 pi / omega^2 d omega = lambda^2 / (2 pi) d omega.
     let weight = select(GAUSS_OUTER, GAUSS_INNER, k == 1u) * inv_panels * span * map.y
         * wavelength * wavelength * (1.0 / TWO_PI);
-    let r = weight * node_reflectance(c, omega, exact);
+    let r = weight * node_reflectance(c, omega, exact, gaps);
     let density = density_xyz(wavelength);
     (*sums).rule += r * density;
     (*sums).rule_white += weight * density;
@@ -292,9 +298,9 @@ fn zone_node(c: ColourSetup, sums: ptr<function, ZoneSums>, n: u32, lo: f32, spa
 
 // "averaged" over the zone [lo, hi] (rad/nm) between band edges or range ends, which holds
 // `share` of a pass band: the panels and exact flag of colour_methods._quadrature, three
-// Gauss nodes a panel.
+// Gauss nodes a panel. both_pass: both polarisations are in a pass band across the zone.
 fn averaged_zone(c: ColourSetup, lo: f32, hi: f32, lower_edge: bool, upper_edge: bool,
-                 share: f32) -> vec3<f32> {
+                 share: f32, both_pass: bool) -> vec3<f32> {
     // Empty, or narrower than float32 resolves in wavelength: s and p edges a few ulps apart.
     let lambda_lo = TWO_PI / hi;
     let lambda_hi = TWO_PI / lo;
@@ -316,14 +322,19 @@ fn averaged_zone(c: ColourSetup, lo: f32, hi: f32, lower_edge: bool, upper_edge:
     let span = hi - lo;
     let inv_panels = 1.0 / f32(panels);
     var sums: ZoneSums;
-    // Two loops, of which each zone enters one: lavapipe runs both sides of a branch but
-    // skips a loop that no invocation enters.
+    // Three loops, of which each zone enters one: lavapipe runs both sides of a branch but
+    // skips a loop that no invocation enters. Most averaged zones lie in the pass bands of
+    // both polarisations, and skip the gap formula (a fifth of their time).
     let nodes = 3u * panels;
-    for (var n = 0u; n < select(nodes, 0u, exact); n++) {
-        zone_node(c, &sums, n, lo, span, inv_panels, lower_edge, upper_edge, false);
+    let averaged_pass = select(0u, nodes, !exact && both_pass);
+    for (var n = 0u; n < averaged_pass; n++) {
+        zone_node(c, &sums, n, lo, span, inv_panels, lower_edge, upper_edge, false, false);
+    }
+    for (var n = 0u; n < select(0u, nodes, !exact && !both_pass); n++) {
+        zone_node(c, &sums, n, lo, span, inv_panels, lower_edge, upper_edge, false, true);
     }
     for (var n = 0u; n < select(0u, nodes, exact); n++) {
-        zone_node(c, &sums, n, lo, span, inv_panels, lower_edge, upper_edge, true);
+        zone_node(c, &sums, n, lo, span, inv_panels, lower_edge, upper_edge, true, true);
     }
     // As the numpy twin: the zone's mean R times its exact box, plus the rule on the rest.
     let mean = sums.rule_r / (lambda_hi - lambda_lo);
@@ -407,7 +418,9 @@ fn zone_close(c: ColourSetup, zones: ptr<function, Zones>, omega: f32, is_edge: 
     let phases = bloch_phases(c, omega, is_edge);
     let sweep = select(abs(phases - (*zones).lo_phases), vec2<f32>(0.0), in_gap);
     let share = max(sweep.x, sweep.y) * (1.0 / PI);
-    (*zones).xyz += averaged_zone(c, (*zones).lo, omega, (*zones).lo_edge, is_edge, share);
+    // A polarisation in a gap across the zone has the same phase, 0 or pi, at both ends.
+    (*zones).xyz += averaged_zone(c, (*zones).lo, omega, (*zones).lo_edge, is_edge, share,
+                                  all(sweep > vec2<f32>(0.0)));
     (*zones).lo = omega;
     (*zones).lo_edge = true;
     (*zones).lo_phases = phases;
