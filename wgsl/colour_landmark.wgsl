@@ -298,9 +298,10 @@ fn zone_node(c: ColourSetup, sums: ptr<function, ZoneSums>, n: u32, lo: f32, spa
 
 // "averaged" over the zone [lo, hi] (rad/nm) between band edges or range ends, which holds
 // `share` of a pass band: the panels and exact flag of colour_methods._quadrature, three
-// Gauss nodes a panel. both_pass: both polarisations are in a pass band across the zone.
+// Gauss nodes a panel. both_pass: both polarisations are in a pass band across the zone;
+// box: the zone's integral of the density, cumulative_xyz(2 pi / lo) - (2 pi / hi).
 fn averaged_zone(c: ColourSetup, lo: f32, hi: f32, lower_edge: bool, upper_edge: bool,
-                 share: f32, both_pass: bool) -> vec3<f32> {
+                 share: f32, both_pass: bool, box: vec3<f32>) -> vec3<f32> {
     // Empty, or narrower than float32 resolves in wavelength: s and p edges a few ulps apart.
     let lambda_lo = TWO_PI / hi;
     let lambda_hi = TWO_PI / lo;
@@ -339,7 +340,7 @@ fn averaged_zone(c: ColourSetup, lo: f32, hi: f32, lower_edge: bool, upper_edge:
     // As the numpy twin: the zone's mean R times its exact box, plus the rule on the rest.
     let mean = sums.rule_r / (lambda_hi - lambda_lo);
     return sums.rule
-        + mean * (cumulative_xyz(lambda_hi) - cumulative_xyz(lambda_lo) - sums.rule_white);
+        + mean * (box - sums.rule_white);
 }
 
 // ----------------------------------------------------------------------------- the sweeps
@@ -404,10 +405,12 @@ struct Zones {
     lo: f32,              // the open zone's start, rad/nm
     lo_edge: bool,        // whether that is a band edge (else the range's start)
     lo_phases: vec2<f32>, // bloch_phases there
+    lo_cumulative: vec3<f32>, // cumulative_xyz there (read once per zone end)
 }
 
 fn zones_start(c: ColourSetup) -> Zones {
-    return Zones(vec3<f32>(0.0), OMEGA_LO, false, bloch_phases(c, OMEGA_LO, false));
+    return Zones(vec3<f32>(0.0), OMEGA_LO, false, bloch_phases(c, OMEGA_LO, false),
+                 cumulative_xyz(TWO_PI / OMEGA_LO));
 }
 
 // Integrates the open zone up to omega (a band edge iff is_edge) and opens the next there.
@@ -418,12 +421,15 @@ fn zone_close(c: ColourSetup, zones: ptr<function, Zones>, omega: f32, is_edge: 
     let phases = bloch_phases(c, omega, is_edge);
     let sweep = select(abs(phases - (*zones).lo_phases), vec2<f32>(0.0), in_gap);
     let share = max(sweep.x, sweep.y) * (1.0 / PI);
+    let cumulative = cumulative_xyz(TWO_PI / omega);
     // A polarisation in a gap across the zone has the same phase, 0 or pi, at both ends.
     (*zones).xyz += averaged_zone(c, (*zones).lo, omega, (*zones).lo_edge, is_edge, share,
-                                  all(sweep > vec2<f32>(0.0)));
+                                  all(sweep > vec2<f32>(0.0)),
+                                  (*zones).lo_cumulative - cumulative);
     (*zones).lo = omega;
     (*zones).lo_edge = true;
     (*zones).lo_phases = phases;
+    (*zones).lo_cumulative = cumulative;
 }
 
 // With n2 evanescent, the polarisations in a gap at the middle of the zone ending at omega:
