@@ -169,9 +169,10 @@ fn geometry_node_reflectance(c: ColourSetup, g: CellGeometry, polarization: u32,
     return averaged_pass_band_reflectance(c.mirror, g, polarization, c.host_matched);
 }
 
-// Unpolarised R at one quadrature node of "averaged" (exact, gaps: mode_node_reflectance).
+// Unpolarised R at one quadrature node of "averaged" (exact, gaps: mode_node_reflectance;
+// only the mode-coordinate path leaves the gap formula out, so !gaps implies c.fast).
 fn node_reflectance(c: ColourSetup, omega: f32, exact: bool, gaps: bool) -> f32 {
-    if (c.fast) {
+    if (c.fast || !gaps) {
         let t = omega * c.frame.n_plus * (1.0 / PI);
         let phases = mode_phases(c.frame, t);
         return 0.5 * (mode_node_reflectance(c.frame, phases, t, c.mirror.periods, exact, gaps)
@@ -327,11 +328,12 @@ fn averaged_zone(c: ColourSetup, lo: f32, hi: f32, lower_edge: bool, upper_edge:
     // skips a loop that no invocation enters. Most averaged zones lie in the pass bands of
     // both polarisations, and skip the gap formula (a fifth of their time).
     let nodes = 3u * panels;
-    let averaged_pass = select(0u, nodes, !exact && both_pass);
-    for (var n = 0u; n < averaged_pass; n++) {
+    // (The geometry path has no gap formula to skip.)
+    let pass_loop = both_pass && c.fast;
+    for (var n = 0u; n < select(0u, nodes, !exact && pass_loop); n++) {
         zone_node(c, &sums, n, lo, span, inv_panels, lower_edge, upper_edge, false, false);
     }
-    for (var n = 0u; n < select(0u, nodes, !exact && !both_pass); n++) {
+    for (var n = 0u; n < select(0u, nodes, !exact && !pass_loop); n++) {
         zone_node(c, &sums, n, lo, span, inv_panels, lower_edge, upper_edge, false, true);
     }
     for (var n = 0u; n < select(0u, nodes, exact); n++) {
