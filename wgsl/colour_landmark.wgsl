@@ -20,12 +20,12 @@
 //
 // Cost on lavapipe, which runs the invocations of a SIMD group in lockstep: it executes both
 // sides of every branch, masked, whatever the lanes take, but skips a loop that no lane
-// enters. So a node's formulas are branch-free and chosen per zone by which loop runs: the
-// averaged zones' nodes in one, the exact zones' in another (averaged_zone); below N = 16 the
-// exact R comes from an unrolled recurrence (EXACT_PERIODS) instead of matched_reflectance's
-// three branches. Writing the three Gauss points of a panel out in one iteration was measured
-// slower (1.91 against 1.55 us per colour): the larger loop body costs more than the loop's
-// bookkeeping.
+// enters. So a node's formulas are branch-free and chosen per zone by which loop runs
+// (averaged_zone): exact, averaged, or averaged in the pass bands of both polarisations (no
+// gap formula); below N = 16 the exact R comes from an unrolled recurrence (EXACT_PERIODS)
+// instead of matched_reflectance's three branches. Writing the three Gauss points of a panel
+// out in one iteration was measured slower (1.91 against 1.55 us per colour): the loop's
+// bookkeeping costs next to nothing, the larger body does.
 
 // colour_methods.PANEL_NM, PANELS_PER_OSCILLATION, PANEL_MARGIN, PHASE_SNAP,
 // AVERAGING_MIN_PERIODS and EXACT_MIN_OSCILLATION_NM.
