@@ -335,3 +335,39 @@ def test_mirrors_without_an_n2_layer_have_their_exact_colour(mirror, backend):
     for method in methods:
         got = mirror.xyz(theta, method=method, backend=backend)
         np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-7, err_msg=method)
+
+
+def _unpack_slopes(words: np.ndarray) -> np.ndarray:
+    """Independent decoder of colour_landmarks_gpu.pack_density_slopes (two's complement)."""
+    words = words.astype(np.int64)
+    channels = []
+    shift = 0
+    for bits in colour_landmarks_gpu.DENSITY_SLOPE_BITS:
+        value = (words >> shift) & ((1 << bits) - 1)
+        channels.append(np.where(value >= 1 << (bits - 1), value - (1 << bits), value))
+        shift += bits
+    return np.stack(channels, axis=-1) * colour_landmarks_gpu.DENSITY_SLOPE_STEP
+
+
+def test_packed_table_holds_the_densities_and_their_slopes_within_half_a_step():
+    cmf = colour_landmarks_gpu._cmf_table()
+    packed = colour_landmarks_gpu._packed_cmf_table()
+    nodes = cmf.shape[0] // 2
+    np.testing.assert_array_equal(packed[:, :3].view(np.float32), cmf[:, :3])
+    slope = np.diff(cmf[:nodes, :3].astype(np.float64), axis=0)
+    error = np.abs(_unpack_slopes(packed[: nodes - 1, 3]) - slope)
+    assert np.all(error <= colour_landmarks_gpu.DENSITY_SLOPE_STEP / 2)
+    # The steps are not needlessly coarse: the slopes span most of the range (85, 82, 73 %).
+    limit = (2 ** (np.array(colour_landmarks_gpu.DENSITY_SLOPE_BITS) - 1) - 1
+             ) * colour_landmarks_gpu.DENSITY_SLOPE_STEP
+    assert np.all(np.abs(slope).max(axis=0) > 0.5 * limit)
+    assert not np.any(packed[nodes - 1 :, 3])
+
+
+def test_pack_density_slopes_refuses_slopes_that_do_not_fit():
+    step = colour_landmarks_gpu.DENSITY_SLOPE_STEP
+    edge = np.array([1023, -1023, -511]) * step
+    np.testing.assert_allclose(_unpack_slopes(colour_landmarks_gpu.pack_density_slopes(edge)),
+                               edge)
+    with pytest.raises(ValueError, match="slope"):
+        colour_landmarks_gpu.pack_density_slopes(edge + np.array([0.0, 0.0, -step[2]]))

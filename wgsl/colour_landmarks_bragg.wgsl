@@ -2,7 +2,9 @@
 // per angle theta[i], both polarisations averaged: the "approx", "subdivided" and "averaged"
 // colour methods (wgbragg/colour_methods.py; physics in colour_landmark.wgsl). Tables
 // (wgbragg/colour_landmarks_gpu.py, built once in float64):
-//   cmf[j] = density at node 360 + j nm (per nm), cmf[471 + j] = its cumulative integral.
+//   cmf[j] = density at node 360 + j nm (per nm, float32 bits) with w the slope of the cell
+//   [j, j + 1] (colour_landmark.wgsl, density_slope_from_bits), cmf[471 + j] = the cumulative
+//   integral (float32 bits).
 //! include "harness.wgsl"
 //! include "numerics.wgsl"
 //! include "complex.wgsl"
@@ -31,17 +33,22 @@ struct LandmarkColourParams {
 }
 
 @group(0) @binding(0) var<storage, read> theta: array<f32>;
-@group(0) @binding(1) var<storage, read> cmf: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read> cmf: array<vec4<u32>>;
 @group(0) @binding(2) var<storage, read_write> xyz: array<vec4<f32>>;  // w = 1 where llvmpipe cut the loops short
 @group(0) @binding(3) var<uniform> params: LandmarkColourParams;
 
 const CMF_NODES: u32 = 471u;
 fn cmf_density(j: u32) -> vec3<f32> {
-    return cmf[j].xyz;
+    return bitcast<vec3<f32>>(cmf[j].xyz);
 }
 
 fn cmf_cumulative(j: u32) -> vec3<f32> {
-    return cmf[CMF_NODES + j].xyz;
+    return bitcast<vec3<f32>>(cmf[CMF_NODES + j].xyz);
+}
+
+fn cmf_cell(j: u32) -> DensityCell {
+    let row = cmf[j];
+    return DensityCell(bitcast<vec3<f32>>(row.xyz), density_slope_from_bits(row.w));
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)

@@ -15,7 +15,8 @@
 // LayeredStructure, read by the caller from wherever it keeps its materials.
 //
 // Requires numerics, complex, layer, yeh, landmarks, colour_landmark, ggx and layered.wgsl.
-// Provides colour_landmark's cmf_density and cmf_cumulative (from `tables`). The includer
+// Provides colour_landmark's cmf_density, cmf_cumulative and cmf_cell (from `tables`, in
+// float32: two loads a cell). The includer
 // provides
 //   fn layer_transmissivity(layer: RoughLayer, row: Lerp, column: Lerp) -> f32
 // the layer's transmissivity table (below) bilinear at (row, column), from wherever it keeps
@@ -140,6 +141,11 @@ fn cmf_density(j: u32) -> vec3<f32> {
 
 fn cmf_cumulative(j: u32) -> vec3<f32> {
     return table_vec3(4u * (VISIBLE_NODES + j));
+}
+
+fn cmf_cell(j: u32) -> DensityCell {
+    let density = cmf_density(j);
+    return DensityCell(density, cmf_density(j + 1u) - density);
 }
 
 fn xyz_to_linear_srgb(xyz: vec3<f32>) -> vec3<f32> {
