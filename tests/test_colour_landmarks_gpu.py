@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import re
 
 import numpy as np
 import pytest
@@ -369,5 +370,20 @@ def test_pack_density_slopes_refuses_slopes_that_do_not_fit():
     edge = np.array([1023, -1023, -511]) * step
     np.testing.assert_allclose(_unpack_slopes(colour_landmarks_gpu.pack_density_slopes(edge)),
                                edge)
-    with pytest.raises(ValueError, match="slope"):
-        colour_landmarks_gpu.pack_density_slopes(edge + np.array([0.0, 0.0, -step[2]]))
+    for bad in (edge + np.array([0.0, 0.0, -step[2]]), np.array([np.nan, 0.0, 0.0]),
+                np.array([1e30, 0.0, 0.0])):
+        with pytest.raises(ValueError, match="slope"):
+            colour_landmarks_gpu.pack_density_slopes(bad)
+
+
+def test_the_kernel_unpacks_the_slopes_as_python_packs_them():
+    """The WGSL decoder's steps and bit fields are colour_landmarks_gpu's (a step off by 2x
+    would move the density by up to its slope, below what the colour twins resolve)."""
+    source = (gpu.shader_dir() / "colour_landmark.wgsl").read_text()
+    steps = re.search(r"DENSITY_SLOPE_STEP: vec3<f32> = vec3<f32>\(([^)]*)\)", source)
+    np.testing.assert_array_equal(np.array(steps.group(1).split(","), float),
+                                  colour_landmarks_gpu.DENSITY_SLOPE_STEP)
+    fields = re.findall(r"extractBits\(word, (\d+)u, (\d+)u\)", source)
+    bits = colour_landmarks_gpu.DENSITY_SLOPE_BITS
+    offsets = np.cumsum((0, *bits[:-1]))
+    assert [(int(o), int(b)) for o, b in fields] == list(zip(offsets, bits, strict=True))

@@ -16,8 +16,7 @@
 //
 // Requires numerics, complex, layer, yeh, landmarks, colour_landmark, ggx and layered.wgsl.
 // Provides colour_landmark's cmf_density, cmf_cumulative and cmf_cell (from `tables`, in
-// float32: two loads a cell). The includer
-// provides
+// float32: two loads a cell). The includer provides
 //   fn layer_transmissivity(layer: RoughLayer, row: Lerp, column: Lerp) -> f32
 // the layer's transmissivity table (below) bilinear at (row, column), from wherever it keeps
 // it: `tables` at RoughLayer.transmissivity (render.wgsl), or a table of cell corners, one
