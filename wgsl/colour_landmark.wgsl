@@ -131,13 +131,11 @@ fn averaged_pass_band_reflectance(m: BraggMirror, g: CellGeometry, polarization:
         }
         return yeh_polarized(m, g, polarization, host_matched);
     }
-    let root = sqrt(t.sin2);
     if (host_matched) {
-        let w = min(abs(t.W), MAX_AMPLITUDE);
-        return clamp(1.0 - root / sqrt(w * w + t.sin2), 0.0, 1.0);
+        return phase_averaged_matched(t);
     }
     let e1 = c_exp_i(TWO_PI * centered_fraction(g.delta1_cycles));
-    return phase_averaged_host(t, e1, root, fresnel_host_n1(m, g, polarization));
+    return phase_averaged_host(t, e1, sqrt(t.sin2), fresnel_host_n1(m, g, polarization));
 }
 
 // Largest |x| - 1 (x = cos K Lambda) the recurrence sees: U_14(256) is below float32's
@@ -178,8 +176,7 @@ fn mode_node_reflectance(f: ModeFrame, phases: vec4<f32>, t: f32, periods: u32,
         }
         return matched_reflectance(terms, 0.5 * t, periods);  // delta1 + delta2 = pi t
     }
-    let w = min(abs(terms.W), MAX_AMPLITUDE);
-    let averaged = clamp(1.0 - sqrt(terms.sin2 / (w * w + terms.sin2)), 0.0, 1.0);
+    let averaged = phase_averaged_matched(terms);
     if (!gaps) {
         // A node a rounding error past a band edge: R -> 1 there.
         return select(1.0, averaged, terms.sin2 > 0.0);

@@ -205,6 +205,13 @@ fn gap_reflectance(t: CellTerms, periods: u32) -> f32 {
                  0.0, 1.0);
 }
 
+// Eq 9 (host == n1) in a pass band (sin2 > 0; NaN elsewhere), averaged over psi = N K Lambda:
+// the mean of W^2 sin^2 psi / (sin^2 phi + W^2 sin^2 psi) is 1 - sin phi / sqrt(W^2 + sin^2 phi).
+fn phase_averaged_matched(t: CellTerms) -> f32 {
+    let w = min(abs(t.W), MAX_AMPLITUDE);
+    return clamp(1.0 - sqrt(t.sin2 / (w * w + t.sin2)), 0.0, 1.0);
+}
+
 // Eqs 2 and 9 (host == n1): R = |C|^2 U^2 / (1 + |C|^2 U^2), U = U_{N-1}(x), formed as one
 // quotient that never overflows. Pass band: U = sin(N phi) / sin(phi), sin^2(phi) = sin2;
 // gaps and band edges: gap_reflectance.
@@ -216,8 +223,7 @@ fn matched_reflectance(t: CellTerms, cell_cycles: f32, periods: u32) -> f32 {
         let n = f32(periods);
         let turns = n * atan2_cycles_positive(root, abs(t.x));
         if (phase_unresolved(t, cell_cycles, turns, root, n)) {
-            // Mean over psi of W^2 sin^2 psi / (sin^2 phi + W^2 sin^2 psi).
-            return clamp(1.0 - root / sqrt(w2 + t.sin2), 0.0, 1.0);
+            return phase_averaged_matched(t);
         }
         let s = sin_cycles(turns);
         let numerator = w2 * s * s;
