@@ -180,6 +180,42 @@ def test_exact_spectra_get_panels_per_oscillation(theta):
         np.maximum(width_panels, PANELS_PER_OSCILLATION * mirror.N * share + 1))
 
 
+def test_averaged_options_set_the_exact_zones_and_their_panels():
+    """averaging_from: N below it integrates every zone exactly; panels_per_oscillation: the
+    panels an exact zone gets per oscillation (at least one per PANEL_NM of width)."""
+    mirror = BraggMirror(1.0, 1.5, 125.0, 375.0, 12)
+    lo, hi, _, _, share = zones(mirror, 0.4)
+    assert not _quadrature(mirror, lo, hi, share, False, averaging_from=12)[1].any()
+    assert _quadrature(mirror, lo, hi, share, False, averaging_from=13)[1].all()
+    width_panels = np.maximum(1, np.ceil((2 * np.pi / lo - 2 * np.pi / hi) / PANEL_NM))
+    totals = []
+    for per_oscillation in (1.0, 2.5, 8.0):
+        panels, _ = _quadrature(mirror, lo, hi, share, False, averaging_from=13,
+                                panels_per_oscillation=per_oscillation)
+        wanted = np.ceil(per_oscillation * mirror.N * share - 0.05)
+        np.testing.assert_array_equal(panels, np.maximum(width_panels, wanted))
+        totals.append(panels.sum())
+    assert totals[0] < totals[1] < totals[2]
+
+
+def test_averaged_speed_options_trade_accuracy_within_the_issue_bounds():
+    """The fastest settings README documents (averaging_from=10, panels_per_oscillation=1)
+    stay within the issue's bounds for N >= 10 against "reference" (measured on this grid:
+    mean 0.28, p95 0.66, max 1.7), and cost accuracy (defaults: 0.13 / 0.52 / 1.2)."""
+    theta = np.radians(np.arange(0.0, 90.0, 7.0))
+    fast, default = [], []
+    for period, N in itertools.product((244.0, 500.0, 988.0), (10, 20)):
+        mirror = BraggMirror(1.0, 1.5, 0.5 * period, 0.5 * period, N)
+        reference = mirror.xyz(theta)
+        for errors, options in ((fast, {"averaging_from": 10, "panels_per_oscillation": 1}),
+                                (default, {})):
+            errors.append(delta_e_2000(xyz_to_linear_srgb(reference), xyz_to_linear_srgb(
+                mirror.xyz(theta, "averaged", **options))))
+    fast, default = np.concatenate(fast), np.concatenate(default)
+    assert fast.mean() <= 0.5 and np.percentile(fast, 95) <= 1.5
+    assert fast.mean() > 1.5 * default.mean()
+
+
 def test_huge_n_colours_are_finite_and_saturated_in_gaps():
     mirror = BraggMirror(1.0, 1.5, 125.0, 375.0, 2**31 - 1)
     for name in COLOUR_METHODS:
@@ -288,7 +324,8 @@ def test_numpy_integers_are_integers(backend):
 @pytest.mark.parametrize(("material", "method", "option", "accepted"), [
     (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), "reference", "samples", "none"),
     (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), "approx", "s", "none"),
-    (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), "averaged", "order", "none"),
+    (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), "averaged", "order",
+     "averaging_from, panels_per_oscillation"),
     (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), "subdivided", "samples", "s"),
     (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), "spectral", "s", "samples, seed"),
     (ThinFilm(1.33, 400.0), "reference", "order", "none"),
@@ -307,7 +344,7 @@ def test_an_option_the_method_does_not_take_is_refused(material, method, option,
 def test_option_names_follow_the_signatures():
     assert {name: option_names(m) for name, m in COLOUR_METHODS.items()} == {
         "reference": (), "spectral": ("samples", "seed"), "approx": (),
-        "subdivided": ("s",), "averaged": ()}
+        "subdivided": ("s",), "averaged": ("averaging_from", "panels_per_oscillation")}
     for name in ("fourier-table", "fourier-gaussian"):
         assert option_names(THIN_FILM_COLOUR_METHODS[name]) == ("order", "thickness_std_nm")
 

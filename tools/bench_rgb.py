@@ -20,7 +20,9 @@ For every method of :data:`wgbragg.colour_methods.COLOUR_METHODS` this measures,
 - **short periods** (``Lambda`` in {30, 60, 120} nm, outside the issue's grid), dE2000 of every
   method against the converged integral: only a few wide oscillations lie in view there;
 - **numpy against GPU** (max dE2000) for every method that has a GPU kernel;
-- the **"spectral" curve**: K = 4 ... 128 stratified samples, time and dE.
+- the **"spectral" curve**: K = 4 ... 128 stratified samples, time and dE;
+- the **"averaged" settings**: its options ``averaging_from`` and ``panels_per_oscillation``,
+  GPU kernel time and dE against "reference" and the converged integral.
 
 It prints a markdown section, writes it into ``docs/benchmarks.md`` between
 ``<!-- bench_rgb:begin -->`` and ``<!-- bench_rgb:end -->`` (full mode; the rest of the file is
@@ -125,6 +127,8 @@ class Config:
         Angles of the accuracy grid.
     samples : tuple of int
         K of the "spectral" sweep.
+    averaged_settings : tuple of (int, float)
+        ``(averaging_from, panels_per_oscillation)`` of the "averaged" settings sweep.
     timing_angles : int
         Angles per GPU call when timing (enough that dispatch overhead is small).
     gpu_passes : int
@@ -146,6 +150,7 @@ class Config:
     counts: tuple[int, ...]
     angles_deg: tuple[float, ...]
     samples: tuple[int, ...]
+    averaged_settings: tuple[tuple[int, float], ...]
     timing_angles: int
     gpu_passes: int
     kernel_repeats: int
@@ -164,13 +169,16 @@ DENSE_HOSTS = ((1.5, 1.0, 100.0, 200.0, 20, None), (1.5, 1.0, 300.0, 50.0, 20, N
 FULL = Config(
     name="full", periods_nm=(244.0, 500.0, 988.0), ratios=(0.25, 0.5, 0.75),
     counts=(3, 5, 10, 20, 100), angles_deg=tuple(float(a) for a in range(90)),
-    samples=(4, 8, 16, 32, 64, 128), timing_angles=16384, gpu_passes=3, kernel_repeats=5,
+    samples=(4, 8, 16, 32, 64, 128),
+    averaged_settings=((16, 3.0), (16, 2.0), (10, 2.0), (10, 1.0)), timing_angles=16384,
+    gpu_passes=3, kernel_repeats=5,
     short_periods_nm=(30.0, 60.0, 120.0), short_counts=(16, 20, 50, 100),
     dense_hosts=DENSE_HOSTS, dense_angles=12,
 )
 QUICK = Config(
     name="quick", periods_nm=(500.0,), ratios=(0.5,), counts=(10, 20),
-    angles_deg=(0.0, 30.0, 60.0), samples=(4, 8), timing_angles=256, gpu_passes=1,
+    angles_deg=(0.0, 30.0, 60.0), samples=(4, 8), averaged_settings=((16, 3.0), (10, 1.0)),
+    timing_angles=256, gpu_passes=1,
     kernel_repeats=2, short_periods_nm=(60.0,), short_counts=(20,),
     dense_hosts=DENSE_HOSTS[:1], dense_angles=3,
 )
@@ -240,6 +248,9 @@ class Results:
         (method, backend, timing) -> (cases,) seconds per colour.
     sweep_delta_e, sweep_gpu_delta_e, sweep_seconds : dict
         The same for the "spectral" sweep, keyed by K instead of the method.
+    settings_delta_e, settings_fine_delta_e, settings_gpu_delta_e, settings_seconds : dict
+        The same for the "averaged" settings sweep (and against the converged integral),
+        keyed by ``(averaging_from, panels_per_oscillation)``; GPU times only.
     dense_hosts : list of DenseHost
         The mirrors of ``config.dense_hosts``.
     environment : dict
@@ -258,6 +269,10 @@ class Results:
     sweep_seconds: dict[tuple[int, str, str], np.ndarray]
     dense_hosts: list[DenseHost]
     environment: dict[str, Any]
+    settings_delta_e: dict[tuple[int, float], np.ndarray]
+    settings_fine_delta_e: dict[tuple[int, float], np.ndarray]
+    settings_gpu_delta_e: dict[tuple[int, float], np.ndarray]
+    settings_seconds: dict[tuple[tuple[int, float], str, str], np.ndarray]
 
 
 # --------------------------------------------------------------------------- measurement
@@ -352,15 +367,17 @@ def kernel_timer(method: str, options: dict[str, Any]) -> Callable | None:
     except ImportError:
         return None
     helper = getattr(landmarks, "benchmark_xyz", None)
+    # "averaged"'s own options (the settings sweep), by name as the helper takes them.
+    extra = {k: v for k, v in options.items() if k != "s"}
     if (method not in getattr(landmarks, "GPU_LANDMARK_METHODS", ()) or helper is None
             or not _accepts(helper, None, theta=None, method=method, subdivisions=1,
-                            repeats=1)):
+                            repeats=1, **extra)):
         return None
     subdivisions = options.get("s", 3)
 
     def landmark_timer(mirror, theta, repeats):
         return helper(mirror, theta=theta, method=method, subdivisions=subdivisions,
-                      repeats=repeats)
+                      repeats=repeats, **extra)
 
     return landmark_timer
 
@@ -406,6 +423,12 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
     spectral_on_gpu = "spectral" in gpu_methods
     sweep_gpu_delta_e = {k: np.zeros(shape) for k in cfg.samples} if spectral_on_gpu else {}
     sweep_seconds = {(k, *NUMPY): np.zeros(len(grid)) for k in cfg.samples}
+    settings = cfg.averaged_settings if "averaged" in methods else ()
+    settings_delta_e = {k: np.zeros(shape) for k in settings}
+    settings_fine_delta_e = {k: np.zeros(shape) for k in settings}
+    averaged_on_gpu = "averaged" in gpu_methods
+    settings_gpu_delta_e = {k: np.zeros(shape) for k in settings} if averaged_on_gpu else {}
+    settings_seconds: dict = {}
 
     # Accuracy on the grid, and numpy time per colour from the same calls (one pass over the
     # grid: the notes say so).
@@ -438,16 +461,30 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
             if spectral_on_gpu:
                 sweep_gpu_delta_e[k][i] = _delta_e(
                     xyz, mirror.xyz(angles, "spectral", "gpu", samples=k))
+        for setting in settings:
+            options = averaged_options(setting)
+            xyz = mirror.xyz(angles, "averaged", "numpy", **options)
+            settings_delta_e[setting][i] = _delta_e(reference, xyz)
+            settings_fine_delta_e[setting][i] = _delta_e(fine, xyz)
+            if averaged_on_gpu:
+                settings_gpu_delta_e[setting][i] = _delta_e(
+                    xyz, mirror.xyz(angles, "averaged", "gpu", **options))
 
     short_fine_delta_e = _short_period_accuracy(cfg, methods, angles, progress)
     if have_gpu:
-        _time_gpu(cfg, grid, gpu_methods, seconds, sweep_seconds, progress)
+        _time_gpu(cfg, grid, gpu_methods, seconds, sweep_seconds, settings_seconds, progress)
     dense = _dense_hosts(cfg, methods, gpu_methods, progress)
     environment = _docs.run_facts(gpu_error)
     environment["background_cores"] = load.background_cores()
     return Results(cfg, methods, gpu_methods, delta_e, fine_delta_e, short_fine_delta_e,
                    gpu_delta_e, seconds, sweep_delta_e, sweep_gpu_delta_e, sweep_seconds,
-                   dense, environment)
+                   dense, environment, settings_delta_e, settings_fine_delta_e,
+                   settings_gpu_delta_e, settings_seconds)
+
+
+def averaged_options(setting: tuple[int, float]) -> dict[str, Any]:
+    """The keyword options of "averaged" for ``(averaging_from, panels_per_oscillation)``."""
+    return {"averaging_from": setting[0], "panels_per_oscillation": setting[1]}
 
 
 def dense_host_range(mirror) -> tuple[float, float]:
@@ -507,8 +544,9 @@ def _short_period_accuracy(cfg: Config, methods: list[str], angles: np.ndarray,
 
 
 def _time_gpu(cfg: Config, grid: list[Case], gpu_methods: tuple[str, ...],
-              seconds: dict, sweep_seconds: dict, progress: bool) -> None:
-    """GPU time per colour (best of ``cfg.gpu_passes``), filled into the two dicts."""
+              seconds: dict, sweep_seconds: dict, settings_seconds: dict,
+              progress: bool) -> None:
+    """GPU time per colour (best of ``cfg.gpu_passes``), filled into the three dicts."""
     theta = np.radians(np.linspace(0.0, 89.0, cfg.timing_angles))
     # (key in its dict, dict, method, options, kernel timer) for every timed GPU row.
     rows: list[tuple[Any, dict, str, dict[str, Any], Callable | None]] = []
@@ -519,6 +557,11 @@ def _time_gpu(cfg: Config, grid: list[Case], gpu_methods: tuple[str, ...],
         for k in cfg.samples:
             options = {"samples": k}
             rows.append((k, sweep_seconds, "spectral", options, kernel_timer("spectral", options)))
+    if "averaged" in gpu_methods:
+        for setting in cfg.averaged_settings:
+            options = averaged_options(setting)
+            rows.append((setting, settings_seconds, "averaged", options,
+                         kernel_timer("averaged", options)))
     for key, table, _, _, timer in rows:
         table[key, *GPU_WALL] = np.full(len(grid), np.inf)
         if timer is not None:
@@ -584,8 +627,14 @@ def _select(results: Results, *, period: float | None = None,
 
 
 def time_per_colour(results: Results, key: tuple, period: float | None = None) -> float | None:
-    """Mean seconds per colour over the mirrors of ``period`` (all if None), or None."""
-    table = results.sweep_seconds if isinstance(key[0], int) else results.seconds
+    """Mean seconds per colour over the mirrors of ``period`` (all if None), or None.
+
+    ``key`` is (method, backend, timing), or K of the "spectral" sweep or an "averaged"
+    setting in place of the method."""
+    if isinstance(key[0], tuple):
+        table = results.settings_seconds
+    else:
+        table = results.sweep_seconds if isinstance(key[0], int) else results.seconds
     if key not in table:
         return None
     return float(np.mean(table[key][_select(results, period=period)]))
@@ -741,6 +790,32 @@ def _short_table(results: Results) -> list[str]:
         cells = [Stats.of(de[np.array([c.N == n for c in grid])]).cell() for n in counts]
         rows.append([method_label(method), *cells, Stats.of(de).cell()])
     return _table(["method", *[f"N = {n}" for n in counts], "all N"], rows)
+
+
+def _settings_table(results: Results) -> list[str]:
+    """Rows: the "averaged" settings; GPU kernel time, speed-up, dE2000 against "reference" and
+    the converged integral, numpy against GPU."""
+    counts_hi = [n for n in results.config.counts if n >= TARGET_AVERAGED_MIN_N]
+    base = time_per_colour(results, (BASELINE, *GPU_KERNEL))
+    rows = []
+    for setting, de in results.settings_delta_e.items():
+        seconds = time_per_colour(results, (setting, *GPU_KERNEL))
+        ratio = base / seconds if base is not None and seconds else None
+        fine = results.settings_fine_delta_e[setting]
+        cells = []
+        for table in (de, fine):
+            pooled = table[_select(results, counts=counts_hi)] if counts_hi else table[:0]
+            cells += [Stats.of(pooled).cell() if pooled.size else NOT_MEASURED,
+                      Stats.of(table).cell()]
+        gpu = results.settings_gpu_delta_e.get(setting)
+        rows.append([str(setting[0]), f"{setting[1]:g}",
+                     NOT_MEASURED if seconds is None else human_time(seconds),
+                     NOT_MEASURED if ratio is None else human_ratio(ratio), *cells,
+                     NOT_MEASURED if gpu is None else f"{gpu.max():.3f}"])
+    hi = f"N >= {TARGET_AVERAGED_MIN_N}"
+    return _table(["averaging_from", "panels_per_oscillation", "GPU kernel",
+                   "speed-up (kernel)", f'vs "reference", {hi}', 'vs "reference", all N',
+                   f"vs converged, {hi}", "vs converged, all N", "numpy vs GPU max"], rows)
 
 
 def _dense_table(results: Results) -> list[str]:
@@ -901,6 +976,15 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
                    "speed-up (wall)", "dE mean", "dE p95", "dE max", "numpy vs GPU max"],
                   rows)
 
+    if results.settings_delta_e:
+        out += ["", '### "averaged" settings: `averaging_from`, `panels_per_oscillation`', ""]
+        out += ["The options of `averaged` trade accuracy for speed where it integrates the "
+                "exact spectrum: every zone below N = `averaging_from`, at "
+                "`panels_per_oscillation` three-point Gauss panels per oscillation. The first "
+                "row is the default. dE2000 mean / p95 / max on the grid above, pooled over N >= "
+                f"{TARGET_AVERAGED_MIN_N} and over all N.", ""]
+        out += _settings_table(results)
+
     out += ["", "### Targets", ""]
     out += _table(["target", "measured", "met"], _targets(results))
 
@@ -948,7 +1032,8 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
 def plot_tradeoff(results: Results, path: Path) -> Path:
     """Time per colour (log) against mean dE2000, one point per method and backend.
 
-    The "spectral" sweep is drawn as a curve over K; ``reference`` sits at dE = 0 (the x axis
+    The "spectral" sweep is drawn as a curve over K, the "averaged" settings as one over
+    (averaging_from, panels_per_oscillation); ``reference`` sits at dE = 0 (the x axis
     is linear near 0 and logarithmic above 0.01, so it stays on the plot).
 
     Parameters
@@ -974,6 +1059,7 @@ def plot_tradeoff(results: Results, path: Path) -> Path:
     palette = dict(zip(results.methods, ("black", "tab:purple", "tab:red", "tab:orange",
                                          "tab:green", "tab:brown", "tab:pink"), strict=False))
     sweep_colour = palette.get("spectral", "tab:purple")
+    settings_colour = palette.get("averaged", "tab:green")
     kinds: list[tuple[str, str]] = []
     labelled = False  # "K=..." labels on the first sweep curve only, not on each timing
     for kind in (NUMPY, GPU_WALL, GPU_KERNEL):
@@ -990,6 +1076,17 @@ def plot_tradeoff(results: Results, path: Path) -> Path:
                     ax.annotate(f"K={k}", (x, y), fontsize=6, xytext=(3, 3),
                                 textcoords="offset points", color=sweep_colour)
             labelled = True
+        settings = [(k, float(de.mean()), time_per_colour(results, (k, *kind)))
+                    for k, de in results.settings_delta_e.items()]
+        settings = [(k, d, t) for k, d, t in settings if t is not None]
+        if settings:
+            _, d, t = zip(*settings, strict=True)
+            ax.plot(d, t, color=settings_colour, linestyle="--", linewidth=1.0, marker=marker,
+                    markersize=3, fillstyle=fill)
+            if kind == GPU_KERNEL:
+                for k, x, y in settings:
+                    ax.annotate(f"{k[0]}, {k[1]:g}", (x, y), fontsize=6, xytext=(3, -8),
+                                textcoords="offset points", color=settings_colour)
         for method in results.methods:
             t = time_per_colour(results, (method, *kind))
             if t is None:
@@ -1012,6 +1109,9 @@ def plot_tradeoff(results: Results, path: Path) -> Path:
                              label=method_label(m)) for m in results.methods]
     method_handles.append(Line2D([], [], color=sweep_colour, linestyle=":",
                                  label="spectral, K sweep"))
+    if results.settings_delta_e:
+        method_handles.append(Line2D([], [], color=settings_colour, linestyle="--",
+                                     label="averaged settings"))
     kind_handles = [Line2D([], [], color="0.3", marker=markers[k][0], fillstyle=markers[k][1],
                            linestyle="none", label=TIMING_LABELS[k]) for k in kinds]
     first = ax.legend(handles=method_handles, title="method", fontsize=7, title_fontsize=7,

@@ -7,8 +7,8 @@ dispersion in the mode coordinate, ``wgsl/landmarks.wgsl``) and integrates each 
 interval as it is reached (``wgsl/colour_landmark.wgsl``): O(1) in N, no per-angle storage.
 "averaged" sweeps both polarisations at once, over the zones between their band edges.
 Pipelines are specialised on the method and on ``host == n1``; ``s`` of "subdivided" is a
-uniform, so any ``s`` reuses one pipeline. "averaged" below
-:data:`~wgbragg.colour_methods.AVERAGING_MIN_PERIODS` with ``host == n1 <= n2``, where every
+uniform, so any ``s`` reuses one pipeline. "averaged" below N = ``averaging_from`` (default
+:data:`~wgbragg.colour_methods.AVERAGING_MIN_PERIODS`) with ``host == n1 <= n2``, where every
 zone is integrated through the exact spectrum, is also specialised on N (``EXACT_PERIODS``):
 the kernel unrolls the recurrence of ``U_{N-1}`` and compiles the averaged zones out, one
 pipeline per N (lavapipe runs both sides of every branch, so what is compiled in is paid for).
@@ -24,10 +24,11 @@ lavapipe (numpy against GPU: up to 1e-3 dE2000 more on the benchmark's grid, max
 
 Speed and accuracy against the "reference" kernel: ``tools/bench_rgb.py``
 (docs/benchmarks.md). "averaged" evaluates R of both polarisations at three Gauss nodes per
-panel: 40 to 60 nodes where every zone is averaged, and ``colour_methods.PANELS_PER_OSCILLATION``
-panels per oscillation where the exact spectrum is integrated (below N = 16, and where
-oscillations are wider than a panel: up to about 110 nodes); "approx" one envelope value per
-landmark interval.
+panel: 40 to 60 nodes where every zone is averaged, and ``panels_per_oscillation`` (3)
+panels per oscillation where the exact spectrum is integrated (below N = ``averaging_from``,
+16, and where oscillations are wider than a panel: up to about 110 nodes); "approx" one
+envelope value per landmark interval. Those two options of "averaged" are pipeline constants
+(``AVERAGING_MIN_PERIODS``, ``PANELS_PER_OSCILLATION``): a setting compiles once.
 """
 
 from __future__ import annotations
@@ -37,7 +38,13 @@ import functools
 import numpy as np
 
 from . import colorimetry, gpu, kernels
-from .colour_methods import AVERAGING_MIN_PERIODS, check_subdivisions
+from .colour_methods import (
+    AVERAGING_MIN_PERIODS,
+    PANELS_PER_OSCILLATION,
+    check_averaging_from,
+    check_panels_per_oscillation,
+    check_subdivisions,
+)
 from .materials import BraggMirror
 
 __all__ = [
@@ -145,7 +152,9 @@ def _check_mirror(mirror, method: str) -> BraggMirror:
 
 
 
-def _kernel_and_params(mirror: BraggMirror, method: str, subdivisions: int):
+def _kernel_and_params(mirror: BraggMirror, method: str, subdivisions: int,
+                       averaging_from: int = AVERAGING_MIN_PERIODS,
+                       panels_per_oscillation: float = PANELS_PER_OSCILLATION):
     if method not in GPU_LANDMARK_METHODS:
         raise ValueError(f"method must be one of {tuple(GPU_LANDMARK_METHODS)}, got {method!r}")
     _check_mirror(mirror, method)
@@ -157,7 +166,8 @@ def _kernel_and_params(mirror: BraggMirror, method: str, subdivisions: int):
     host_matched = bool(np.float32(mirror.host) == np.float32(mirror.n1))
     matched_layers = (host_matched and not params["bulk"]
                       and bool(np.float32(mirror.n2) >= np.float32(mirror.n1)))
-    exact = method == "averaged" and matched_layers and mirror.N < AVERAGING_MIN_PERIODS
+    averaged = method == "averaged"
+    exact = averaged and matched_layers and mirror.N < averaging_from
     constants = {
         "HOST_MATCHED": host_matched,
         "MATCHED_LAYERS": matched_layers,
@@ -165,8 +175,16 @@ def _kernel_and_params(mirror: BraggMirror, method: str, subdivisions: int):
         "EXACT_PERIODS": int(mirror.N) if exact else 0,
         "WORKGROUP_SIZE": WORKGROUP_SIZE,
     }
+    if averaged:
+        constants["AVERAGING_MIN_PERIODS"] = averaging_from
+        constants["PANELS_PER_OSCILLATION"] = panels_per_oscillation
     kernel = gpu.compute_pipeline("colour_landmarks_bragg.wgsl", constants=constants)
     return kernel, params
+
+
+def _checked_options(subdivisions, averaging_from, panels_per_oscillation):
+    return (check_subdivisions(subdivisions), check_averaging_from(averaging_from),
+            check_panels_per_oscillation(panels_per_oscillation))
 
 
 def _buffers(theta) -> tuple[list[np.ndarray], list, tuple[int, ...]]:
@@ -175,7 +193,9 @@ def _buffers(theta) -> tuple[list[np.ndarray], list, tuple[int, ...]]:
     return [flat, _packed_cmf_table()], [((flat.size, 4), np.float32)], angle.shape
 
 
-def landmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3) -> np.ndarray:
+def landmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3,
+                 averaging_from: int = AVERAGING_MIN_PERIODS,
+                 panels_per_oscillation: float = PANELS_PER_OSCILLATION) -> np.ndarray:
     """float32 GPU XYZ of a Bragg mirror by a landmark colour method.
 
     Parameters
@@ -187,6 +207,9 @@ def landmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3)
     method : {"approx", "subdivided", "averaged"}
     subdivisions : int
         ``s`` of "subdivided" (>= 1); ignored by the other methods.
+    averaging_from, panels_per_oscillation
+        The options of "averaged" (:func:`wgbragg.colour_methods.averaged_xyz`); ignored by
+        the other methods. Pipelines are specialised on them.
 
     Returns
     -------
@@ -198,7 +221,7 @@ def landmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3)
     ------
     ValueError
         For an unknown method, a material that is not a BraggMirror, ``host != n1`` with
-        "approx"/"subdivided", or a bad ``subdivisions``.
+        "approx"/"subdivided", or a bad option.
     gpu.LoopBudgetError
         (a ValueError) On llvmpipe, when an angle's landmarks need more loop iterations than
         it allows (:data:`gpu.LOOP_BUDGET`): about 2000 band gaps in the visible for
@@ -206,7 +229,8 @@ def landmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3)
         pass bands come one per pi of the n1 phase, about 1700 of them: ``q1 d1`` beyond
         ~0.5 mm), fewer below N = 16 (exact panels) and with "subdivided" and a large ``s``.
     """
-    kernel, params = _kernel_and_params(mirror, method, check_subdivisions(subdivisions))
+    kernel, params = _kernel_and_params(mirror, method, *_checked_options(
+        subdivisions, averaging_from, panels_per_oscillation))
     inputs, outputs, shape = _buffers(theta)
     (out,) = kernel.run(inputs, outputs, params)
     gpu.check_loops(out[:, 3], f"colour method {method!r} on a mirror with n1 d1 + n2 d2 = "
@@ -215,9 +239,11 @@ def landmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3)
 
 
 def benchmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3,
-                  repeats: int = 10) -> float:
+                  repeats: int = 10, averaging_from: int = AVERAGING_MIN_PERIODS,
+                  panels_per_oscillation: float = PANELS_PER_OSCILLATION) -> float:
     """Median GPU seconds of one :func:`landmark_xyz` dispatch (buffers uploaded once)."""
-    kernel, params = _kernel_and_params(mirror, method, check_subdivisions(subdivisions))
+    kernel, params = _kernel_and_params(mirror, method, *_checked_options(
+        subdivisions, averaging_from, panels_per_oscillation))
     inputs, outputs, _ = _buffers(theta)
     return kernel.benchmark(inputs, outputs, params, repeats=repeats)
 
@@ -232,9 +258,11 @@ def subdivided_xyz(mirror, theta, s=3) -> np.ndarray:
     return landmark_xyz(mirror, theta, "subdivided", s)
 
 
-def averaged_xyz(mirror, theta) -> np.ndarray:
-    """GPU twin of ``colour_methods.averaged_xyz(mirror, theta)`` (method "averaged")."""
-    return landmark_xyz(mirror, theta, "averaged")
+def averaged_xyz(mirror, theta, averaging_from=AVERAGING_MIN_PERIODS,
+                 panels_per_oscillation=PANELS_PER_OSCILLATION) -> np.ndarray:
+    """GPU twin of ``colour_methods.averaged_xyz`` (method "averaged"), same options."""
+    return landmark_xyz(mirror, theta, "averaged", averaging_from=averaging_from,
+                        panels_per_oscillation=panels_per_oscillation)
 
 
 def find_landmarks_gpu(mirror: BraggMirror, theta, polarization: str = "s"):

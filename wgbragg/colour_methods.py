@@ -23,7 +23,7 @@ import inspect
 import numpy as np
 
 from . import colorimetry
-from ._validation import check_angle, check_integer
+from ._validation import check_angle, check_integer, check_real
 from .landmarks import VISIBLE_OMEGA, _ranges, find_landmarks_many
 from .optics.yeh import cell_coefficients, yeh_reflectance
 from .thin_film_colour import DEFAULT_ORDER, FOURIER_METHODS, fourier_xyz
@@ -33,6 +33,8 @@ __all__ = [
     "COLOUR_METHODS",
     "EXACT_MIN_OSCILLATION_NM",
     "GPU_COLOUR_METHODS",
+    "MAX_AVERAGING_FROM",
+    "MAX_PANELS_PER_OSCILLATION",
     "PANELS_PER_OSCILLATION",
     "PANEL_NM",
     "THIN_FILM_COLOUR_METHODS",
@@ -60,6 +62,15 @@ PANELS_PER_OSCILLATION = 3.0
 """Gauss panels per oscillation of an exact spectrum (see :func:`_quadrature`): the
 edge-clustering map stretches panels up to 2x away from the edges it serves, and two per
 oscillation cost up to 3 dE2000 at grazing angles (N = 10), three 1.4."""
+
+MAX_AVERAGING_FROM = 64
+"""Largest ``averaging_from`` of "averaged": below it the cost grows with N (panels per
+oscillation, and the GPU kernel unrolls the recurrence of ``U_{N-1}``)."""
+
+MAX_PANELS_PER_OSCILLATION = 8.0
+"""Largest ``panels_per_oscillation`` of "averaged": with ``averaging_from`` at its largest,
+the exact panels of a few bands in view then stay within the GPU's loop budget
+(``gpu.SAFE_LOOP_ITERATIONS``)."""
 
 PANEL_MARGIN = 0.05
 """Panels of an exact spectrum: ``ceil(PANELS_PER_OSCILLATION x oscillations - PANEL_MARGIN)``."""
@@ -325,7 +336,9 @@ def _snap_edge_phases(phase, at_edge):
     return np.where(snap, np.where(near_pi, np.pi, 0.0), phase)
 
 
-def _quadrature(mirror, omega_lo, omega_hi, pass_band_share, evanescent):
+def _quadrature(mirror, omega_lo, omega_hi, pass_band_share, evanescent,
+                averaging_from=AVERAGING_MIN_PERIODS,
+                panels_per_oscillation=PANELS_PER_OSCILLATION):
     """How each zone is integrated: its Gauss panels, and whether through the exact R.
 
     Parameters
@@ -338,14 +351,17 @@ def _quadrature(mirror, omega_lo, omega_hi, pass_band_share, evanescent):
         ``N x share`` times in a zone.
     evanescent : bool or numpy.ndarray
         Whether n2 is evanescent at each zone's angle.
+    averaging_from, panels_per_oscillation
+        As :func:`averaged_xyz` (there validated); the defaults are
+        :data:`AVERAGING_MIN_PERIODS` and :data:`PANELS_PER_OSCILLATION`.
 
     Returns
     -------
     panels : numpy.ndarray of int
         At least one per :data:`PANEL_NM` of width; in exact zones also
-        :data:`PANELS_PER_OSCILLATION` per oscillation.
+        ``panels_per_oscillation`` per oscillation.
     exact : numpy.ndarray of bool
-        Zones integrated through the exact spectrum: those below :data:`AVERAGING_MIN_PERIODS`
+        Zones integrated through the exact spectrum: those below ``averaging_from``
         (with n2 evanescent, only where their oscillations are on average at least
         :data:`EXACT_MIN_OSCILLATION_NM` wide), and those whose oscillations are on average
         wider than a panel. The pass bands of deep tunnelling through an evanescent n2 layer
@@ -367,21 +383,23 @@ def _quadrature(mirror, omega_lo, omega_hi, pass_band_share, evanescent):
     """
     width_nm = 2.0 * np.pi / omega_lo - 2.0 * np.pi / omega_hi
     oscillations = mirror.N * pass_band_share
-    exact = (((mirror.N < AVERAGING_MIN_PERIODS)
+    exact = (((mirror.N < averaging_from)
               & (~np.asarray(evanescent) | (width_nm >= EXACT_MIN_OSCILLATION_NM * oscillations)))
              | ((pass_band_share > 0.0) & (width_nm > PANEL_NM * oscillations)))
     count = np.maximum(1, np.ceil(width_nm / PANEL_NM)).astype(int)
     # The margin keeps a whole pass band (share 1 up to rounding: phases snapped to 0 and pi)
     # at the same count in both twins.
-    per_oscillation = np.ceil(PANELS_PER_OSCILLATION * oscillations - PANEL_MARGIN).astype(int)
+    per_oscillation = np.ceil(panels_per_oscillation * oscillations - PANEL_MARGIN).astype(int)
     return np.where(exact, np.maximum(count, per_oscillation), count), exact
 
 
-def _averaged_unpolarized(mirror, theta):
+def _averaged_unpolarized(mirror, theta, averaging_from, panels_per_oscillation):
     """XYZ at each angle of the 1-D ``theta`` (none totally reflected)."""
     owner, lo, hi, lower_edge, upper_edge, share = _zones(mirror, theta)
     panels, exact_zone = _quadrature(mirror, lo, hi, share,
-                                     evanescent=_n2_evanescent(mirror, theta[owner]))
+                                     evanescent=_n2_evanescent(mirror, theta[owner]),
+                                     averaging_from=averaging_from,
+                                     panels_per_oscillation=panels_per_oscillation)
     nodes = 3 * panels
     zone, step = _ranges(np.zeros(lo.size, dtype=int), nodes)
     panel, point = np.divmod(step, 3)
@@ -408,7 +426,8 @@ def _averaged_unpolarized(mirror, theta):
     return _segment_sum(owner, rule + boxes, theta.size)
 
 
-def averaged_xyz(mirror, theta):
+def averaged_xyz(mirror, theta, averaging_from=AVERAGING_MIN_PERIODS,
+                 panels_per_oscillation=PANELS_PER_OSCILLATION):
     """XYZ by phase-averaged product integration (ours), both polarisations averaged.
 
     Parameters
@@ -417,8 +436,45 @@ def averaged_xyz(mirror, theta):
         Any host (Appendix D hosts use the averaged host reflectance).
     theta : array_like
         Angles in the host, radians.
+    averaging_from : int, optional
+        Smallest N whose pass bands are integrated through the phase-averaged spectrum, in
+        [2, :data:`MAX_AVERAGING_FROM`]; below it every zone is integrated through the exact
+        spectrum. Default :data:`AVERAGING_MIN_PERIODS` (16).
+    panels_per_oscillation : float, optional
+        Gauss panels per oscillation of an exact spectrum, in [1,
+        :data:`MAX_PANELS_PER_OSCILLATION`]. Default :data:`PANELS_PER_OSCILLATION` (3).
+
+    Notes
+    -----
+    The two options trade accuracy for speed where the exact spectrum is integrated, which
+    is where "averaged" spends most of its time below N = 16. On the benchmark's grid
+    (``tools/bench_rgb.py``, table '"averaged" settings' in docs/benchmarks.md, lavapipe)
+    ``averaging_from=10, panels_per_oscillation=1`` takes the float32 kernel from 5.1x to 6.6x
+    the speed of "reference", and dE2000 against it for N >= 10 from mean 0.28 / p95 1.10 /
+    max 4.4 to 0.42 / 1.33 / 5.0 (against a converged integral: 0.10 / 0.40 / 2.6 to
+    0.23 / 0.91 / 5.0).
+
+    Raises
+    ------
+    ValueError
+        For an option outside its range.
     """
-    return _per_angle(mirror, theta, lambda angles: _averaged_unpolarized(mirror, angles))
+    averaging_from = check_averaging_from(averaging_from)
+    panels_per_oscillation = check_panels_per_oscillation(panels_per_oscillation)
+    return _per_angle(mirror, theta, lambda angles: _averaged_unpolarized(
+        mirror, angles, averaging_from, panels_per_oscillation))
+
+
+def check_averaging_from(value) -> int:
+    """``averaging_from`` of "averaged": an integer in [2, :data:`MAX_AVERAGING_FROM`]."""
+    return check_integer("averaging_from (smallest N phase-averaged)", value, 2,
+                         MAX_AVERAGING_FROM)
+
+
+def check_panels_per_oscillation(value) -> float:
+    """``panels_per_oscillation`` of "averaged": a real number in [1,
+    :data:`MAX_PANELS_PER_OSCILLATION`]."""
+    return check_real("panels_per_oscillation", value, 1.0, MAX_PANELS_PER_OSCILLATION)
 
 
 def option_names(method) -> tuple[str, ...]:

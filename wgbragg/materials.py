@@ -151,7 +151,9 @@ class BraggMirror:
             landmarks (ours).
         backend : {"numpy", "gpu"}
         **options
-            ``samples``, ``seed`` (spectral) or ``s`` (subdivided).
+            ``samples``, ``seed`` (spectral), ``s`` (subdivided), or ``averaging_from``,
+            ``panels_per_oscillation`` (averaged: speed against accuracy, see
+            :func:`wgbragg.colour_methods.averaged_xyz`).
 
         Returns
         -------

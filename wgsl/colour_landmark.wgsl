@@ -30,14 +30,15 @@
 // out in one iteration was measured slower (1.91 against 1.55 us per colour): the loop's
 // bookkeeping costs next to nothing, the larger body does.
 
-// colour_methods.PANEL_NM, PANELS_PER_OSCILLATION, PANEL_MARGIN, PHASE_SNAP,
-// AVERAGING_MIN_PERIODS and EXACT_MIN_OSCILLATION_NM.
+// colour_methods.PANEL_NM, PANEL_MARGIN, PHASE_SNAP and EXACT_MIN_OSCILLATION_NM.
 const PANEL_NM: f32 = 40.0;
-const PANELS_PER_OSCILLATION: f32 = 3.0;
 const PANEL_MARGIN: f32 = 0.05;
 const PHASE_SNAP: f32 = 0.15;
-const AVERAGING_MIN_PERIODS: u32 = 16u;
 const EXACT_MIN_OSCILLATION_NM: f32 = 0.1;
+// The options averaging_from and panels_per_oscillation of "averaged" (colour_methods.
+// averaged_xyz), whose defaults are AVERAGING_MIN_PERIODS and PANELS_PER_OSCILLATION there.
+override AVERAGING_MIN_PERIODS: u32 = 16u;
+override PANELS_PER_OSCILLATION: f32 = 3.0;
 // N compiled into the exact spectrum's recurrence (recurrence_reflectance): set by pipelines
 // whose zones are all exact and in the mode coordinate (N below AVERAGING_MIN_PERIODS, host
 // == n1 <= n2); 0 reads N at run time.
