@@ -239,14 +239,17 @@ def test_averaged_settings_rows(bench, runs):
     (text, _), _, _ = runs
     section = bench_section(bench, text)
     body = markdown_table(section, '### "averaged" settings')[1:]
-    assert [(int(row[0]), float(row[1])) for row in body] == list(bench.QUICK.averaged_settings)
+    assert [(int(row[0]), int(row[1])) for row in body] == list(bench.QUICK.averaged_settings)
     for row in body:
         assert bench.parse_time(row[2]) > 0 and bench.parse_ratio(row[3]) > 0
         for cell in row[4:8]:
             mean, p95, worst = bench.parse_stats(cell)
             assert 0.0 <= mean <= p95 <= worst
         assert float(row[8]) <= bench.TARGET_GPU_AGREEMENT
-    default = next(row for row in body if (int(row[0]), float(row[1])) == (16, 3.0))
+    from wgbragg.colour_methods import AVERAGING_MIN_PERIODS, PANELS_PER_OSCILLATION
+
+    default = next(row for row in body if (int(row[0]), int(row[1]))
+                   == (AVERAGING_MIN_PERIODS, PANELS_PER_OSCILLATION))
     methods = markdown_table(section, '### dE2000 against "reference"')[1:]
     averaged = next(row for row in methods if row[0] == "averaged")
     assert default[5] == averaged[-1]  # all N

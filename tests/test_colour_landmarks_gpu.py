@@ -267,17 +267,16 @@ def test_subdivided_options():
 
 
 # "averaged"'s speed options, each a pipeline constant: N = 5 and 12 below averaging_from
-# (unrolled recurrence), 12 and 20 averaged from 10, an Appendix D host (geometry path), and
+# (unrolled recurrence), 12 and 15 averaged sooner, an Appendix D host (geometry path), and
 # the short-period zones that are exact at any N.
 AVERAGED_OPTIONS = [
-    (BraggMirror(1.0, 1.5, 250.0, 250.0, 5), {"panels_per_oscillation": 1.0}),
+    (BraggMirror(1.0, 1.5, 250.0, 250.0, 5), {"panels_per_oscillation": 1}),
     (BraggMirror(1.0, 1.5, 247.0, 741.0, 12), {"averaging_from": 10}),
     (BraggMirror(1.0, 1.5, 247.0, 741.0, 12), {"averaging_from": 13,
-                                               "panels_per_oscillation": 1.5}),
-    (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), {"averaging_from": 21,
-                                               "panels_per_oscillation": 1.0}),
+                                               "panels_per_oscillation": 1}),
+    (BraggMirror(1.0, 1.5, 247.0, 741.0, 15), {"averaging_from": 15}),
     (BraggMirror(1.59, 1.67, 81.6, 78.4, 8, host=1.0), {"averaging_from": 2}),
-    (BraggMirror(1.0, 1.5, 25.0, 35.0, 50), {"panels_per_oscillation": 1.0}),
+    (BraggMirror(1.0, 1.5, 25.0, 35.0, 50), {"panels_per_oscillation": 1}),
 ]
 
 
@@ -286,21 +285,24 @@ def test_averaged_options_match_numpy(mirror, options):
     expected = mirror.xyz(THETA, "averaged", "numpy", **options)
     got = mirror.xyz(THETA, "averaged", "gpu", **options)
     assert delta_e(got, expected).max() <= ISSUE_DE
-    # Each case changes the colours by 0.4 to 3 dE2000, so a kernel that ignored the option
+    # Each case changes the colours by 0.7 to 7 dE2000, so a kernel that ignored the option
     # would fail.
     assert delta_e(got, mirror.xyz(THETA, "averaged", "gpu")).max() > 3 * ISSUE_DE
 
 
 def test_averaged_options_are_pipeline_constants():
     mirror = BraggMirror(1.0, 1.5, 100.0, 150.0, 12)
-    kernel, _ = colour_landmarks_gpu._kernel_and_params(mirror, "averaged", 3, 12, 1.5)
-    assert kernel.constants["AVERAGING_MIN_PERIODS"] == 12
-    assert kernel.constants["PANELS_PER_OSCILLATION"] == 1.5
-    assert kernel.constants["EXACT_PERIODS"] == 0  # N = 12 is averaged from 12 on
-    kernel, _ = colour_landmarks_gpu._kernel_and_params(mirror, "averaged", 3, 13, 1.5)
+    kernel, _ = colour_landmarks_gpu._kernel_and_params(mirror, "averaged", 3, 12, 2)
+    # N = 12 is averaged from 12 on: as from any averaging_from in [2, 12], one pipeline.
+    assert kernel.constants["AVERAGING_MIN_PERIODS"] == 2
+    assert kernel.constants["PANELS_PER_OSCILLATION"] == 2.0
+    assert kernel.constants["EXACT_PERIODS"] == 0
+    assert kernel is colour_landmarks_gpu._kernel_and_params(mirror, "averaged", 3, 5, 2)[0]
+    kernel, _ = colour_landmarks_gpu._kernel_and_params(mirror, "averaged", 3, 13, 2)
     assert kernel.constants["EXACT_PERIODS"] == 12
+    assert kernel.constants["AVERAGING_MIN_PERIODS"] == cm.AVERAGING_MIN_PERIODS
     # The paper's methods have no such options: their pipelines do not depend on them.
-    kernel, _ = colour_landmarks_gpu._kernel_and_params(mirror, "approx", 3, 13, 1.5)
+    kernel, _ = colour_landmarks_gpu._kernel_and_params(mirror, "approx", 3, 13, 2)
     assert "AVERAGING_MIN_PERIODS" not in kernel.constants
 
 
@@ -310,7 +312,7 @@ def test_averaged_options_are_refused_outside_their_ranges(backend):
     for bad in (1, 0, cm.MAX_AVERAGING_FROM + 1, 10.0, True, "16", None):
         with pytest.raises(ValueError, match="averaging_from"):
             mirror.xyz(0.2, "averaged", backend, averaging_from=bad)
-    for bad in (0.5, cm.MAX_PANELS_PER_OSCILLATION + 0.5, math.nan, math.inf, True, "3"):
+    for bad in (0, cm.MAX_PANELS_PER_OSCILLATION + 1, 1.5, 3.0, math.nan, True, "3"):
         with pytest.raises(ValueError, match="panels_per_oscillation"):
             mirror.xyz(0.2, "averaged", backend, panels_per_oscillation=bad)
     with pytest.raises(ValueError, match="takes no option 'averaging_from'"):

@@ -189,7 +189,7 @@ def test_averaged_options_set_the_exact_zones_and_their_panels():
     assert _quadrature(mirror, lo, hi, share, False, averaging_from=13)[1].all()
     width_panels = np.maximum(1, np.ceil((2 * np.pi / lo - 2 * np.pi / hi) / PANEL_NM))
     totals = []
-    for per_oscillation in (1.0, 2.5, 8.0):
+    for per_oscillation in (1, 2, 8):
         panels, _ = _quadrature(mirror, lo, hi, share, False, averaging_from=13,
                                 panels_per_oscillation=per_oscillation)
         wanted = np.ceil(per_oscillation * mirror.N * share - 0.05)
@@ -199,7 +199,7 @@ def test_averaged_options_set_the_exact_zones_and_their_panels():
 
 
 def test_averaged_speed_options_trade_accuracy_within_the_issue_bounds():
-    """The fastest settings README documents (averaging_from=10, panels_per_oscillation=1)
+    """The quickest setting README documents (averaging_from=10, panels_per_oscillation=1)
     stay within the issue's bounds for N >= 10 against "reference" (measured on this grid:
     mean 0.28, p95 0.66, max 1.7), and cost accuracy (defaults: 0.13 / 0.52 / 1.2)."""
     theta = np.radians(np.arange(0.0, 90.0, 7.0))

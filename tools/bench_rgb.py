@@ -127,7 +127,7 @@ class Config:
         Angles of the accuracy grid.
     samples : tuple of int
         K of the "spectral" sweep.
-    averaged_settings : tuple of (int, float)
+    averaged_settings : tuple of (int, int)
         ``(averaging_from, panels_per_oscillation)`` of the "averaged" settings sweep.
     timing_angles : int
         Angles per GPU call when timing (enough that dispatch overhead is small).
@@ -150,7 +150,7 @@ class Config:
     counts: tuple[int, ...]
     angles_deg: tuple[float, ...]
     samples: tuple[int, ...]
-    averaged_settings: tuple[tuple[int, float], ...]
+    averaged_settings: tuple[tuple[int, int], ...]
     timing_angles: int
     gpu_passes: int
     kernel_repeats: int
@@ -170,14 +170,14 @@ FULL = Config(
     name="full", periods_nm=(244.0, 500.0, 988.0), ratios=(0.25, 0.5, 0.75),
     counts=(3, 5, 10, 20, 100), angles_deg=tuple(float(a) for a in range(90)),
     samples=(4, 8, 16, 32, 64, 128),
-    averaged_settings=((16, 3.0), (16, 2.0), (10, 2.0), (10, 1.0)), timing_angles=16384,
+    averaged_settings=((16, 3), (16, 2), (10, 2), (10, 1)), timing_angles=16384,
     gpu_passes=3, kernel_repeats=5,
     short_periods_nm=(30.0, 60.0, 120.0), short_counts=(16, 20, 50, 100),
     dense_hosts=DENSE_HOSTS, dense_angles=12,
 )
 QUICK = Config(
     name="quick", periods_nm=(500.0,), ratios=(0.5,), counts=(10, 20),
-    angles_deg=(0.0, 30.0, 60.0), samples=(4, 8), averaged_settings=((16, 3.0), (10, 1.0)),
+    angles_deg=(0.0, 30.0, 60.0), samples=(4, 8), averaged_settings=((16, 3), (10, 1)),
     timing_angles=256, gpu_passes=1,
     kernel_repeats=2, short_periods_nm=(60.0,), short_counts=(20,),
     dense_hosts=DENSE_HOSTS[:1], dense_angles=3,
@@ -269,10 +269,10 @@ class Results:
     sweep_seconds: dict[tuple[int, str, str], np.ndarray]
     dense_hosts: list[DenseHost]
     environment: dict[str, Any]
-    settings_delta_e: dict[tuple[int, float], np.ndarray]
-    settings_fine_delta_e: dict[tuple[int, float], np.ndarray]
-    settings_gpu_delta_e: dict[tuple[int, float], np.ndarray]
-    settings_seconds: dict[tuple[tuple[int, float], str, str], np.ndarray]
+    settings_delta_e: dict[tuple[int, int], np.ndarray]
+    settings_fine_delta_e: dict[tuple[int, int], np.ndarray]
+    settings_gpu_delta_e: dict[tuple[int, int], np.ndarray]
+    settings_seconds: dict[tuple[tuple[int, int], str, str], np.ndarray]
 
 
 # --------------------------------------------------------------------------- measurement
@@ -482,7 +482,7 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
                    settings_gpu_delta_e, settings_seconds)
 
 
-def averaged_options(setting: tuple[int, float]) -> dict[str, Any]:
+def averaged_options(setting: tuple[int, int]) -> dict[str, Any]:
     """The keyword options of "averaged" for ``(averaging_from, panels_per_oscillation)``."""
     return {"averaging_from": setting[0], "panels_per_oscillation": setting[1]}
 
@@ -808,7 +808,7 @@ def _settings_table(results: Results) -> list[str]:
             cells += [Stats.of(pooled).cell() if pooled.size else NOT_MEASURED,
                       Stats.of(table).cell()]
         gpu = results.settings_gpu_delta_e.get(setting)
-        rows.append([str(setting[0]), f"{setting[1]:g}",
+        rows.append([str(setting[0]), str(setting[1]),
                      NOT_MEASURED if seconds is None else human_time(seconds),
                      NOT_MEASURED if ratio is None else human_ratio(ratio), *cells,
                      NOT_MEASURED if gpu is None else f"{gpu.max():.3f}"])
@@ -977,12 +977,16 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
                   rows)
 
     if results.settings_delta_e:
+        from wgbragg.colour_methods import AVERAGING_MIN_PERIODS, PANELS_PER_OSCILLATION
+
         out += ["", '### "averaged" settings: `averaging_from`, `panels_per_oscillation`', ""]
         out += ["The options of `averaged` trade accuracy for speed where it integrates the "
                 "exact spectrum: every zone below N = `averaging_from`, at "
-                "`panels_per_oscillation` three-point Gauss panels per oscillation. The first "
-                "row is the default. dE2000 mean / p95 / max on the grid above, pooled over N >= "
-                f"{TARGET_AVERAGED_MIN_N} and over all N.", ""]
+                "`panels_per_oscillation` three-point Gauss panels per oscillation (defaults "
+                f"{AVERAGING_MIN_PERIODS} and {PANELS_PER_OSCILLATION}). dE2000 mean / p95 / "
+                f"max on the grid above, pooled over N >= {TARGET_AVERAGED_MIN_N} and over all "
+                "N (the Targets below also take the worst single N, which no setting changes "
+                "at N >= 16).", ""]
         out += _settings_table(results)
 
     out += ["", "### Targets", ""]
@@ -1061,6 +1065,7 @@ def plot_tradeoff(results: Results, path: Path) -> Path:
     sweep_colour = palette.get("spectral", "tab:purple")
     settings_colour = palette.get("averaged", "tab:green")
     kinds: list[tuple[str, str]] = []
+    settings_drawn = False
     labelled = False  # "K=..." labels on the first sweep curve only, not on each timing
     for kind in (NUMPY, GPU_WALL, GPU_KERNEL):
         marker, fill = markers[kind]
@@ -1083,9 +1088,10 @@ def plot_tradeoff(results: Results, path: Path) -> Path:
             _, d, t = zip(*settings, strict=True)
             ax.plot(d, t, color=settings_colour, linestyle="--", linewidth=1.0, marker=marker,
                     markersize=3, fillstyle=fill)
+            settings_drawn = True
             if kind == GPU_KERNEL:
                 for k, x, y in settings:
-                    ax.annotate(f"{k[0]}, {k[1]:g}", (x, y), fontsize=6, xytext=(3, -8),
+                    ax.annotate(f"{k[0]}, {k[1]}", (x, y), fontsize=6, xytext=(3, -8),
                                 textcoords="offset points", color=settings_colour)
         for method in results.methods:
             t = time_per_colour(results, (method, *kind))
@@ -1109,7 +1115,7 @@ def plot_tradeoff(results: Results, path: Path) -> Path:
                              label=method_label(m)) for m in results.methods]
     method_handles.append(Line2D([], [], color=sweep_colour, linestyle=":",
                                  label="spectral, K sweep"))
-    if results.settings_delta_e:
+    if settings_drawn:
         method_handles.append(Line2D([], [], color=settings_colour, linestyle="--",
                                      label="averaged settings"))
     kind_handles = [Line2D([], [], color="0.3", marker=markers[k][0], fillstyle=markers[k][1],

@@ -154,7 +154,7 @@ def _check_mirror(mirror, method: str) -> BraggMirror:
 
 def _kernel_and_params(mirror: BraggMirror, method: str, subdivisions: int,
                        averaging_from: int = AVERAGING_MIN_PERIODS,
-                       panels_per_oscillation: float = PANELS_PER_OSCILLATION):
+                       panels_per_oscillation: int = PANELS_PER_OSCILLATION):
     if method not in GPU_LANDMARK_METHODS:
         raise ValueError(f"method must be one of {tuple(GPU_LANDMARK_METHODS)}, got {method!r}")
     _check_mirror(mirror, method)
@@ -176,8 +176,12 @@ def _kernel_and_params(mirror: BraggMirror, method: str, subdivisions: int,
         "WORKGROUP_SIZE": WORKGROUP_SIZE,
     }
     if averaged:
-        constants["AVERAGING_MIN_PERIODS"] = averaging_from
-        constants["PANELS_PER_OSCILLATION"] = panels_per_oscillation
+        # The kernel only tests N < AVERAGING_MIN_PERIODS (the renderer, which includes it,
+        # reads N per shading point): any averaging_from <= N < 16 compiles as 2, so that
+        # settings share pipelines.
+        below_default = averaging_from <= mirror.N < AVERAGING_MIN_PERIODS
+        constants["AVERAGING_MIN_PERIODS"] = 2 if below_default else AVERAGING_MIN_PERIODS
+        constants["PANELS_PER_OSCILLATION"] = float(panels_per_oscillation)
     kernel = gpu.compute_pipeline("colour_landmarks_bragg.wgsl", constants=constants)
     return kernel, params
 
@@ -195,7 +199,7 @@ def _buffers(theta) -> tuple[list[np.ndarray], list, tuple[int, ...]]:
 
 def landmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3,
                  averaging_from: int = AVERAGING_MIN_PERIODS,
-                 panels_per_oscillation: float = PANELS_PER_OSCILLATION) -> np.ndarray:
+                 panels_per_oscillation: int = PANELS_PER_OSCILLATION) -> np.ndarray:
     """float32 GPU XYZ of a Bragg mirror by a landmark colour method.
 
     Parameters
@@ -208,8 +212,8 @@ def landmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3,
     subdivisions : int
         ``s`` of "subdivided" (>= 1); ignored by the other methods.
     averaging_from, panels_per_oscillation
-        The options of "averaged" (:func:`wgbragg.colour_methods.averaged_xyz`); ignored by
-        the other methods. Pipelines are specialised on them.
+        The options of "averaged" (:func:`wgbragg.colour_methods.averaged_xyz`), validated
+        for every method but used by "averaged" only, whose pipelines are specialised on them.
 
     Returns
     -------
@@ -240,7 +244,7 @@ def landmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3,
 
 def benchmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3,
                   repeats: int = 10, averaging_from: int = AVERAGING_MIN_PERIODS,
-                  panels_per_oscillation: float = PANELS_PER_OSCILLATION) -> float:
+                  panels_per_oscillation: int = PANELS_PER_OSCILLATION) -> float:
     """Median GPU seconds of one :func:`landmark_xyz` dispatch (buffers uploaded once)."""
     kernel, params = _kernel_and_params(mirror, method, *_checked_options(
         subdivisions, averaging_from, panels_per_oscillation))

@@ -11,9 +11,10 @@ registry of the thin-film methods (:mod:`wgbragg.thin_film_colour`).
   edges, where the averaged spectrum has a square-root edge and would otherwise need graded
   pieces. Both polarisations are smooth inside a zone and share its nodes. Modes, Airy and
   zero points are not needed. About 40 to 60 nodes where every zone is averaged, O(1) in N.
-  Where the oscillations are too few to average (below :data:`AVERAGING_MIN_PERIODS`, or
-  wider than a panel: short periods, up to about 110 nodes), the exact R is integrated with
-  :data:`PANELS_PER_OSCILLATION` panels per oscillation (:func:`_quadrature`).
+  Where the oscillations are too few to average (below N = ``averaging_from``, default
+  :data:`AVERAGING_MIN_PERIODS`, or wider than a panel: short periods, up to about 110 nodes),
+  the exact R is integrated with ``panels_per_oscillation`` (default
+  :data:`PANELS_PER_OSCILLATION`) panels per oscillation (:func:`_quadrature`).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ import inspect
 import numpy as np
 
 from . import colorimetry
-from ._validation import check_angle, check_integer, check_real
+from ._validation import check_angle, check_integer
 from .landmarks import VISIBLE_OMEGA, _ranges, find_landmarks_many
 from .optics.yeh import cell_coefficients, yeh_reflectance
 from .thin_film_colour import DEFAULT_ORDER, FOURIER_METHODS, fourier_xyz
@@ -58,19 +59,20 @@ oscillation when integrated exactly."""
 PANEL_NM = 40.0
 """Widest Gauss panel (nm) of "averaged": the CMF x D65 density needs ~13 nm node spacing."""
 
-PANELS_PER_OSCILLATION = 3.0
+PANELS_PER_OSCILLATION = 3
 """Gauss panels per oscillation of an exact spectrum (see :func:`_quadrature`): the
 edge-clustering map stretches panels up to 2x away from the edges it serves, and two per
 oscillation cost up to 3 dE2000 at grazing angles (N = 10), three 1.4."""
 
-MAX_AVERAGING_FROM = 64
-"""Largest ``averaging_from`` of "averaged": below it the cost grows with N (panels per
-oscillation, and the GPU kernel unrolls the recurrence of ``U_{N-1}``)."""
+MAX_AVERAGING_FROM = AVERAGING_MIN_PERIODS
+"""Largest ``averaging_from`` of "averaged": the option only averages sooner. Below it the
+GPU kernel unrolls the recurrence of ``U_{N-1}``, whose overflow guard holds to ``U_14``
+(``RECURRENCE_MAX_EXCESS`` in wgsl/colour_landmark.wgsl)."""
 
-MAX_PANELS_PER_OSCILLATION = 8.0
-"""Largest ``panels_per_oscillation`` of "averaged": with ``averaging_from`` at its largest,
-the exact panels of a few bands in view then stay within the GPU's loop budget
-(``gpu.SAFE_LOOP_ITERATIONS``)."""
+MAX_PANELS_PER_OSCILLATION = 8
+"""Largest ``panels_per_oscillation`` of "averaged": the default, 3, is already within mean
+0.05 / p95 0.18 / max 2.3 dE2000 of 8 on the benchmark's mirrors below N = 16 (every 3
+degrees)."""
 
 PANEL_MARGIN = 0.05
 """Panels of an exact spectrum: ``ceil(PANELS_PER_OSCILLATION x oscillations - PANEL_MARGIN)``."""
@@ -438,11 +440,12 @@ def averaged_xyz(mirror, theta, averaging_from=AVERAGING_MIN_PERIODS,
         Angles in the host, radians.
     averaging_from : int, optional
         Smallest N whose pass bands are integrated through the phase-averaged spectrum, in
-        [2, :data:`MAX_AVERAGING_FROM`]; below it every zone is integrated through the exact
-        spectrum. Default :data:`AVERAGING_MIN_PERIODS` (16).
-    panels_per_oscillation : float, optional
+        [2, :data:`MAX_AVERAGING_FROM`] (16, the default :data:`AVERAGING_MIN_PERIODS`);
+        below it every zone is integrated through the exact spectrum.
+    panels_per_oscillation : int, optional
         Gauss panels per oscillation of an exact spectrum, in [1,
-        :data:`MAX_PANELS_PER_OSCILLATION`]. Default :data:`PANELS_PER_OSCILLATION` (3).
+        :data:`MAX_PANELS_PER_OSCILLATION`]. Default :data:`PANELS_PER_OSCILLATION` (3). An
+        integer, so that float32 and float64 count the same panels.
 
     Notes
     -----
@@ -450,9 +453,9 @@ def averaged_xyz(mirror, theta, averaging_from=AVERAGING_MIN_PERIODS,
     is where "averaged" spends most of its time below N = 16. On the benchmark's grid
     (``tools/bench_rgb.py``, table '"averaged" settings' in docs/benchmarks.md, lavapipe)
     ``averaging_from=10, panels_per_oscillation=1`` takes the float32 kernel from 5.1x to 6.6x
-    the speed of "reference", and dE2000 against it for N >= 10 from mean 0.28 / p95 1.10 /
-    max 4.4 to 0.42 / 1.33 / 5.0 (against a converged integral: 0.10 / 0.40 / 2.6 to
-    0.23 / 0.91 / 5.0).
+    the speed of "reference", and dE2000 against it, pooled over N >= 10, from mean 0.28 /
+    p95 1.10 / max 4.4 to 0.42 / 1.33 / 5.0 (against a converged integral: 0.10 / 0.40 / 2.6
+    to 0.23 / 0.91 / 5.0).
 
     Raises
     ------
@@ -471,10 +474,10 @@ def check_averaging_from(value) -> int:
                          MAX_AVERAGING_FROM)
 
 
-def check_panels_per_oscillation(value) -> float:
-    """``panels_per_oscillation`` of "averaged": a real number in [1,
+def check_panels_per_oscillation(value) -> int:
+    """``panels_per_oscillation`` of "averaged": an integer in [1,
     :data:`MAX_PANELS_PER_OSCILLATION`]."""
-    return check_real("panels_per_oscillation", value, 1.0, MAX_PANELS_PER_OSCILLATION)
+    return check_integer("panels_per_oscillation", value, 1, MAX_PANELS_PER_OSCILLATION)
 
 
 def option_names(method) -> tuple[str, ...]:
