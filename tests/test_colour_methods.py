@@ -200,7 +200,7 @@ def test_averaged_options_set_the_exact_zones_and_their_panels():
 
 def test_averaged_speed_options_trade_accuracy_within_the_issue_bounds():
     """The quickest setting README documents (averaging_from=10, panels_per_oscillation=1)
-    stay within the issue's bounds for N >= 10 against "reference" (measured on this grid:
+    stays within the issue's bounds for N >= 10 against "reference" (measured on this grid:
     mean 0.28, p95 0.66, max 1.7), and cost accuracy (defaults: 0.13 / 0.52 / 1.2)."""
     theta = np.radians(np.arange(0.0, 90.0, 7.0))
     fast, default = [], []

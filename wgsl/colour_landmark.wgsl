@@ -35,8 +35,9 @@ const PANEL_NM: f32 = 40.0;
 const PANEL_MARGIN: f32 = 0.05;
 const PHASE_SNAP: f32 = 0.15;
 const EXACT_MIN_OSCILLATION_NM: f32 = 0.1;
-// The options averaging_from and panels_per_oscillation of "averaged" (colour_methods.
-// averaged_xyz), whose defaults are AVERAGING_MIN_PERIODS and PANELS_PER_OSCILLATION there.
+// The options of "averaged" (colour_methods.averaged_xyz): N below AVERAGING_MIN_PERIODS is
+// integrated exactly (the host passes 2 where averaging_from <= N < 16, so that those
+// settings share a pipeline); panels_per_oscillation. The defaults are colour_methods'.
 override AVERAGING_MIN_PERIODS: u32 = 16u;
 override PANELS_PER_OSCILLATION: f32 = 3.0;
 // N compiled into the exact spectrum's recurrence (recurrence_reflectance): set by pipelines
