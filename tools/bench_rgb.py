@@ -986,7 +986,7 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
                 f"{AVERAGING_MIN_PERIODS} and {PANELS_PER_OSCILLATION}). dE2000 mean / p95 / "
                 f"max on the grid above, pooled over N >= {TARGET_AVERAGED_MIN_N} and over all "
                 "N (the Targets below also take the worst single N, which no setting changes "
-                "at N >= 16).", ""]
+                f"at N >= {AVERAGING_MIN_PERIODS}).", ""]
         out += _settings_table(results)
 
     out += ["", "### Targets", ""]
