@@ -325,7 +325,7 @@ def test_numpy_integers_are_integers(backend):
     (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), "reference", "samples", "none"),
     (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), "approx", "s", "none"),
     (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), "averaged", "order",
-     "averaging_from, panels_per_oscillation"),
+     "averaging_from, panels_per_oscillation, quadrature, grid_nodes"),
     (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), "subdivided", "samples", "s"),
     (BraggMirror(1.0, 1.5, 125.0, 375.0, 20), "spectral", "s", "samples, seed"),
     (ThinFilm(1.33, 400.0), "reference", "order", "none"),

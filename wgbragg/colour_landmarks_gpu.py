@@ -37,12 +37,15 @@ import functools
 
 import numpy as np
 
-from . import colorimetry, gpu, kernels
+from . import colorimetry, colour_grid, colour_grid_gpu, gpu, kernels
+from .colour_grid import GRID_NODES
 from .colour_methods import (
     AVERAGING_MIN_PERIODS,
+    PANEL_NM,
     PANELS_PER_OSCILLATION,
     check_averaging_from,
     check_panels_per_oscillation,
+    check_quadrature,
     check_subdivisions,
 )
 from .materials import BraggMirror
@@ -244,8 +247,16 @@ def landmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3,
 
 def benchmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3,
                   repeats: int = 10, averaging_from: int = AVERAGING_MIN_PERIODS,
-                  panels_per_oscillation: int = PANELS_PER_OSCILLATION) -> float:
-    """Median GPU seconds of one :func:`landmark_xyz` dispatch (buffers uploaded once)."""
+                  panels_per_oscillation: int = PANELS_PER_OSCILLATION,
+                  quadrature: str = "landmarks", grid_nodes: int = GRID_NODES) -> float:
+    """Median GPU seconds of one :func:`landmark_xyz` dispatch (buffers uploaded once), or of
+    the grid kernel's where "averaged" takes ``quadrature="grid"``."""
+    if method == "averaged":
+        grid = _grid_setting(mirror, averaging_from, panels_per_oscillation, quadrature,
+                             grid_nodes)
+        if grid is not None:
+            return colour_grid_gpu.benchmark_grid_xyz(mirror, theta, *grid, PANEL_NM,
+                                                      repeats=repeats)
     kernel, params = _kernel_and_params(mirror, method, *_checked_options(
         subdivisions, averaging_from, panels_per_oscillation))
     inputs, outputs, _ = _buffers(theta)
@@ -262,9 +273,25 @@ def subdivided_xyz(mirror, theta, s=3) -> np.ndarray:
     return landmark_xyz(mirror, theta, "subdivided", s)
 
 
+def _grid_setting(mirror, averaging_from, panels_per_oscillation, quadrature, grid_nodes):
+    """``(averaging_from, grid_nodes)`` where "averaged" takes the grid quadrature, else None
+    (options validated either way)."""
+    _checked_options(1, averaging_from, panels_per_oscillation)
+    quadrature = check_quadrature(quadrature)
+    grid_nodes = colour_grid.check_grid_nodes(grid_nodes)
+    if (quadrature == "grid" and isinstance(mirror, BraggMirror)
+            and colour_grid.grid_applies(mirror, averaging_from, grid_nodes)):
+        return int(averaging_from), grid_nodes
+    return None
+
+
 def averaged_xyz(mirror, theta, averaging_from=AVERAGING_MIN_PERIODS,
-                 panels_per_oscillation=PANELS_PER_OSCILLATION) -> np.ndarray:
+                 panels_per_oscillation=PANELS_PER_OSCILLATION, quadrature="landmarks",
+                 grid_nodes=GRID_NODES) -> np.ndarray:
     """GPU twin of ``colour_methods.averaged_xyz`` (method "averaged"), same options."""
+    grid = _grid_setting(mirror, averaging_from, panels_per_oscillation, quadrature, grid_nodes)
+    if grid is not None:
+        return colour_grid_gpu.grid_xyz(mirror, theta, *grid, PANEL_NM)
     return landmark_xyz(mirror, theta, "averaged", averaging_from=averaging_from,
                         panels_per_oscillation=panels_per_oscillation)
 

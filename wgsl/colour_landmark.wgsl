@@ -140,30 +140,6 @@ fn averaged_pass_band_reflectance(m: BraggMirror, g: CellGeometry, polarization:
     return phase_averaged_host(t, e1, sqrt(t.sin2), fresnel_host_n1(m, g, polarization));
 }
 
-// Largest |x| - 1 (x = cos K Lambda) the recurrence sees: U_14(256) is below float32's
-// range. Only impedance ratios beyond 500 reach it, where R rounds to 1 anyway.
-const RECURRENCE_MAX_EXCESS: f32 = 255.0;
-
-// Eq 9 with U_{N-1}(x) from its three-term recurrence: one formula for pass bands, band edges
-// and gaps, with no branch and no transcendental, for the few periods (below
-// AVERAGING_MIN_PERIODS) where the loop is short; `periods` is a pipeline constant, so the
-// loop unrolls. R needs U^2 only, and U_k(-x) = (-1)^k U_k(x), so the recurrence runs at |x|
-// in Reinsch's form, driven by d = |x| - 1 = -sin^2 K Lambda / (1 + |x|): sin^2 keeps its
-// relative accuracy at band edges (mode_terms_at), where x itself is rounded by up to
-// rho ulp, far from 1 ulp at grazing incidence.
-fn recurrence_reflectance(t: CellTerms, periods: u32) -> f32 {
-    let d = min(-t.sin2 / (1.0 + abs(t.x)), RECURRENCE_MAX_EXCESS);
-    var u = 1.0;        // U_k
-    var change = 1.0;   // U_k - U_{k-1}
-    for (var k = 1u; k < periods; k++) {
-        change += 2.0 * d * u;
-        u += change;
-    }
-    let a = min(min(abs(t.W), MAX_AMPLITUDE) * abs(u), 1e18);
-    let a2 = a * a;
-    return a2 / (1.0 + a2);
-}
-
 // R of one polarisation at a node of "averaged", from its frame and the node's mode_phases:
 // exact in an exact zone (colour_methods._quadrature), else averaged in pass bands; gaps:
 // whether the zone may hold a band gap of either polarisation (else the gap formula, which

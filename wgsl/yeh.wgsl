@@ -232,6 +232,53 @@ fn matched_reflectance(t: CellTerms, cell_cycles: f32, periods: u32) -> f32 {
     return gap_reflectance(t, periods);
 }
 
+// Largest |x| - 1 (x = cos K Lambda) the recurrence sees: U_14(256) is below float32's
+// range. Only impedance ratios beyond 500 reach it, where R rounds to 1 anyway.
+const RECURRENCE_MAX_EXCESS: f32 = 255.0;
+
+// Eq 9 with U_{N-1}(x) from its three-term recurrence: one formula for pass bands, band edges
+// and gaps, with no branch and no transcendental, for the few periods (below
+// AVERAGING_MIN_PERIODS) where the loop is short; `periods` is a pipeline constant, so the
+// loop unrolls. R needs U^2 only, and U_k(-x) = (-1)^k U_k(x), so the recurrence runs at |x|
+// in Reinsch's form, driven by d = |x| - 1 = -sin^2 K Lambda / (1 + |x|): sin^2 keeps its
+// relative accuracy at band edges (mode_terms_at), where x itself is rounded by up to
+// rho ulp, far from 1 ulp at grazing incidence.
+fn recurrence_reflectance(t: CellTerms, periods: u32) -> f32 {
+    let d = min(-t.sin2 / (1.0 + abs(t.x)), RECURRENCE_MAX_EXCESS);
+    var u = 1.0;        // U_k
+    var change = 1.0;   // U_k - U_{k-1}
+    for (var k = 1u; k < periods; k++) {
+        change += 2.0 * d * u;
+        u += change;
+    }
+    let a = min(min(abs(t.W), MAX_AMPLITUDE) * abs(u), 1e18);
+    let a2 = a * a;
+    return a2 / (1.0 + a2);
+}
+
+// phase_averaged_matched in pass bands, gap_reflectance in gaps, branch-free and cheaper: the
+// grid quadrature (colour_grid_bragg.wgsl) evaluates both at every node, and lavapipe runs both
+// sides of a branch. The gap's R = W^2 u^2 / (W^2 u^2 + e^{-y}) with u = (1 - e^{-y}) / (2 a),
+// a = sinh(mu) = sqrt(-sin2), y = 2 N mu: u -> N at the band edge (a = 0) with no 0 / 0.
+fn averaged_matched_reflectance(t: CellTerms, periods: u32) -> f32 {
+    let w = min(abs(t.W), MAX_AMPLITUDE);
+    let w2 = w * w;
+    let a2 = abs(t.sin2);
+    let a = sqrt(a2);
+    let pass_band = 1.0 - a / max(sqrt(w2 + a2), 1e-30);
+    let n = f32(periods);
+    // asinh(a) / a; its log form loses a's digits to 1 + a below 0.01.
+    let mu_over_a = select(log(a + sqrt(1.0 + a2)) / a, 1.0 - a2 * (1.0 / 6.0), a < 0.01);
+    let y = 2.0 * n * mu_over_a * a;
+    let e = exp(-y);
+    // (1 - e^{-y}) / y = 1 - y / 2 + y^2 / 6 below 0.03 (relative error < 2e-7).
+    let u = select((1.0 - e) / (2.0 * a), n * mu_over_a * (1.0 - y * (0.5 - y * (1.0 / 6.0))),
+                   y < 0.03);
+    let wu2 = w2 * u * u;
+    let gap = wu2 / max(wu2 + e, 1e-37);
+    return clamp(select(gap, pass_band, t.sin2 > 0.0), 0.0, 1.0);
+}
+
 // Appendix D host, averaged over psi: with z = e^{2 i psi} the host reflection is a Moebius map
 // f(z) = (a z + b) / (c z + d) and the mean of |f|^2 on |z| = 1 is, by Parseval,
 // |b|^2/|d|^2 + |ad - bc|^2 / (|d|^2 (|d|^2 - |c|^2)) (z -> 1/z when |c| > |d|), with
