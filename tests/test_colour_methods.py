@@ -344,7 +344,8 @@ def test_an_option_the_method_does_not_take_is_refused(material, method, option,
 def test_option_names_follow_the_signatures():
     assert {name: option_names(m) for name, m in COLOUR_METHODS.items()} == {
         "reference": (), "spectral": ("samples", "seed"), "approx": (),
-        "subdivided": ("s",), "averaged": ("averaging_from", "panels_per_oscillation")}
+        "subdivided": ("s",),
+        "averaged": ("averaging_from", "panels_per_oscillation", "quadrature", "grid_nodes")}
     for name in ("fourier-table", "fourier-gaussian"):
         assert option_names(THIN_FILM_COLOUR_METHODS[name]) == ("order", "thickness_std_nm")
 
