@@ -239,20 +239,28 @@ def test_averaged_settings_rows(bench, runs):
     (text, _), _, _ = runs
     section = bench_section(bench, text)
     body = markdown_table(section, '### "averaged" settings')[1:]
-    assert [(int(row[0]), int(row[1])) for row in body] == list(bench.QUICK.averaged_settings)
+    settings = [(int(row[1]), int(row[2]) if row[0] == "landmarks" else bench.NOT_MEASURED,
+                 row[0], int(row[3]) if row[0] == "grid" else bench.NOT_MEASURED)
+                for row in body]
+    assert settings == [(a, p if q == "landmarks" else bench.NOT_MEASURED, q,
+                         n if q == "grid" else bench.NOT_MEASURED)
+                        for a, p, q, n in bench.QUICK.averaged_settings]
     for row in body:
-        assert bench.parse_time(row[2]) > 0 and bench.parse_ratio(row[3]) > 0
-        for cell in row[4:8]:
+        assert bench.parse_time(row[4]) > 0 and bench.parse_ratio(row[5]) > 0
+        for cell in row[6:10]:
             mean, p95, worst = bench.parse_stats(cell)
             assert 0.0 <= mean <= p95 <= worst
-        assert float(row[8]) <= bench.TARGET_GPU_AGREEMENT
+        assert float(row[10]) <= bench.TARGET_GPU_AGREEMENT
     from wgbragg.colour_methods import AVERAGING_MIN_PERIODS, PANELS_PER_OSCILLATION
 
-    default = next(row for row in body if (int(row[0]), int(row[1]))
+    default = next(row for row in body if row[0] == "landmarks" and (int(row[1]), int(row[2]))
                    == (AVERAGING_MIN_PERIODS, PANELS_PER_OSCILLATION))
     methods = markdown_table(section, '### dE2000 against "reference"')[1:]
     averaged = next(row for row in methods if row[0] == "averaged")
-    assert default[5] == averaged[-1]  # all N
+    assert default[7] == averaged[-1]  # all N
+    # The grid is another quadrature: its colours differ from the landmarks'.
+    grid = next(row for row in body if row[0] == "grid")
+    assert grid[7] != default[7]
 
 
 def test_targets_listed(bench, runs):
@@ -260,6 +268,7 @@ def test_targets_listed(bench, runs):
     body = markdown_table(bench_section(bench, text), "### Targets")[1:]
     targets = " ".join(row[0] for row in body)
     for needle in ("`averaged`: mean dE2000 <= 0.5", "over all N", "the speed of `reference`",
+                   '`quadrature="grid"` (96 nodes): mean dE2000 <= 0.5',
                    "`approx`: the paper's Table 1", "`approx`: dE2000 reported",
                    "numpy and GPU versions"):
         assert needle in targets, needle
