@@ -40,8 +40,8 @@ from .optics.yeh import yeh_reflectance
 __all__ = [
     "GRID_BAND_NM",
     "GRID_MAX_OSCILLATIONS_PER_CELL",
-    "GRID_TAIL_COARSENING",
     "GRID_NODES",
+    "GRID_TAIL_COARSENING",
     "MAX_GRID_NODES",
     "MIN_GRID_NODES",
     "averaged_angles",
@@ -149,7 +149,8 @@ def oscillations_in_view(mirror, theta) -> np.ndarray:
     s = mirror.host * np.sin(theta)
     q1 = np.sqrt(np.maximum((mirror.n1 - s) * (mirror.n1 + s), 0.0))
     q2 = np.sqrt(np.maximum((mirror.n2 - s) * (mirror.n2 + s), 0.0))
-    return mirror.N * (q1 * mirror.d1 + q2 * mirror.d2) * (VISIBLE_OMEGA[1] - VISIBLE_OMEGA[0]) / np.pi
+    span = VISIBLE_OMEGA[1] - VISIBLE_OMEGA[0]
+    return mirror.N * (q1 * mirror.d1 + q2 * mirror.d2) * span / np.pi
 
 
 def averaged_angles(mirror, theta, averaging_from: int, panel_nm: float) -> np.ndarray:

@@ -4,9 +4,10 @@ GPU twin of :func:`wgbragg.colour_grid.grid_xyz`.
 One invocation per angle sums R times the product weights (:func:`colour_grid.grid_weights`,
 uploaded once per node count) over the grid. The host forms each angle's inputs in float64
 (:func:`grid_angle_inputs`): its geometry, the half layer phases at the first node and their
-advance per cell of each of the grid's segments as (cos, sin) pairs, which the kernel turns by complex multiplication, and
-whether the angle averages. Pipelines are specialised on the node count and, below
-``averaging_from``, on N (the recurrence of ``U_{N-1}`` unrolls): one per setting.
+advance per cell of each of the grid's segments as (cos, sin) pairs, which the kernel turns by
+complex multiplication, and whether the angle averages. Pipelines are specialised on the node
+count and, below ``averaging_from``, on N (the recurrence of ``U_{N-1}`` unrolls): one per
+setting.
 """
 
 from __future__ import annotations

@@ -1,11 +1,11 @@
 // Entry point: "averaged" with quadrature "grid" (wgbragg/colour_grid.py), one invocation per
-// angle: xyz[i] = sum_k R(omega_k, theta_i) weights[k].xyz over GRID_NODES wavelengths uniform
-// in 1 / lambda, R unpolarized: phase-averaged in pass bands and exact in gaps where the angle
+// angle: xyz[i] = sum_k R(omega_k, theta_i) weights[k].xyz over the GRID_NODES wavelengths of
+// the grid, R unpolarized: phase-averaged in pass bands and exact in gaps where the angle
 // averages, else the exact spectrum. host == n1 <= n2 (the host checks): no Appendix D, n2
-// propagates. Within a segment of the grid the half layer phases delta / 2 = q d omega / 2
-// advance by the same angle from node to node, so each node rotates them by the step the host formed in float64 (with the
-// start) instead of evaluating any trigonometry: 4096 steps drift by ~1e-4 rad at most. The grid
-// has three segments, each uniform (colour_grid.grid_segments).
+// propagates. The grid has three segments, each uniform in omega (colour_grid.grid_segments):
+// within one the half layer phases delta / 2 = q d omega / 2 advance by the same angle from node
+// to node, so each node rotates them by the step the host formed in float64 (with the start)
+// instead of evaluating any trigonometry: 4096 steps drift by ~1e-4 rad at most.
 //! include "harness.wgsl"
 //! include "numerics.wgsl"
 //! include "complex.wgsl"
