@@ -15,6 +15,8 @@ registry of the thin-film methods (:mod:`wgbragg.thin_film_colour`).
   :data:`AVERAGING_MIN_PERIODS`, or wider than a panel: short periods, up to about 110 nodes),
   the exact R is integrated with ``panels_per_oscillation`` (default
   :data:`PANELS_PER_OSCILLATION`) panels per oscillation (:func:`_quadrature`).
+  ``quadrature="grid"`` integrates the same spectrum on fixed nodes instead
+  (:mod:`wgbragg.colour_grid`): faster, less accurate at band edges.
 """
 
 from __future__ import annotations
