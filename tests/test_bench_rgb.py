@@ -239,11 +239,9 @@ def test_averaged_settings_rows(bench, runs):
     (text, _), _, _ = runs
     section = bench_section(bench, text)
     body = markdown_table(section, '### "averaged" settings')[1:]
-    settings = [(int(row[1]), int(row[2]) if row[0] == "landmarks" else bench.NOT_MEASURED,
-                 row[0], int(row[3]) if row[0] == "grid" else bench.NOT_MEASURED)
-                for row in body]
-    assert settings == [(a, p if q == "landmarks" else bench.NOT_MEASURED, q,
-                         n if q == "grid" else bench.NOT_MEASURED)
+    settings = [(int(row[1]), int(row[2]), row[0],
+                 int(row[3]) if row[0] == "grid" else bench.NOT_MEASURED) for row in body]
+    assert settings == [(a, p, q, n if q == "grid" else bench.NOT_MEASURED)
                         for a, p, q, n in bench.QUICK.averaged_settings]
     for row in body:
         assert bench.parse_time(row[4]) > 0 and bench.parse_ratio(row[5]) > 0
@@ -258,9 +256,10 @@ def test_averaged_settings_rows(bench, runs):
     methods = markdown_table(section, '### dE2000 against "reference"')[1:]
     averaged = next(row for row in methods if row[0] == "averaged")
     assert default[7] == averaged[-1]  # all N
-    # The grid is another quadrature: its colours differ from the landmarks'.
+    # The grid is another quadrature: its colours and its time differ from the landmarks'.
     grid = next(row for row in body if row[0] == "grid")
-    assert grid[7] != default[7]
+    assert bench.parse_stats(grid[9]) != bench.parse_stats(default[9])
+    assert bench.parse_time(grid[4]) != bench.parse_time(default[4])
 
 
 def test_targets_listed(bench, runs):

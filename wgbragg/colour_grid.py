@@ -12,18 +12,17 @@ computed once, so a colour is one dot product, and the float32 twin
 trigonometry at all.
 
 What is given up: the band edges, where the averaged spectrum has a square-root edge, fall
-between nodes. On the benchmark's grid (``tools/bench_rgb.py``) that costs about 3x the
-landmark quadrature's dE2000 against a converged integral, within the issue's bounds, at
-about 2.5x its speed.
+between nodes. On the benchmark's grid (``tools/bench_rgb.py``, N >= 10) that costs about twice
+the landmark quadrature's mean dE2000 against a converged integral, within the issue's bounds,
+at about 2.2x its speed on lavapipe.
 
-Where it applies (:func:`grid_applies`): ``host == n1 <= n2`` (no Appendix D host, n2 never
-evanescent) and a cell of n2. At each angle the pass bands are phase-averaged when
+Where it applies (:func:`grid_applies`): ``host == n1 < n2`` (no Appendix D host, n2 never
+evanescent) with an n2 layer, and cells thin enough that few band gaps lie in view
+(:data:`GRID_MIN_CELLS_PER_BAND`). At each angle the pass bands are phase-averaged when
 ``N >= averaging_from`` and the exact spectrum oscillates at least ``470 / PANEL_NM`` times
 in view (as the landmark quadrature decides); otherwise the exact spectrum is sampled, which
-needs its oscillations resolved: below ``averaging_from`` the grid applies only when, at
-normal incidence (where they are most), they are at most
-:data:`GRID_MAX_OSCILLATIONS_PER_CELL` per cell. Elsewhere "averaged" uses its landmark
-quadrature whatever ``quadrature`` says.
+needs its oscillations resolved (:data:`GRID_MAX_OSCILLATIONS_PER_CELL`). Elsewhere "averaged"
+uses its landmark quadrature whatever ``quadrature`` says.
 """
 
 from __future__ import annotations
@@ -55,8 +54,9 @@ __all__ = [
 ]
 
 GRID_NODES = 96
-"""Default nodes of the grid: mean 0.35 / p95 1.3 dE2000 against a converged integral over the
-benchmark's mirrors with N >= 10 (128 nodes: 0.23 / 0.8; 64: 0.68 / 2.0)."""
+"""Default nodes of the grid. On the benchmark's mirrors with N >= 10 (``tools/bench_rgb.py``),
+dE2000 mean / p95 against "reference" 0.38 / 1.29 and against a converged integral 0.23 / 0.80;
+128 nodes: 0.31 / 1.09 and 0.14 / 0.51."""
 
 GRID_BAND_NM = (410.0, 690.0)
 """Where the grid is finest (nm): outside it the CMF x D65 density is below ~5 % of its peaks,
@@ -65,15 +65,27 @@ and nodes there cost time for little accuracy (4x coarser tails lost nothing mea
 GRID_TAIL_COARSENING = 4.0
 """About how much wider the grid's cells are outside :data:`GRID_BAND_NM` than inside."""
 
-MIN_GRID_NODES = 16
+MIN_GRID_NODES = 24
 MAX_GRID_NODES = 4096
-"""Range of ``grid_nodes``: the float32 twin steps its phases by rotations, whose rounding
-grows with the node count (4096 steps: ~1e-4 rad)."""
+"""Range of ``grid_nodes``. Below 24 the band's cells could not resolve the exact spectra that
+an averaging N leaves at some angles (``470 / PANEL_NM`` oscillations in view), and the grid
+would never apply; above 4096 the float32 twin's rotations would drift (~1e-4 rad there)."""
 
-GRID_MAX_OSCILLATIONS_PER_CELL = 0.5
-"""Most oscillations of the exact spectrum per grid cell (at normal incidence) with which the
-grid samples it below ``averaging_from``: the benchmark's worst case, N = 10 and
-Lambda = 988 nm, has 0.41 at 96 nodes."""
+GRID_MAX_OSCILLATIONS_PER_CELL = 0.4
+"""Most oscillations of an exact spectrum per cell of the grid's band (:data:`GRID_BAND_NM`;
+the tails' cells hold 4x as many, where the density is small) with which the grid samples it:
+at normal incidence below ``averaging_from``, and at the most an averaging N leaves exact
+(``470 / PANEL_NM`` in view). The benchmark's worst case, N = 10 at Lambda = 988 nm and
+d1 / Lambda = 0.25, has 0.34 at 96 nodes (mean dE2000 0.23 against "reference" at N = 10)."""
+
+GRID_MIN_CELLS_PER_BAND = 24
+"""Fewest cells of the grid's band per band gap period (``K Lambda`` advancing by pi) at normal
+incidence: each band gap's square-root edges cost the grid accuracy, so cells thick enough to
+put many gaps in view keep the landmark quadrature. The benchmark's thickest cells (Lambda =
+988 nm) have 29 at 96 nodes; at N = 20 the grid measured mean dE2000 0.28 / 0.52 / 0.66 / 1.05
+/ 5.5 against a converged integral for Lambda = 988 / 1250 / 1500 / 2000 / 10000 nm (d1 =
+d2; 29 / 24 / 20 / 15 / 3 cells per band), the landmark quadrature 0.09 / 0.19 / 0.18 / 0.81 /
+0.73."""
 
 _GAUSS_POINTS = 5
 
@@ -117,7 +129,7 @@ def grid_weights(nodes: int) -> np.ndarray:
 
     ``sum_k R_k w_k`` integrates the CMF x D65 density (:func:`colorimetry.xyz_density`)
     against R interpolated linearly in ``1 / lambda`` between the nodes of
-    :func:`grid_wavelengths`. The density is linear between 1 nm nodes, so every piece between
+    :func:`grid_omegas`. The density is linear between 1 nm nodes, so every piece between
     a grid node and a 1 nm node is smooth and a 5-point Gauss rule leaves ~1e-12. The hat
     functions sum to 1: a perfect reflector gets the white point exactly.
     """
@@ -161,15 +173,20 @@ def averaged_angles(mirror, theta, averaging_from: int, panel_nm: float) -> np.n
     return (mirror.N >= averaging_from) & many
 
 
-def grid_applies(mirror, averaging_from: int, nodes: int) -> bool:
-    """Whether :func:`grid_xyz` serves ``mirror`` (see the module's notes)."""
-    host_matched = np.float32(mirror.host) == np.float32(mirror.n1)
-    layered = mirror.n1 != mirror.n2 and mirror.d2 > 0.0
-    if not (host_matched and layered and np.float32(mirror.n2) >= np.float32(mirror.n1)):
+def grid_applies(mirror, averaging_from: int, nodes: int, panel_nm: float) -> bool:
+    """Whether :func:`grid_xyz` serves ``mirror`` (see the module's notes): ``host == n1 < n2``
+    (in float64, as both twins read them) with an n2 layer, at most one band gap period per
+    :data:`GRID_MIN_CELLS_PER_BAND` band cells, and every exact spectrum resolved
+    (:data:`GRID_MAX_OSCILLATIONS_PER_CELL`). All are largest at normal incidence."""
+    if not (mirror.host == mirror.n1 < mirror.n2 and mirror.d2 > 0.0):
         return False
-    if mirror.N >= averaging_from:
-        return True
-    return bool(oscillations_in_view(mirror, 0.0) <= GRID_MAX_OSCILLATIONS_PER_CELL * (nodes - 1))
+    _, steps = grid_segments(nodes)
+    band_cell = steps[1] / (VISIBLE_OMEGA[1] - VISIBLE_OMEGA[0])  # share of the range
+    oscillations = float(oscillations_in_view(mirror, 0.0))
+    if oscillations / mirror.N * band_cell * GRID_MIN_CELLS_PER_BAND > 1.0:
+        return False
+    exact = oscillations if mirror.N < averaging_from else min(oscillations, 470.0 / panel_nm)
+    return exact * band_cell <= GRID_MAX_OSCILLATIONS_PER_CELL
 
 
 def grid_xyz(mirror, theta, averaging_from: int, nodes: int, panel_nm: float) -> np.ndarray:

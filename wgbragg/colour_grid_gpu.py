@@ -77,7 +77,7 @@ def grid_xyz(mirror, theta, averaging_from: int, nodes: int, panel_nm: float) ->
     ``theta.shape + (3,)``."""
     kernel, inputs, outputs, params, shape = _dispatch_inputs(mirror, theta, averaging_from,
                                                               nodes, panel_nm)
-    if not outputs[0][0][0]:
+    if not np.prod(shape):
         return np.zeros((*shape, 3))
     (out,) = kernel.run(inputs, outputs, params)
     return out[:, :3].astype(np.float64).reshape((*shape, 3))

@@ -280,7 +280,7 @@ def _grid_setting(mirror, averaging_from, panels_per_oscillation, quadrature, gr
     quadrature = check_quadrature(quadrature)
     grid_nodes = colour_grid.check_grid_nodes(grid_nodes)
     if (quadrature == "grid" and isinstance(mirror, BraggMirror)
-            and colour_grid.grid_applies(mirror, averaging_from, grid_nodes)):
+            and colour_grid.grid_applies(mirror, averaging_from, grid_nodes, PANEL_NM)):
         return int(averaging_from), grid_nodes
     return None
 

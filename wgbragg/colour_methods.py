@@ -71,7 +71,7 @@ oscillation cost up to 3 dE2000 at grazing angles (N = 10), three 1.4."""
 MAX_AVERAGING_FROM = AVERAGING_MIN_PERIODS
 """Largest ``averaging_from`` of "averaged": the option only averages sooner. Below it the
 GPU kernel unrolls the recurrence of ``U_{N-1}``, whose overflow guard holds to ``U_14``
-(``RECURRENCE_MAX_EXCESS`` in wgsl/colour_landmark.wgsl)."""
+(``RECURRENCE_MAX_EXCESS`` in wgsl/yeh.wgsl)."""
 
 MAX_PANELS_PER_OSCILLATION = 8
 """Largest ``panels_per_oscillation`` of "averaged": the default, 3, is already within mean
@@ -458,12 +458,12 @@ def averaged_xyz(mirror, theta, averaging_from=AVERAGING_MIN_PERIODS,
         ``"landmarks"`` (default): Gauss panels between the band edges of each angle, as
         above. ``"grid"``: the same spectrum at ``grid_nodes`` wavelengths uniform in
         ``1 / lambda``, fixed for every angle, with precomputed product weights
-        (:mod:`wgbragg.colour_grid`): about 2.5x faster on the GPU and about 3x the error,
-        where it applies (``host == n1 <= n2``, and below ``averaging_from`` oscillations the
-        grid resolves); elsewhere the landmark quadrature is used.
+        (:mod:`wgbragg.colour_grid`): about 2.2x faster on lavapipe and about twice the mean
+        error, where it applies (``host == n1 < n2``, cells with few band gaps in view, and
+        exact spectra the grid resolves); elsewhere the landmark quadrature is used.
     grid_nodes : int, optional
         Nodes of ``quadrature="grid"``, in [16, 4096]; default
-        :data:`~wgbragg.colour_grid.GRID_NODES` (96). Ignored by ``"landmarks"``.
+        :data:`~wgbragg.colour_grid.GRID_NODES` (96). Validated but unused by ``"landmarks"``.
 
     Notes
     -----
@@ -484,7 +484,8 @@ def averaged_xyz(mirror, theta, averaging_from=AVERAGING_MIN_PERIODS,
     panels_per_oscillation = check_panels_per_oscillation(panels_per_oscillation)
     quadrature = check_quadrature(quadrature)
     grid_nodes = colour_grid.check_grid_nodes(grid_nodes)
-    if quadrature == "grid" and colour_grid.grid_applies(mirror, averaging_from, grid_nodes):
+    if quadrature == "grid" and colour_grid.grid_applies(mirror, averaging_from, grid_nodes,
+                                                         PANEL_NM):
         return _per_angle(mirror, theta, lambda angles: colour_grid.grid_xyz(
             mirror, angles, averaging_from, grid_nodes, PANEL_NM))
     return _per_angle(mirror, theta, lambda angles: _averaged_unpolarized(

@@ -271,9 +271,9 @@ fn averaged_matched_reflectance(t: CellTerms, periods: u32) -> f32 {
     let mu_over_a = select(log(a + sqrt(1.0 + a2)) / a, 1.0 - a2 * (1.0 / 6.0), a < 0.01);
     let y = 2.0 * n * mu_over_a * a;
     let e = exp(-y);
-    // (1 - e^{-y}) / y = 1 - y / 2 + y^2 / 6 below 0.03 (relative error < 2e-7).
-    let u = select((1.0 - e) / (2.0 * a), n * mu_over_a * (1.0 - y * (0.5 - y * (1.0 / 6.0))),
-                   y < 0.03);
+    // (1 - e^{-y}) / y = 1 - y / 2 + y^2 / 6 - y^3 / 24 below 0.03 (truncation < 1e-8).
+    let series = 1.0 - y * (0.5 - y * (1.0 / 6.0 - y * (1.0 / 24.0)));
+    let u = select((1.0 - e) / (2.0 * a), n * mu_over_a * series, y < 0.03);
     let wu2 = w2 * u * u;
     let gap = wu2 / max(wu2 + e, 1e-37);
     return clamp(select(gap, pass_band, t.sin2 > 0.0), 0.0, 1.0);
