@@ -4,12 +4,12 @@
 gaps. Its default quadrature (``"landmarks"``, :func:`wgbragg.colour_methods.averaged_xyz`)
 finds the band edges at every angle and places Gauss panels between them: accurate, but on
 lavapipe finding and bookkeeping the zones costs as much as the reflectances. ``"grid"``
-evaluates the same spectrum at ``grid_nodes`` wavelengths uniform in ``1 / lambda`` over
-360-830 nm, fixed for every mirror and angle, and integrates R linearly interpolated in
-``1 / lambda`` against the CMF x D65 density: the product weights (:func:`grid_weights`) are
-computed once, so a colour is one dot product, and the float32 twin
-(``wgsl/colour_grid_bragg.wgsl``) steps the layer phases by a rotation per node, with no
-trigonometry at all.
+evaluates the same spectrum at ``grid_nodes`` wavelengths over 360-830 nm, uniform in
+``1 / lambda`` within each of three segments (:func:`grid_segments`) and fixed for every mirror
+and angle, and integrates R linearly interpolated in ``1 / lambda`` against the CMF x D65
+density: the product weights (:func:`grid_weights`) are computed once, so a colour is one dot
+product, and the float32 twin (``wgsl/colour_grid_bragg.wgsl``) steps the layer phases by a
+rotation per node, with no trigonometry per node.
 
 What is given up: the band edges, where the averaged spectrum has a square-root edge, fall
 between nodes. On the benchmark's grid (``tools/bench_rgb.py``, N >= 10) that costs about twice
