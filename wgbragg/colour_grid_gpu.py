@@ -18,6 +18,7 @@ import functools
 import numpy as np
 
 from . import colour_gpu, colour_grid, gpu, kernels
+from .colour_methods import _total_reflection
 from .landmarks import VISIBLE_OMEGA
 
 __all__ = ["WORKGROUP_SIZE", "benchmark_grid_xyz", "grid_angle_inputs", "grid_xyz"]
@@ -42,7 +43,7 @@ def grid_angle_inputs(mirror, theta, averaging_from: int, panel_nm: float) -> np
     out = np.zeros((theta.size, 12), np.float32)
     out[:, :8] = colour_gpu.angle_inputs(mirror, theta)
     averaged = colour_grid.averaged_angles(mirror, theta, averaging_from, panel_nm)
-    total = mirror.host * np.sin(theta) >= mirror.n1
+    total = _total_reflection(mirror, theta)
     out[:, 8] = np.where(total, MODE_TOTAL, np.where(averaged, MODE_AVERAGED, MODE_EXACT))
     return out
 

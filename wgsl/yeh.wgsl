@@ -265,7 +265,6 @@ fn averaged_matched_reflectance(t: CellTerms, periods: u32) -> f32 {
     let w2 = w * w;
     let a2 = abs(t.sin2);
     let a = sqrt(a2);
-    let pass_band = 1.0 - a / max(sqrt(w2 + a2), 1e-30);
     let n = f32(periods);
     // asinh(a) / a; its log form loses a's digits to 1 + a below 0.01.
     let mu_over_a = select(log(a + sqrt(1.0 + a2)) / a, 1.0 - a2 * (1.0 / 6.0), a < 0.01);
@@ -276,7 +275,8 @@ fn averaged_matched_reflectance(t: CellTerms, periods: u32) -> f32 {
     let u = select((1.0 - e) / (2.0 * a), n * mu_over_a * series, y < 0.03);
     let wu2 = w2 * u * u;
     let gap = wu2 / max(wu2 + e, 1e-37);
-    return clamp(select(gap, pass_band, t.sin2 > 0.0), 0.0, 1.0);
+    // phase_averaged_matched is NaN in gaps, where select drops it.
+    return select(clamp(gap, 0.0, 1.0), phase_averaged_matched(t), t.sin2 > 0.0);
 }
 
 // Appendix D host, averaged over psi: with z = e^{2 i psi} the host reflection is a Moebius map
