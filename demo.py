@@ -23,9 +23,9 @@ import time
 
 from PIL import Image
 
-from wgbragg._io import atomic_path
-from wgbragg.scene import MODES, PRESETS, load_preset, load_scene
-from wgbragg.viewer import Viewer
+from wgbragg.common.atomic import atomic_path
+from wgbragg.scene.model import MODES, PRESETS, load_preset, load_scene
+from wgbragg.app.viewer import Viewer
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -65,7 +65,7 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, OSError) as error:
         parser.error(str(error))
     # Imported here: the window needs imgui and rendercanvas, the checks above do not.
-    from wgbragg.viewer_window import ViewerWindow
+    from wgbragg.app.viewer_window import ViewerWindow
 
     window = ViewerWindow(viewer, offscreen=offscreen)
     if not offscreen:

@@ -220,7 +220,7 @@ def coating_internal_reflectance(theta: float, n: float) -> float:
     angle."""
     import math
 
-    from wgbragg.layered import coating_reflectance
+    from wgbragg.bsdf.layered.model import coating_reflectance
 
     out = n * math.sin(theta)
     return 1.0 if out >= 1.0 else float(coating_reflectance(math.sqrt(1.0 - out * out), n))

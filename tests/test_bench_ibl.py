@@ -109,7 +109,7 @@ def test_colour_table_and_lobe(bench):
     import numpy as np
 
     from wgbragg import ThinFilm
-    from wgbragg.ibl import microfacet_albedo
+    from wgbragg.lighting.ibl import microfacet_albedo
 
     material = ThinFilm(1.33, 400.0, n_base=2.0)
     table = bench.ColourTable(material, 64)

@@ -34,7 +34,7 @@ def test_section_written_once(run):
 
 
 def test_every_preset_and_configuration_measured(run):
-    from wgbragg.scene import PRESETS
+    from wgbragg.scene.model import PRESETS
 
     _, text = run
     presets = _rows(text, "### Presets")

@@ -51,7 +51,7 @@ def runs(bench, tmp_path_factory):
 
 
 def _methods():
-    from wgbragg.colour_methods import COLOUR_METHODS, GPU_COLOUR_METHODS
+    from wgbragg.colour.landmark_methods import COLOUR_METHODS, GPU_COLOUR_METHODS
 
     return list(COLOUR_METHODS), tuple(GPU_COLOUR_METHODS)
 
@@ -211,7 +211,7 @@ def test_dense_host_range_is_past_the_critical_angle(bench):
 def test_fine_integral(bench):
     """On the 1 nm grid the trapezoid integral is the reference's sum (the density vanishes
     at the ends); the adaptive step resolves N-fold oscillations."""
-    from wgbragg.colour_reference import reference_xyz
+    from wgbragg.colour.reference import reference_xyz
 
     case = bench.Case(500.0, 0.5, 20)
     theta = np.radians([0.0, 40.0])
@@ -249,7 +249,7 @@ def test_averaged_settings_rows(bench, runs):
             mean, p95, worst = bench.parse_stats(cell)
             assert 0.0 <= mean <= p95 <= worst
         assert float(row[10]) <= bench.TARGET_GPU_AGREEMENT
-    from wgbragg.colour_methods import AVERAGING_MIN_PERIODS, PANELS_PER_OSCILLATION
+    from wgbragg.colour.landmark_methods import AVERAGING_MIN_PERIODS, PANELS_PER_OSCILLATION
 
     default = next(row for row in body if row[0] == "landmarks" and (int(row[1]), int(row[2]))
                    == (AVERAGING_MIN_PERIODS, PANELS_PER_OSCILLATION))
@@ -293,7 +293,7 @@ def test_plot_is_a_png(runs):
 
 def test_gpu_methods_read_at_run_time(bench, monkeypatch):
     """The GPU rows follow ``GPU_COLOUR_METHODS`` as it is when the run starts."""
-    from wgbragg import colour_methods
+    from wgbragg.colour import landmark_methods as colour_methods
 
     monkeypatch.setattr(colour_methods, "GPU_COLOUR_METHODS", ("reference",))
     tiny = dataclasses.replace(bench.QUICK, counts=(10,), angles_deg=(20.0,), samples=(4,),

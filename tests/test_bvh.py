@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wgbragg.bvh import BVH, build_bvh
-from wgbragg.meshes import plane_mesh, utah_teapot
+from wgbragg.render.bvh import BVH, build_bvh
+from wgbragg.scene.meshes import plane_mesh, utah_teapot
 
 RTOL = 1e-9
 

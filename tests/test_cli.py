@@ -7,7 +7,7 @@ import pytest
 from PIL import Image
 
 from wgbragg import BraggMirror
-from wgbragg.cli import main
+from wgbragg.app.cli import main
 
 
 def test_reflectance_prints_the_numpy_reference(capsys):
@@ -103,7 +103,10 @@ def test_file_mistakes_are_clear_errors_before_any_work(argv, message, tmp_path,
     """A path that cannot be read or written: exit status 2 and one line, no traceback, no
     file left behind, and no render or bake started (they would fail the test)."""
     (tmp_path / "file.txt").write_text("in the way")
-    from wgbragg import luts, maps, render, scatterogram
+    from wgbragg.common import luts
+    from wgbragg.app import maps
+    from wgbragg.render import renderer as render
+    from wgbragg.app import scatterogram
 
     def forbidden(*args, **kwargs):
         raise AssertionError("the work started before the output path was checked")
@@ -127,8 +130,9 @@ def test_render_sizes_beyond_the_device_are_refused_before_the_scene(tmp_path, c
                                                                     monkeypatch):
     """2900 x 2900 fits a scene file but not lavapipe's 128 MiB storage binding: a wgpu
     traceback after the scene was built, before."""
-    from wgbragg import gpu, render
-    from wgbragg.scene import MAX_IMAGE_PIXELS
+    from wgbragg import gpu
+    from wgbragg.render import renderer as render
+    from wgbragg.scene.model import MAX_IMAGE_PIXELS
 
     most = gpu.max_buffer_bytes() // 16
     if most >= MAX_IMAGE_PIXELS:

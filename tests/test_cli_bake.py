@@ -12,8 +12,8 @@ import pytest
 from conftest import load_tool
 from test_luts import fake_filter_module
 
-from wgbragg import luts
-from wgbragg.cli import DEFAULT_ALPHAS, build_parser, main
+from wgbragg.common import luts
+from wgbragg.app.cli import DEFAULT_ALPHAS, build_parser, main
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY = ["--resolution-deg", "10", "--psi-samples", "8", "--backend", "numpy", "--no-progress"]
@@ -22,7 +22,7 @@ TINY = ["--resolution-deg", "10", "--psi-samples", "8", "--backend", "numpy", "-
 @pytest.fixture
 def fake_filter(monkeypatch):
     module = fake_filter_module()
-    monkeypatch.setitem(sys.modules, "wgbragg.transmission_filter", module)
+    monkeypatch.setitem(sys.modules, "wgbragg.bsdf.transmission_filter", module)
     return module
 
 
@@ -136,7 +136,7 @@ def test_tool_runs_as_a_script(cache):
 
 def test_real_filter_bake(cache, capsys):
     """The real transmission filter module, once it exists: a tiny numpy bake."""
-    pytest.importorskip("wgbragg.transmission_filter")
+    pytest.importorskip("wgbragg.bsdf.transmission_filter")
     options = ["--alpha", "0.3", "--resolution-deg", "5", "--psi-samples", "64",
                "--backend", "numpy", "--no-colour-tables", "--no-progress"]
     assert main(["bake", *options]) == 0

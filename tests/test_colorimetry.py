@@ -1,4 +1,4 @@
-"""wgbragg.colorimetry: XYZ weights, density, cumulative integral, sRGB and dE2000.
+"""wgbragg.colour.colorimetry: XYZ weights, density, cumulative integral, sRGB and dE2000.
 
 Everything is checked against colour-science computing the same quantity its own way
 (``colour.sd_to_XYZ``, ``colour.delta_E``) or against published values (Sharma et al. 2005),
@@ -14,8 +14,8 @@ import colour
 import numpy as np
 import pytest
 
-from wgbragg import colorimetry
-from wgbragg.colorimetry import (
+from wgbragg.colour import colorimetry
+from wgbragg.colour.colorimetry import (
     WAVELENGTH_RANGE_NM,
     XYZ_TO_LINEAR_SRGB,
     cumulative_table,

@@ -14,10 +14,13 @@ import math
 import numpy as np
 import pytest
 
-from wgbragg import BraggMirror, colorimetry, colour_grid, colour_grid_gpu
-from wgbragg import colour_methods as cm
-from wgbragg.colorimetry import delta_e_2000, xyz_to_linear_srgb
-from wgbragg.landmarks import VISIBLE_OMEGA
+from wgbragg import BraggMirror
+from wgbragg.colour import colorimetry
+from wgbragg.colour import grid as colour_grid
+from wgbragg.colour import grid_gpu as colour_grid_gpu
+from wgbragg.colour import landmark_methods as cm
+from wgbragg.colour.colorimetry import delta_e_2000, xyz_to_linear_srgb
+from wgbragg.optics.landmarks import VISIBLE_OMEGA
 
 DEG = math.pi / 180.0
 THETA = np.arange(0.0, 90.0, 7.0) * DEG
@@ -229,7 +232,7 @@ def test_pipelines_are_specialised_on_the_setting():
 
 @pytest.mark.gpu
 def test_benchmark_times_the_grid_kernel(monkeypatch):
-    from wgbragg import colour_landmarks_gpu
+    from wgbragg.colour import landmark_methods_gpu as colour_landmarks_gpu
 
     timed = []
     real = colour_grid_gpu.benchmark_grid_xyz

@@ -20,10 +20,12 @@ import numpy as np
 import pytest
 from conftest import load_tool
 
-from wgbragg import BraggMirror, colour_landmarks_gpu, gpu
-from wgbragg import colour_methods as cm
-from wgbragg.colorimetry import delta_e_2000, xyz_to_linear_srgb
-from wgbragg.landmarks import find_landmarks
+from wgbragg import BraggMirror
+from wgbragg.colour import landmark_methods_gpu as colour_landmarks_gpu
+from wgbragg import gpu
+from wgbragg.colour import landmark_methods as cm
+from wgbragg.colour.colorimetry import delta_e_2000, xyz_to_linear_srgb
+from wgbragg.optics.landmarks import find_landmarks
 
 pytestmark = pytest.mark.gpu
 
@@ -106,7 +108,7 @@ def test_averaged_through_tunnelling_pass_bands():
     dE2000 of a converged integral (0.0047 nm strata; the 1 nm reference is up to 0.4 off),
     and phase-average the bands whose oscillations are under 0.1 nm (measured: the float32
     kernel at 1.2x the reference's time per colour; integrated exactly, 6x)."""
-    from wgbragg.colour_reference import MAX_SAMPLES, spectral_xyz_stratified
+    from wgbragg.colour.reference import MAX_SAMPLES, spectral_xyz_stratified
 
     theta = TUNNELLING_THETA.astype(np.float32).astype(np.float64)
     expected = cm.averaged_xyz(TUNNELLING, theta)
@@ -184,7 +186,7 @@ def test_averaged_zones_match_numpy_in_xyz(mirror, theta):
 
 
 # Below N = 16 with host == n1 <= n2 every zone is exact, and the pipeline compiles N into an
-# unrolled recurrence for U_{N-1} (EXACT_PERIODS in wgsl/colour_landmark.wgsl): one pipeline
+# unrolled recurrence for U_{N-1} (EXACT_PERIODS in wgsl/colour/landmark_methods.wgsl): one pipeline
 # per N, with no branch between pass bands, band edges and gaps.
 EXACT_LAYERS = {
     "n2=1.5": (1.5, 100.0, 150.0),
@@ -432,7 +434,7 @@ def test_pack_density_slopes_refuses_slopes_that_do_not_fit():
 def test_the_kernel_unpacks_the_slopes_as_python_packs_them():
     """The WGSL decoder's steps and bit fields are colour_landmarks_gpu's (a step off by 2x
     would move the density by up to its slope, below what the colour twins resolve)."""
-    source = (gpu.shader_dir() / "colour_landmark.wgsl").read_text()
+    source = (gpu.shader_dir() / "colour/landmark_methods.wgsl").read_text()
     steps = re.search(r"DENSITY_SLOPE_STEP: vec3<f32> = vec3<f32>\(([^)]*)\)", source)
     np.testing.assert_array_equal(np.array(steps.group(1).split(","), float),
                                   colour_landmarks_gpu.DENSITY_SLOPE_STEP)

@@ -7,9 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from wgbragg import BraggMirror, ThinFilm, colour_methods, colour_reference
-from wgbragg.colorimetry import delta_e_2000, xyz_to_linear_srgb
-from wgbragg.colour_methods import (
+from wgbragg import BraggMirror, ThinFilm
+from wgbragg.colour import landmark_methods as colour_methods
+from wgbragg.colour import reference as colour_reference
+from wgbragg.colour.colorimetry import delta_e_2000, xyz_to_linear_srgb
+from wgbragg.colour.landmark_methods import (
     AVERAGING_MIN_PERIODS,
     COLOUR_METHODS,
     EXACT_MIN_OSCILLATION_NM,
@@ -371,7 +373,7 @@ def test_averaged_matches_the_converged_integral(mirror, degrees):
     "averaged" stays within 0.15 dE2000 (measured 8e-4, 0.12 beside the zero point, 0.03; short
     periods 0.06, 0.006, 0.03; 0.015 for the zone at the range's start, 0.002 beside an edge
     below it)."""
-    from wgbragg import colorimetry
+    from wgbragg.colour import colorimetry
 
     wavelength = np.arange(360.0, 830.0 + 1e-9, 0.01)
     theta = math.radians(degrees)

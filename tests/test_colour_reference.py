@@ -28,9 +28,10 @@ import colour
 import numpy as np
 import pytest
 
-from wgbragg import BraggMirror, ThinFilm, colour_gpu
-from wgbragg.colorimetry import delta_e_2000, xyz_density, xyz_to_linear_srgb, xyz_weights
-from wgbragg.colour_reference import (
+from wgbragg import BraggMirror, ThinFilm
+from wgbragg.colour import reference_gpu as colour_gpu
+from wgbragg.colour.colorimetry import delta_e_2000, xyz_density, xyz_to_linear_srgb, xyz_weights
+from wgbragg.colour.reference import (
     STRATA_RANGE_NM,
     integrate_xyz,
     reference_xyz,
@@ -147,7 +148,7 @@ def test_n_dimensional_theta(function):
 
 
 def test_numpy_blocks_give_the_same_colours_as_one_call(monkeypatch):
-    import wgbragg.colour_reference as module
+    import wgbragg.colour.reference as module
 
     whole = reference_xyz(MIRRORS[4], ANGLES)
     monkeypatch.setattr(module, "_BLOCK", 471 * 7)  # 7 angles per block, a partial last one
@@ -434,7 +435,7 @@ LOOP_BUDGET_RTOL = 1e-4  # float32 sums of 100000 nodes; measured 1.1e-5
                          ids=["mirror", "film-over-Ag"])
 def test_spectral_gpu_integrates_every_node_past_the_loop_budget(material):
     from wgbragg import gpu
-    from wgbragg.colour_reference import MAX_SAMPLES
+    from wgbragg.colour.reference import MAX_SAMPLES
 
     assert MAX_SAMPLES > gpu.LOOP_BUDGET
     theta = np.linspace(0.0, 1.4, 8)

@@ -1,6 +1,6 @@
 """EnvironmentMap: the convention, the sampling density (normalised, matched by the sampler in a
 chi-square test), lookups, n-dimensional input and refusals; then the float32 WGSL twin
-(wgsl/environment_map.wgsl) against it on the GPU.
+(wgsl/lighting/environment_map.wgsl) against it on the GPU.
 
 GPU tolerances. The kernel sees the same float32 u and directions as numpy; it differs in its
 float32 arithmetic and CDFs, rounded by up to 2**-25 each, which moves u within its CDF step by
@@ -17,11 +17,17 @@ from __future__ import annotations
 import itertools
 import math
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from conftest import expected_direction_counts, pooled_chi2_pvalue
-from wgbragg import EnvironmentMap, gpu
+from wgbragg import EnvironmentMap
+from wgbragg import gpu
+
+KERNELS = Path(__file__).resolve().parent / "kernels"
+"""The test suite's own WGSL kernels (not shipped in the wheel)."""
 
 CHI2_P_MIN = 1e-3
 PDF_RTOL = 1e-4
@@ -392,7 +398,8 @@ def run_kernel(environment, u, directions):
     """(sampled directions, their pdf, radiance at directions, pdf at directions) in float32."""
     n = len(u)
     pad = np.zeros((n, 1), np.float32)
-    sampled, looked_up = gpu.compute_pipeline("environment_map_eval.wgsl", "evaluate").run(
+    kernel = gpu.compute_pipeline(str(KERNELS / "environment_map_eval.wgsl"), "evaluate")
+    sampled, looked_up = kernel.run(
         [environment.packed(), u, np.hstack([directions, pad])],
         [((n, 4), np.float32), ((n, 4), np.float32)],
     )

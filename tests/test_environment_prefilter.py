@@ -1,7 +1,8 @@
-"""Prefiltered environments (wgbragg.environment_prefilter): the resampled input maps (exact
+"""Prefiltered environments (wgbragg.lighting.environment_prefilter): the resampled input maps
+(exact
 area averages, the disc's energy), the prefiltered sums against closed forms and independent
 quadratures, the float32 GPU bake against its float64 numpy twin, and the WGSL lookup
-(wgsl/prefiltered_environment.wgsl) against PrefilteredEnvironment.lookup.
+(wgsl/lighting/environment_prefilter_lookup.wgsl) against PrefilteredEnvironment.lookup.
 
 Tolerances. The GPU bake sums float32 kernels per input row and then over rows, so its ratios
 stay within ~1e-6 of float64 (``TWIN_RTOL`` leaves a margin for the float32 directions and
@@ -14,13 +15,15 @@ from __future__ import annotations
 import dataclasses
 import math
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy import integrate
 
 from wgbragg import gpu
-from wgbragg.environment_map import EnvironmentMap
-from wgbragg.environment_prefilter import (
+from wgbragg.lighting.environment_map import EnvironmentMap
+from wgbragg.lighting.environment_prefilter import (
     PrefilteredEnvironment,
     _Grid,
     _Plan,
@@ -29,9 +32,12 @@ from wgbragg.environment_prefilter import (
     resample_environment,
     window_angle,
 )
-from wgbragg.microfacet import ggx_D, ggx_G1
-from wgbragg.procedural_environment import ProceduralEnvironment
-from wgbragg.scene import Environment
+from wgbragg.bsdf.microfacet import ggx_D, ggx_G1
+from wgbragg.lighting.procedural_environment import ProceduralEnvironment
+from wgbragg.scene.model import Environment
+
+KERNELS = Path(__file__).resolve().parent / "kernels"
+"""The test suite's own WGSL kernels (not shipped in the wheel)."""
 
 SMALL = ((64, 32), (32, 16))
 CONSTANT_RTOL = 1e-5
@@ -374,7 +380,7 @@ def test_gpu_lookup_matches_numpy(sky_levels):
     d = lookup_directions(n, seed=2)
     level = np.arange(n) % len(sky_levels.levels)
     queries = np.column_stack([d, level]).astype(np.float32)
-    (out,) = gpu.compute_pipeline("test_kernels/prefiltered_lookup.wgsl").run(
+    (out,) = gpu.compute_pipeline(str(KERNELS / "environment_prefilter_lookup_eval.wgsl")).run(
         [records, texels, queries], [((n, 4, 4), np.float32)])
     for k in range(len(sky_levels.levels)):
         mine = level == k

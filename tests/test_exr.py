@@ -7,7 +7,7 @@ import numpy as np
 import OpenEXR
 import pytest
 
-from wgbragg.exr import read_exr, write_exr
+from wgbragg.common.exr import read_exr, write_exr
 
 
 def write_channels(path, channels):

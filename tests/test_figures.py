@@ -64,9 +64,9 @@ def test_no_temporary_files_left(quick_run):
 def test_piecewise_constant_matches_library(figures):
     """Integrating the drawn step spectra (s and p) against the CMFs gives the library's
     ``approx`` colour: the figure shows the boxes the library integrates."""
-    from wgbragg import colorimetry
-    from wgbragg.colour_methods import approx_xyz
-    from wgbragg.landmarks import VISIBLE_OMEGA
+    from wgbragg.colour import colorimetry
+    from wgbragg.colour.landmark_methods import approx_xyz
+    from wgbragg.optics.landmarks import VISIBLE_OMEGA
 
     mirror, theta = figures.FIG3_MIRROR, 0.3
     omega = np.linspace(*VISIBLE_OMEGA, 200_001)

@@ -17,6 +17,9 @@ import pytest
 
 from wgbragg import gpu
 
+KERNELS = Path(__file__).resolve().parent / "kernels"
+"""The test suite's own WGSL kernels (not shipped in the wheel)."""
+
 pytestmark = pytest.mark.gpu
 
 # One more row of workgroups than a 1D dispatch can hold, plus a ragged tail.
@@ -43,8 +46,9 @@ def saxpy_params(a: float) -> np.ndarray:
 
 @pytest.fixture
 def tmp_shaders(tmp_path, monkeypatch):
-    """A private shader folder holding a copy of harness.wgsl."""
-    shutil.copy(gpu.shader_dir() / "harness.wgsl", tmp_path / "harness.wgsl")
+    """A private shader folder holding a copy of gpu/harness.wgsl."""
+    (tmp_path / "gpu").mkdir()
+    shutil.copy(gpu.shader_dir() / "gpu/harness.wgsl", tmp_path / "gpu/harness.wgsl")
     monkeypatch.setattr(gpu, "shader_dir", lambda: tmp_path)
     return tmp_path
 
@@ -52,24 +56,24 @@ def tmp_shaders(tmp_path, monkeypatch):
 # ------------------------------------------------------------------ shader loading
 
 
-@pytest.mark.parametrize("name", ["harness.wgsl", "test_kernels/saxpy.wgsl"])
+@pytest.mark.parametrize("name", ["gpu/harness.wgsl", str(KERNELS / "saxpy.wgsl")])
 def test_shader_dir_holds_shaders(name):
     assert (gpu.shader_dir() / name).is_file()
 
 
 def test_load_shader_inlines_includes_and_maps_lines():
-    source = gpu.load_shader("test_kernels/saxpy.wgsl")
+    source = gpu.load_shader(str(KERNELS / "saxpy.wgsl"))
     lines = source.code.splitlines()
     assert len(lines) == len(source.line_map)
     assert "//! include" not in source.code
-    harness = (gpu.shader_dir() / "harness.wgsl").read_text().splitlines()
+    harness = (gpu.shader_dir() / "gpu/harness.wgsl").read_text().splitlines()
     composed = next(i for i, t in enumerate(lines) if t.startswith("fn global_index"))
     original = next(i for i, t in enumerate(harness) if t.startswith("fn global_index"))
-    assert source.line_map[composed] == ("harness.wgsl", original + 1)
-    saxpy = (gpu.shader_dir() / "test_kernels/saxpy.wgsl").read_text().splitlines()
+    assert source.line_map[composed] == ("gpu/harness.wgsl", original + 1)
+    saxpy = (KERNELS / "saxpy.wgsl").read_text().splitlines()
     composed = next(i for i, t in enumerate(lines) if t.startswith("fn main"))
     original = next(i for i, t in enumerate(saxpy) if t.startswith("fn main"))
-    assert source.line_map[composed] == ("test_kernels/saxpy.wgsl", original + 1)
+    assert source.line_map[composed] == (str(KERNELS / "saxpy.wgsl"), original + 1)
 
 
 def test_include_once(tmp_shaders):
@@ -123,16 +127,16 @@ def test_reloads_when_a_file_changes(tmp_shaders):
 
 def test_compile_error_names_included_file_and_line():
     with pytest.raises(gpu.ShaderCompileError) as info:
-        gpu.compute_pipeline("test_kernels/broken.wgsl")
+        gpu.compute_pipeline(str(KERNELS / "broken.wgsl"))
     error = info.value
-    assert str(error).startswith("test_kernels/broken_helper.wgsl:5: ")
-    assert (error.file, error.line) == ("test_kernels/broken_helper.wgsl", 5)
+    assert str(error).startswith(f"{KERNELS / 'broken_helper.wgsl'}:5: ")
+    assert (error.file, error.line) == (str(KERNELS / "broken_helper.wgsl"), 5)
     assert "f32" in error.detail
 
 
 def test_binding_order_is_checked(tmp_shaders):
     (tmp_shaders / "bad.wgsl").write_text(
-        '//! include "harness.wgsl"\n'
+        '//! include "gpu/harness.wgsl"\n'
         "@group(0) @binding(0) var<storage, read_write> out: array<f32>;\n"
         "@group(0) @binding(1) var<storage, read> x: array<f32>;\n"
         "@compute @workgroup_size(WORKGROUP_SIZE) fn main() { out[0] = x[0]; }\n"
@@ -143,7 +147,7 @@ def test_binding_order_is_checked(tmp_shaders):
 
 def test_unknown_constant_is_rejected():
     with pytest.raises(ValueError, match="SCALLE"):
-        gpu.compute_pipeline("test_kernels/override_scale.wgsl", constants={"SCALLE": 2.0})
+        gpu.compute_pipeline(str(KERNELS / "override_scale.wgsl"), constants={"SCALLE": 2.0})
 
 
 # ------------------------------------------------------------------ dispatch
@@ -154,7 +158,7 @@ def test_saxpy_matches_numpy_beyond_one_dispatch_row():
     # y >= 1 keeps every expected value nonzero, so an unwritten element shows.
     x = np.random.randint(0, 1000, N_2D).astype(np.float32)
     y = np.random.randint(1, 1000, N_2D).astype(np.float32)
-    kernel = gpu.compute_pipeline("test_kernels/saxpy.wgsl")
+    kernel = gpu.compute_pipeline(str(KERNELS / "saxpy.wgsl"))
     assert kernel.workgroup_size * 65535 < N_2D
     (out,) = kernel.run([x, y], [(N_2D, np.float32)], saxpy_params(2.5))
     assert out.shape == (N_2D,) and out.dtype == np.float32
@@ -166,7 +170,7 @@ def test_override_constants_change_the_result():
     x = np.random.standard_normal(1000).astype(np.float32)
     results = {
         scale: gpu.compute_pipeline(
-            "test_kernels/override_scale.wgsl", constants={"SCALE": scale}
+            str(KERNELS / "override_scale.wgsl"), constants={"SCALE": scale}
         ).run([x], [(x.size, np.float32)])[0]
         for scale in (2.0, 3.0)
     }
@@ -177,14 +181,14 @@ def test_override_constants_change_the_result():
 def test_workgroup_size_constant_is_honoured():
     x = np.arange(1000, dtype=np.float32)
     kernel = gpu.compute_pipeline(
-        "test_kernels/override_scale.wgsl", constants={"WORKGROUP_SIZE": 256, "SCALE": 1.0}
+        str(KERNELS / "override_scale.wgsl"), constants={"WORKGROUP_SIZE": 256, "SCALE": 1.0}
     )
     assert kernel.workgroup_size == 256
     np.testing.assert_array_equal(kernel.run([x], [(x.size, np.float32)])[0], x)
 
 
 def test_pipeline_cache_reuses_compiled_pipelines():
-    name = "test_kernels/override_scale.wgsl"
+    name = str(KERNELS / "override_scale.wgsl")
     first = gpu.compute_pipeline(name, constants={"SCALE": 5.0})
     before = gpu.pipeline_cache_info()
     again = gpu.compute_pipeline(name, constants={"SCALE": 5.0})
@@ -201,7 +205,7 @@ def test_pipeline_cache_reuses_compiled_pipelines():
 
 
 def test_zero_count_returns_empty_without_dispatch():
-    kernel = gpu.compute_pipeline("test_kernels/override_scale.wgsl")
+    kernel = gpu.compute_pipeline(str(KERNELS / "override_scale.wgsl"))
     empty = np.zeros(0, np.float32)
     (out,) = kernel.run([empty], [(0, np.float32)])
     assert out.shape == (0,) and out.dtype == np.float32
@@ -210,7 +214,7 @@ def test_zero_count_returns_empty_without_dispatch():
 
 
 def test_bad_arguments_are_rejected():
-    kernel = gpu.compute_pipeline("test_kernels/saxpy.wgsl")
+    kernel = gpu.compute_pipeline(str(KERNELS / "saxpy.wgsl"))
     x = np.ones(8, np.float32)
     with pytest.raises(ValueError, match="2 inputs, 1 outputs, params=True"):
         kernel.run([x], [(8, np.float32)], saxpy_params(1.0))
@@ -241,7 +245,7 @@ def test_uniform_fields_round_trip_exactly():
     params["k"] = 0xDEADBEEF
     params["v2"] = np.random.standard_normal(2)
     params["i"] = -7
-    kernel = gpu.compute_pipeline("test_kernels/params_layout.wgsl")
+    kernel = gpu.compute_pipeline(str(KERNELS / "params_layout.wgsl"))
     (out,) = kernel.run([], [(8, np.uint32)], params, count=1)
     expected = np.concatenate(
         [
@@ -261,7 +265,7 @@ def test_uniform_fields_round_trip_exactly():
 def test_timestamps_and_benchmark_are_positive_and_finite():
     n = 1 << 20
     x = np.ones(n, np.float32)
-    kernel = gpu.compute_pipeline("test_kernels/saxpy.wgsl")
+    kernel = gpu.compute_pipeline(str(KERNELS / "saxpy.wgsl"))
     (out,), seconds = kernel.run([x, x], [(n, np.float32)], saxpy_params(2.0), timestamps=True)
     assert out[-1] == 3.0
     assert np.isfinite(seconds) and seconds > 0
@@ -272,7 +276,7 @@ def test_timestamps_and_benchmark_are_positive_and_finite():
 # ------------------------------------------------------------------ chained dispatches
 
 TEXTURE_COPY = (
-    '//! include "harness.wgsl"\n'
+    '//! include "gpu/harness.wgsl"\n'
     "@group(0) @binding(0) var image: texture_2d<f32>;\n"
     "@group(0) @binding(1) var<storage, read> scale: array<f32>;\n"
     "@group(0) @binding(2) var<storage, read_write> out: array<vec4<f32>>;\n"
@@ -291,7 +295,7 @@ def test_chained_dispatches_share_device_arrays():
     """saxpy twice in one submission, the second reading the first's output on the device."""
     x = np.random.randint(0, 100, 5000).astype(np.float32)
     y = np.random.randint(1, 100, 5000).astype(np.float32)
-    kernel = gpu.compute_pipeline("test_kernels/saxpy.wgsl")
+    kernel = gpu.compute_pipeline(str(KERNELS / "saxpy.wgsl"))
     on_device = gpu.DeviceArray.upload(x)
     first = kernel.bind([on_device, y], [(x.size, np.float32)], saxpy_params(2.0))
     second = kernel.bind([first.outputs[0], on_device], [(x.size, np.float32)], saxpy_params(3.0))
@@ -357,7 +361,7 @@ def test_texture_inputs(tmp_shaders):
 
 def test_texture_after_an_output_breaks_the_convention(tmp_shaders):
     (tmp_shaders / "bad.wgsl").write_text(
-        '//! include "harness.wgsl"\n'
+        '//! include "gpu/harness.wgsl"\n'
         "@group(0) @binding(0) var<storage, read_write> out: array<f32>;\n"
         "@group(0) @binding(1) var image: texture_2d<f32>;\n"
         "@compute @workgroup_size(WORKGROUP_SIZE) fn main() {\n"
@@ -371,7 +375,7 @@ def test_texture_after_an_output_breaks_the_convention(tmp_shaders):
 def test_benchmark_times_each_dispatch():
     n = 1 << 16
     x = np.ones(n, np.float32)
-    kernel = gpu.compute_pipeline("test_kernels/saxpy.wgsl")
+    kernel = gpu.compute_pipeline(str(KERNELS / "saxpy.wgsl"))
     first = kernel.bind([x, x], [(n, np.float32)], saxpy_params(2.0))
     second = kernel.bind([first.outputs[0], x], [(n, np.float32)], saxpy_params(2.0))
     seconds = gpu.benchmark([first, second], repeats=3)
@@ -392,7 +396,7 @@ def test_llvmpipe_loop_budget_is_what_kernels_plan_for():
     counts[:32] = 1
     counts[0] = gpu.SAFE_LOOP_ITERATIONS // 2  # first SIMD group (8 or 16 lanes): safe
     counts[32] = 40000  # the last: 80000 back-edges asked for
-    (out,) = gpu.compute_pipeline("test_kernels/loop_budget.wgsl").run(
+    (out,) = gpu.compute_pipeline(str(KERNELS / "loop_budget.wgsl")).run(
         [counts], [((counts.size, 2), np.uint32)])
     taken, cut = out.T
     np.testing.assert_array_equal(taken[:32], 2 * counts[:32])
@@ -500,7 +504,7 @@ def test_pass_clock_counts_the_passes_of_its_block():
     _need_timestamps()
     x = np.arange(4096, dtype=np.float32)
     y = np.ones(4096, np.float32)
-    kernel = gpu.compute_pipeline("test_kernels/saxpy.wgsl")
+    kernel = gpu.compute_pipeline(str(KERNELS / "saxpy.wgsl"))
     with gpu.pass_clock() as outer:
         start = time.perf_counter()
         (first,) = kernel.run([x, y], [(x.size, np.float32)], saxpy_params(2.0))
@@ -519,7 +523,7 @@ def test_pass_clock_counts_the_passes_of_its_block():
 def test_pass_clock_times_more_passes_than_a_query_set_holds():
     _need_timestamps()
     x = np.arange(64, dtype=np.float32)
-    kernel = gpu.compute_pipeline("test_kernels/saxpy.wgsl")
+    kernel = gpu.compute_pipeline(str(KERNELS / "saxpy.wgsl"))
     dispatch = kernel.bind([x, x], [(x.size, np.float32)], saxpy_params(1.0))
     with gpu.pass_clock() as clock:
         (out,) = gpu.submit([dispatch] * 2100, read=dispatch.outputs)

@@ -1,4 +1,4 @@
-"""Filtered image-based lighting (:mod:`wgbragg.ibl`): the microfacet albedo, the moment
+"""Filtered image-based lighting (:mod:`wgbragg.lighting.ibl`): the microfacet albedo, the moment
 statistics, the split-sum and Kneiphof reflectance terms of a thin film, our Gauss-Hermite
 analogue for Bragg layers, and their limit under uniform light as the roughness vanishes.
 """
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from wgbragg import BraggMirror, ThinFilm
-from wgbragg.colorimetry import delta_e_2000
-from wgbragg.ibl import (
+from wgbragg.colour.colorimetry import delta_e_2000
+from wgbragg.lighting.ibl import (
     ALBEDO_TABLE_NODES,
     IBL_MODES,
     bragg_filtered_reflectance,
@@ -27,8 +27,8 @@ from wgbragg.ibl import (
     uniform_light_statistics,
     uniform_reflected_radiance,
 )
-from wgbragg.microfacet import ggx_G1, ggx_sample_visible_normal
-from wgbragg.thin_film_colour import PREFILTER_RANGE_NM
+from wgbragg.bsdf.microfacet import ggx_G1, ggx_sample_visible_normal
+from wgbragg.colour.thin_film import PREFILTER_RANGE_NM
 
 FIG7 = ThinFilm(1.33, 550.0, n_base=2.0, k_base=0.5)
 GOLD = ThinFilm(1.45, 300.0, base="Au")

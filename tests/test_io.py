@@ -4,7 +4,12 @@ import os
 
 import pytest
 
-from wgbragg._io import atomic_path, check_output_folder, check_output_path, write_text_atomic
+from wgbragg.common.atomic import (
+    atomic_path,
+    check_output_folder,
+    check_output_path,
+    write_text_atomic,
+)
 
 
 def test_replaces_whole_and_leaves_no_temporary(tmp_path):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from wgbragg import BraggMirror
-from wgbragg.landmarks import KINDS, VISIBLE_OMEGA, find_landmarks
+from wgbragg.optics.landmarks import KINDS, VISIBLE_OMEGA, find_landmarks
 from wgbragg.optics import bloch_dispersion
 
 EDGE_ATOL = 1e-9  # |cos K Lambda| - 1 at a band edge found by bisection
@@ -155,7 +155,7 @@ def test_landmarks_are_continuous_where_n2_turns_evanescent(pol):
     """At n2's critical angle (q2 = 0) the evanescent search is finite and meets the
     propagating one: the same modes, Airy points and edges just past it as just before it
     (the zero points, at z pi / (q2 d2), leave the range), and colours without a step."""
-    from wgbragg.colorimetry import delta_e_2000, xyz_to_linear_srgb
+    from wgbragg.colour.colorimetry import delta_e_2000, xyz_to_linear_srgb
 
     mirror = BraggMirror(1.5, 1.0, 300.0, 50.0, 5)
     critical = math.asin(1.0 / 1.5)

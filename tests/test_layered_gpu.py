@@ -1,5 +1,5 @@
 """LayeredBragg's single-reflection model by the float32 WGSL kernel (``backend="gpu"``,
-wgsl/layered_brdf.wgsl) against the float64 numpy model (``backend="numpy"``).
+wgsl/bsdf/layered/model.wgsl) against the float64 numpy model (``backend="numpy"``).
 
 Both sides get the same float32-rounded directions and whole-nanometre wavelengths (where the
 kernel's 1 nm tables need no interpolation in wavelength). What remains is float32: the
@@ -24,7 +24,8 @@ about ten times the largest difference measured on lavapipe (``pytest -s`` print
   of u does (tests/test_microfacet).
 
 N = 10**6 is checked for finiteness and bounds only: there float32 cannot resolve the phase of
-the pass-band oscillation and the kernel returns its average (yeh.wgsl), as it does inside the
+the pass-band oscillation and the kernel returns its average (optics/yeh.wgsl), as it does inside
+the
 tables; the float64 model keeps the oscillation, sampled at whatever angles it is evaluated.
 """
 
@@ -37,9 +38,10 @@ import numpy as np
 import pytest
 
 from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer, ShiftedPoints
-from wgbragg import gpu, layered_gpu
-from wgbragg.layered import _refract_in
-from wgbragg.transmission_filter import TransmissionFilter
+from wgbragg import gpu
+from wgbragg.bsdf.layered import model_gpu as layered_gpu
+from wgbragg.bsdf.layered.model import _refract_in
+from wgbragg.bsdf.transmission_filter import TransmissionFilter
 
 pytestmark = pytest.mark.gpu
 
@@ -196,7 +198,7 @@ def few_pairs(seed):
 @pytest.mark.parametrize(("name", "colour_method"), [("two-layers", "averaged"),
                                                      ("coated", "approx")])
 def test_brdf_factored_landmark_colours(structures, name, colour_method):
-    """In-kernel landmark colours (colour_landmark.wgsl) against numpy's."""
+    """In-kernel landmark colours (colour/landmark_methods.wgsl) against numpy's."""
     s = structures[name]
     wi, wo = few_pairs(seed=4)
     gpu = s.brdf(wi, wo, backend="gpu", colour_method=colour_method)

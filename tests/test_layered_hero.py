@@ -1,5 +1,6 @@
 """Hero-wavelength colour of LayeredBragg.sample (``colour_method="hero"``): the sampler's
-four wavelengths (colorimetry.hero_wavelengths and its WGSL twin, wgsl/hero.wgsl, shared with
+four wavelengths (colorimetry.hero_wavelengths and its WGSL twin,
+wgsl/colour/colorimetry_hero.wgsl, shared with
 the simulation and the renderer), unbiased for the integrated colour, numpy against GPU."""
 
 from __future__ import annotations
@@ -7,8 +8,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer, colorimetry
-from wgbragg.layered import HERO
+from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer
+from wgbragg.colour import colorimetry
+from wgbragg.bsdf.layered.model import HERO
 
 from conftest import unit_direction
 
@@ -82,7 +84,8 @@ def test_hero_offsets_out_of_range_raise(offset):
 @pytest.mark.parametrize("name", STRUCTURES)
 @pytest.mark.parametrize("method", ["single-reflection", "single-reflection-lut"])
 def test_gpu_hero_is_the_spectral_kernel_at_the_hero_wavelengths(name, method):
-    """The kernel's wavelengths and colour (hero.wgsl) against colorimetry.hero_wavelengths
+    """The kernel's wavelengths and colour (colour/colorimetry_hero.wgsl) against
+    colorimetry.hero_wavelengths
     and the numpy colour of the kernel's own spectral weights there."""
     s = STRUCTURES[name]
     u = np.random.default_rng(3).random((4096, 4))
@@ -179,7 +182,7 @@ def test_refusals_name_the_parameter():
 
 @pytest.mark.gpu
 def test_benchmark_refuses_hero_outside_sampling():
-    from wgbragg import layered_gpu
+    from wgbragg.bsdf.layered import model_gpu as layered_gpu
 
     s = STRUCTURES["absorbing"]
     wi, wo = unit_direction(30.0), unit_direction(40.0, 180.0)
@@ -190,11 +193,11 @@ def test_benchmark_refuses_hero_outside_sampling():
 
 
 def test_kernel_segments_match_the_table():
-    """wgsl/hero.wgsl hard-codes the table's segment count."""
+    """wgsl/colour/colorimetry_hero.wgsl hard-codes the table's segment count."""
     import re
     from pathlib import Path
 
-    source = (Path(__file__).resolve().parents[1] / "wgsl" / "hero.wgsl").read_text()
+    source = (Path(__file__).resolve().parents[1] / "wgsl/colour/colorimetry_hero.wgsl").read_text()
     segments = re.search(r"const HERO_SEGMENTS: u32 = (\d+)u;", source)
     assert segments and int(segments.group(1)) == colorimetry.HERO_SEGMENTS
     assert colorimetry.hero_inverse_cdf().shape == (colorimetry.HERO_SEGMENTS + 1,)

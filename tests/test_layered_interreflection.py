@@ -16,9 +16,9 @@ from conftest import paper_smape as smape
 from conftest import unit_direction as direction
 
 from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer
-from wgbragg.layered import coating_reflectance
-from wgbragg.microfacet import ggx_G1
-from wgbragg.transmission_filter import TransmissionFilter
+from wgbragg.bsdf.layered.model import coating_reflectance
+from wgbragg.bsdf.microfacet import ggx_G1
+from wgbragg.bsdf.transmission_filter import TransmissionFilter
 
 A = BraggMirror(1.0, 1.5, 250.0, 250.0, 10)          # Fig. 7, configuration A (alpha 0.1)
 B = BraggMirror(1.0, 1.5, 494.0, 494.0, 10)          # configuration B (alpha 0.05)

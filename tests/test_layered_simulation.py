@@ -1,4 +1,5 @@
-"""The position-free Monte Carlo simulation of layered Bragg structures (wgsl/simulate_layered.wgsl)
+"""The position-free Monte Carlo simulation of layered Bragg structures
+(wgsl/bsdf/layered/simulation.wgsl)
 against the single-reflection model (numpy, eq 34), analytic values and itself.
 
 - Mode "single" estimates eq 34: deterministically with ballistic transmission (no variance,
@@ -28,11 +29,13 @@ from conftest import LAYERED_PAIRS, coating_internal_reflectance, cosine_mean
 from conftest import paper_smape as smape
 from conftest import unit_direction as direction
 
-from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer, gpu, layered_simulation
-from wgbragg.colorimetry import linear_srgb_to_xyz, xyz_to_linear_srgb, xyz_weights
-from wgbragg.layered import coating_reflectance
-from wgbragg.microfacet import ggx_G1
-from wgbragg.transmission_filter import TransmissionFilter
+from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer
+from wgbragg import gpu
+from wgbragg.bsdf.layered import simulation as layered_simulation
+from wgbragg.colour.colorimetry import linear_srgb_to_xyz, xyz_to_linear_srgb, xyz_weights
+from wgbragg.bsdf.layered.model import coating_reflectance
+from wgbragg.bsdf.microfacet import ggx_G1
+from wgbragg.bsdf.transmission_filter import TransmissionFilter
 
 pytestmark = pytest.mark.gpu
 

@@ -1,4 +1,4 @@
-"""LUT files and their cache (wgbragg.luts): round trips, every kind of damaged file refused
+"""LUT files and their cache (wgbragg.common.luts): round trips, every kind of damaged file refused
 by name (and never unpickled), re-baking with a warning, atomic writes, the cache folder and
 the two wired kinds (transmission filters, colour tables)."""
 
@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from wgbragg import luts
+from wgbragg.common import luts
 
 KIND = "test-ramp"
 PARAMETERS = {"alpha": 0.1, "count": 4, "label": "ramp", "flag": True, "nothing": None}
@@ -417,9 +417,9 @@ def test_cache_dir_default_follows_xdg(monkeypatch, tmp_path):
 
 
 def fake_filter_module() -> types.ModuleType:
-    """A stand-in for ``wgbragg.transmission_filter`` that follows its contract: a frozen
+    """A stand-in for ``wgbragg.bsdf.transmission_filter`` that follows its contract: a frozen
     dataclass with ``bake`` and ``from_arrays``. ``module.bakes`` records every bake."""
-    module = types.ModuleType("wgbragg.transmission_filter")
+    module = types.ModuleType("wgbragg.bsdf.transmission_filter")
     module.bakes = []
     module.FILTER_ALPHA_MIN = 0.01
     module.MIN_RESOLUTION_DEG = 0.05
@@ -454,7 +454,7 @@ def fake_filter_module() -> types.ModuleType:
 @pytest.fixture
 def fake_filter(monkeypatch) -> types.ModuleType:
     module = fake_filter_module()
-    monkeypatch.setitem(sys.modules, "wgbragg.transmission_filter", module)
+    monkeypatch.setitem(sys.modules, "wgbragg.bsdf.transmission_filter", module)
     return module
 
 
@@ -530,7 +530,7 @@ def test_transmission_filter_rejects_bad_parameters(cache, fake_filter, argument
 
 def test_real_transmission_filter_round_trip(cache):
     """The real module, once it exists: a tiny numpy bake, then the same filter from disk."""
-    module = pytest.importorskip("wgbragg.transmission_filter")
+    module = pytest.importorskip("wgbragg.bsdf.transmission_filter")
     baked = luts.transmission_filter(0.3, 5, 64, backend="numpy")
     luts._loaded_filters.clear()  # as a new process would
     events = []
@@ -547,7 +547,7 @@ def test_real_transmission_filter_round_trip(cache):
 def test_colour_tables_match_colorimetry(cache):
     import colour
 
-    from wgbragg import colorimetry
+    from wgbragg.colour import colorimetry
 
     events = []
     baked = luts.colour_tables(progress=events.append)

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from wgbragg._teapot_data import TEAPOT_PATCHES, TEAPOT_POINTS
-from wgbragg.meshes import (
+from wgbragg.scene.teapot_data import TEAPOT_PATCHES, TEAPOT_POINTS
+from wgbragg.scene.meshes import (
     TriangleMesh,
     area_weighted_normals,
     load_mesh,

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from wgbragg import ThinFilm
-from wgbragg.metals import METALS, SpectralIndex, metal
+from wgbragg.optics.metals import METALS, SpectralIndex, metal
 
 # Rows copied from the database files, checked here at the rows themselves (interpolation is
 # exact there): (wavelength nm, n, k).

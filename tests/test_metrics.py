@@ -1,9 +1,9 @@
-"""Image metrics (wgbragg.metrics)."""
+"""Image metrics (wgbragg.common.metrics)."""
 
 import numpy as np
 import pytest
 
-from wgbragg.metrics import smape
+from wgbragg.common.metrics import smape
 
 
 def test_smape_values():

@@ -1,4 +1,5 @@
-"""GGX microfacet functions (wgbragg.microfacet) and their float32 WGSL twins (wgsl/ggx.wgsl).
+"""GGX microfacet functions (wgbragg.bsdf.microfacet) and their float32 WGSL twins
+(wgsl/bsdf/microfacet.wgsl).
 
 Invariants (normalisation of D, of the visible-normal density), closed forms and limits of G1,
 a chi-square test of the sampler against its density (Mitsuba style), and the GPU twins
@@ -10,18 +11,18 @@ from __future__ import annotations
 import itertools
 import math
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.integrate import quad
 from conftest import expected_direction_counts, pooled_chi2_pvalue
 
 from wgbragg import gpu
-from wgbragg.microfacet import (
-    ggx_D,
-    ggx_G1,
-    ggx_sample_visible_normal,
-    ggx_visible_normal_pdf,
-)
+from wgbragg.bsdf.microfacet import ggx_D, ggx_G1, ggx_sample_visible_normal, ggx_visible_normal_pdf
+
+KERNELS = Path(__file__).resolve().parent / "kernels"
+"""The test suite's own WGSL kernels (not shipped in the wheel)."""
 
 ALPHAS = [1e-4, 0.01, 0.1, 0.5, 1.0]
 QUAD_ATOL = 1e-7  # nested scipy quad of the normalisation integrals
@@ -222,7 +223,7 @@ def run_ggx_kernel(wi, m, u, alpha):
     params = np.zeros((), gpu.struct_dtype([("alpha", "f32")]))
     params["alpha"] = alpha
     pad = np.zeros((len(wi), 1), np.float32)
-    values, sampled = gpu.compute_pipeline("test_kernels/ggx_eval.wgsl").run(
+    values, sampled = gpu.compute_pipeline(str(KERNELS / "microfacet_eval.wgsl")).run(
         [np.hstack([wi, pad]), np.hstack([m, pad]), u],
         [((len(wi), 4), np.float32), ((len(wi), 4), np.float32)],
         params,

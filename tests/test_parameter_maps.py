@@ -1,5 +1,5 @@
-"""Parameter maps: the numpy reference (wgbragg.parameter_maps) against hand computations, and
-its float32 WGSL twin (wgsl/parameter_map.wgsl) against it on the device.
+"""Parameter maps: the numpy reference (wgbragg.scene.parameter_maps) against hand computations, and
+its float32 WGSL twin (wgsl/scene/parameter_maps.wgsl) against it on the device.
 
 GPU tolerances, relative to a map's range ``hi - lo``, about twenty times the largest error
 measured on lavapipe (``pytest -s`` prints them): ``PROCEDURAL_RTOL`` (measured 5.1e-7: the
@@ -11,12 +11,14 @@ from __future__ import annotations
 
 import re
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from PIL import Image
 
 from wgbragg import gpu
-from wgbragg.parameter_maps import (
+from wgbragg.scene.parameter_maps import (
     MAP_KINDS,
     MAP_RECORD_DTYPE,
     load_map_texture,
@@ -24,7 +26,10 @@ from wgbragg.parameter_maps import (
     noise_lattice,
     pack_maps,
 )
-from wgbragg.scene import ParameterMap
+from wgbragg.scene.model import ParameterMap
+
+KERNELS = Path(__file__).resolve().parent / "kernels"
+"""The test suite's own WGSL kernels (not shipped in the wheel)."""
 
 ATOL = 1e-12
 PROCEDURAL_RTOL = 1e-5
@@ -266,7 +271,7 @@ def test_bad_input_raises_naming_the_parameter(pmap, uv, name):
 
 
 def test_record_dtype_matches_the_wgsl_struct():
-    source = (gpu.shader_dir() / "parameter_map.wgsl").read_text()
+    source = (gpu.shader_dir() / "scene/parameter_maps.wgsl").read_text()
     body = re.search(r"struct ParameterMapRecord \{(.*?)\}", source, re.DOTALL).group(1)
     fields = re.findall(r"(\w+):\s*(\w+)", re.sub(r"//[^\n]*", "", body))
     wgsl = {"<u4": "u32", "<f4": "f32"}
@@ -357,7 +362,7 @@ def test_wgsl_twin_matches_numpy(device, tmp_path):
     maps = twin_maps(tmp_path)
     uv = twin_uv(4000)
     records, texels = pack_maps(maps)
-    kernel = gpu.compute_pipeline("parameter_map_eval.wgsl")
+    kernel = gpu.compute_pipeline(str(KERNELS / "parameter_maps_eval.wgsl"))
     index = np.repeat(np.arange(len(maps), dtype=np.uint32), len(uv))
     points = np.tile(uv, (len(maps), 1))
     (value,) = kernel.run([records, texels, points, index], [(len(points), np.float32)])

@@ -72,6 +72,6 @@ def test_python_examples_run_in_order(tmp_path, monkeypatch):
 
 @pytest.mark.parametrize("argv", _commands(), ids=" ".join)
 def test_command_lines_parse(argv):
-    from wgbragg.cli import build_parser
+    from wgbragg.app.cli import build_parser
 
     build_parser().parse_args(argv)

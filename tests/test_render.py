@@ -1,4 +1,5 @@
-"""The progressive path tracer (wgbragg.render, wgsl/render.wgsl) on the device: the furnace
+"""The progressive path tracer (wgbragg.render.renderer, wgsl/render/renderer.wgsl) on the device:
+the furnace
 invariant, the environment seen by missing rays, the GPU BVH traversal against the numpy
 reference, finite renders of every preset, the display transform, atomic PNGs and the CLI.
 
@@ -16,11 +17,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from wgbragg import render as render_module
-from wgbragg.cli import main
-from wgbragg.exr import read_exr, write_exr
-from wgbragg.render import Renderer, display_transform, save_png
-from wgbragg.scene import PRESETS, load_preset, load_scene
+from wgbragg.render import renderer as render_module
+from wgbragg.app.cli import main
+from wgbragg.common.exr import read_exr, write_exr
+from wgbragg.render.renderer import Renderer, display_transform, save_png
+from wgbragg.scene.model import PRESETS, load_preset, load_scene
 
 pytestmark = pytest.mark.gpu
 
@@ -552,7 +553,7 @@ def test_an_edit_rebuilds_only_the_edited_layers_tables(device, monkeypatch, mod
     import dataclasses
 
     from wgbragg import BraggMirror, RoughBraggLayer
-    from wgbragg.scene import LayeredBraggMaterial
+    from wgbragg.scene.model import LayeredBraggMaterial
 
     monkeypatch.setattr(render_module, "_shared_layers", collections.OrderedDict())
     scene = load_preset("teapot")
@@ -596,8 +597,8 @@ def test_colour_method_selects_the_layer_colours(device):
 
 
 def test_interior_nodes_carry_the_axis_that_orders_their_children():
-    from wgbragg.bvh import build_bvh
-    from wgbragg.meshes import sphere_mesh
+    from wgbragg.render.bvh import build_bvh
+    from wgbragg.scene.meshes import sphere_mesh
 
     mesh = sphere_mesh(2)
     bvh = build_bvh(mesh.vertices, mesh.faces)
@@ -661,7 +662,7 @@ def test_many_lights_are_right_or_refused(device):
     from conftest import GPU_INFO
 
     from wgbragg import gpu
-    from wgbragg.scene import Environment, PointLight
+    from wgbragg.scene.model import Environment, PointLight
 
     rng = np.random.default_rng(4)
     lights = tuple(PointLight((x, 3.0, z), (0.01, 0.01, 0.01))
@@ -682,7 +683,7 @@ def test_many_lights_are_right_or_refused(device):
 
 
 def test_lights_beyond_the_loop_budget_are_refused():
-    from wgbragg.scene import PointLight
+    from wgbragg.scene.model import PointLight
 
     assert render_module.max_lights(64) == 256
     assert render_module.max_lights(8, convex_alone=True) == 32768
@@ -698,7 +699,7 @@ def test_a_traversal_beyond_the_loop_budget_is_refused(device, tmp_path):
     from conftest import GPU_INFO
 
     from wgbragg import gpu
-    from wgbragg.scene import SceneObject
+    from wgbragg.scene.model import SceneObject
 
     rng = np.random.default_rng(1)
     n = 40000

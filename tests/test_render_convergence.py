@@ -1,6 +1,7 @@
-"""The path tracer (wgbragg.render, wgsl/render.wgsl) converges to independent numpy integrations
+"""The path tracer (wgbragg.render.renderer, wgsl/render/renderer.wgsl) converges to independent
+numpy integrations
 of its models: the procedural environments seen by missed camera rays against their float64 twin
-(wgbragg.procedural_environment), and a sphere under the studio environment against a
+(wgbragg.lighting.procedural_environment), and a sphere under the studio environment against a
 deterministic quadrature of the reflected radiance, for a Lambertian, a layered Bragg and a
 coated layered Bragg material, and in spectral mode.
 
@@ -37,16 +38,13 @@ import pytest
 from scipy.interpolate import RegularGridInterpolator
 from scipy.ndimage import binary_erosion, maximum_filter, minimum_filter
 
-from wgbragg import colorimetry
-from wgbragg.layered import LUT_RESOLUTION_DEG, coating_reflectance
-from wgbragg.metrics import smape as paper_smape
-from wgbragg.procedural_environment import (
-    ProceduralEnvironment,
-    environment_radiance,
-)
-from wgbragg import render as render_module
-from wgbragg.render import PARAMS_DTYPE, Renderer
-from wgbragg.scene import Camera, Environment, load_scene
+from wgbragg.colour import colorimetry
+from wgbragg.bsdf.layered.model import LUT_RESOLUTION_DEG, coating_reflectance
+from wgbragg.common.metrics import smape as paper_smape
+from wgbragg.lighting.procedural_environment import ProceduralEnvironment, environment_radiance
+from wgbragg.render import renderer as render_module
+from wgbragg.render.renderer import PARAMS_DTYPE, Renderer
+from wgbragg.scene.model import Camera, Environment, load_scene
 
 SIZE = 16  # pixels a side: the sphere is about 15 pixels across
 SMAPE_LIMIT = 0.02
@@ -141,7 +139,7 @@ def _shading(renderer: Renderer, directions: np.ndarray):
     """Hit mask, shading and geometric normals of camera rays, as surface_at makes them.
 
     The hit is the numpy BVH's (float64); the unit sphere's vertex normals are its vertex
-    positions (wgbragg.meshes.sphere_mesh), interpolated barycentrically and normalised.
+    positions (wgbragg.scene.meshes.sphere_mesh), interpolated barycentrically and normalised.
     Both normals face the viewer.
     """
     shape = directions.shape[:-1]
@@ -314,7 +312,7 @@ def _fill_mirror_colours(structure) -> None:
     GPU twin of the colour method, after checking some of its rows against numpy.
 
     The whole numpy table takes over 10 s per mirror on two cores, the GPU twin
-    (wgbragg.colour_landmarks_gpu, checked against numpy in test_colour_landmarks_gpu) about
+    (wgbragg.colour.landmark_methods_gpu, checked against numpy in test_colour_landmarks_gpu) about
     one; every other part of the model stays numpy float64. Should the table's cache key
     change, the model simply builds its own table, more slowly.
     """

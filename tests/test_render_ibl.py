@@ -1,6 +1,7 @@
-"""Filtered image-based lighting in the renderer (``Renderer(ibl=...)``, ``wgsl/render.wgsl``):
+"""Filtered image-based lighting in the renderer (``Renderer(ibl=...)``,
+``wgsl/render/renderer.wgsl``):
 the split-sum and Kneiphof modes against the Monte Carlo reference, and against their float64
-twin (:mod:`wgbragg.ibl`, :mod:`wgbragg.environment_prefilter`).
+twin (:mod:`wgbragg.lighting.ibl`, :mod:`wgbragg.lighting.environment_prefilter`).
 
 The scene is a sphere filling a nearly orthographic view (the convergence tests' set-up) under
 the studio environment, whose key light (15 deg radius) a rough lobe resolves smoothly. The
@@ -22,15 +23,15 @@ import numpy as np
 import pytest
 
 from wgbragg import Renderer, smape
-from wgbragg.environment_prefilter import prefilter_environment
-from wgbragg.ibl import (
+from wgbragg.lighting.environment_prefilter import prefilter_environment
+from wgbragg.lighting.ibl import (
     film_kneiphof_reflectance,
     film_split_sum_reflectance,
     microfacet_albedo,
     moment_statistics,
 )
-from wgbragg.procedural_environment import ProceduralEnvironment
-from wgbragg.scene import load_preset, load_scene
+from wgbragg.lighting.procedural_environment import ProceduralEnvironment
+from wgbragg.scene.model import load_preset, load_scene
 
 pytestmark = pytest.mark.gpu
 
@@ -191,7 +192,7 @@ def test_filtered_modes_refuse_what_they_cannot_shade(device, tmp_path):
 
 def test_a_roughness_edit_prefilters_only_the_new_roughness(device, tmp_path, monkeypatch):
     """Levels the scene keeps are reused across updates; the image is a fresh renderer's."""
-    import wgbragg.environment_prefilter as prefilter_module
+    import wgbragg.lighting.environment_prefilter as prefilter_module
 
     asked = []
     original = prefilter_module.prefilter_environment

@@ -1,5 +1,5 @@
-"""Every kind of scene the renderer specialises for compiles: render.wgsl's specialisation
-blocks (``//! if``, wgbragg/_specialise.py) leave a valid kernel for each combination of its
+"""Every kind of scene the renderer specialises for compiles: render/renderer.wgsl's specialisation
+blocks (``//! if``, wgbragg/gpu/specialise.py) leave a valid kernel for each combination of its
 override constants, not only for the presets' (a block that removes a function's last
 ``return`` in one combination compiles in every other)."""
 
@@ -13,7 +13,8 @@ from wgbragg import gpu
 
 pytestmark = pytest.mark.gpu
 
-# Layered configurations as wgbragg.render._layered_buffers sets them (LUT from the cache, or
+# Layered configurations as wgbragg.render.renderer._layered_buffers sets them (LUT from the cache,
+# or
 # an in-kernel colour by each factored method; period maps force in-kernel mirrors).
 LAYERED = [
     {"LUT": True, "LAYERS": 2, "BASE": 1},
@@ -44,5 +45,5 @@ def _configurations() -> list[dict]:
                          ids=lambda c: ",".join(k for k, v in c.items() if v is True))
 def test_every_configuration_compiles(constants):
     for entry in ("render", "accumulate", "primary_hits"):
-        kernel = gpu.compute_pipeline("render.wgsl", entry, constants)
+        kernel = gpu.compute_pipeline("render/renderer.wgsl", entry, constants)
         assert kernel.entry == entry

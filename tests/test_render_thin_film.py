@@ -17,9 +17,9 @@ import pytest
 from PIL import Image
 
 from wgbragg import ThinFilm
-from wgbragg.microfacet import ggx_G1, ggx_sample_visible_normal
-from wgbragg.render import Renderer
-from wgbragg.scene import load_scene
+from wgbragg.bsdf.microfacet import ggx_G1, ggx_sample_visible_normal
+from wgbragg.render.renderer import Renderer
+from wgbragg.scene.model import load_scene
 
 # --------------------------------------------------------------------------------- helpers
 

@@ -1,5 +1,5 @@
-"""The rough thin-film BRDF (:class:`wgbragg.rough_thin_film.RoughThinFilm`, BB17 eq 1) and the
-deterministic lobe quadrature it shares with :mod:`wgbragg.ibl`.
+"""The rough thin-film BRDF (:class:`wgbragg.bsdf.rough_thin_film.RoughThinFilm`, BB17 eq 1) and the
+deterministic lobe quadrature it shares with :mod:`wgbragg.lighting.ibl`.
 
 Checked against invariants (reciprocity, energy), the sampler against its own density
 (chi-square) and weights, the quadrature against the sampler, the colour of the spectral BRDF,
@@ -15,9 +15,9 @@ import pytest
 from conftest import sample_chi2_pvalue
 
 from wgbragg import ThinFilm
-from wgbragg.colorimetry import linear_srgb_to_xyz, xyz_to_linear_srgb, xyz_weights
-from wgbragg.microfacet import ggx_D, ggx_G1
-from wgbragg.rough_thin_film import RoughThinFilm, reflection_quadrature
+from wgbragg.colour.colorimetry import linear_srgb_to_xyz, xyz_to_linear_srgb, xyz_weights
+from wgbragg.bsdf.microfacet import ggx_D, ggx_G1
+from wgbragg.bsdf.rough_thin_film import RoughThinFilm, reflection_quadrature
 
 FILMS = {
     "fig7": ThinFilm(1.33, 550.0, n_base=2.0, k_base=0.5),

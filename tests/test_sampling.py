@@ -7,7 +7,7 @@ import pytest
 from scipy import stats
 
 from wgbragg import ShiftedPoints
-from wgbragg.sampling import MANTISSA_BITS
+from wgbragg.common.sampling import MANTISSA_BITS
 
 
 def test_values_are_the_shifted_digits_top_bits():

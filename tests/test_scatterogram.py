@@ -8,14 +8,15 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer, cli
-from wgbragg.scatterogram import (
+from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer
+from wgbragg.app import cli
+from wgbragg.app.scatterogram import (
     JEWEL_BEETLE_AREAS,
     jewel_beetle,
     save_scatterogram,
     scatterogram,
 )
-from wgbragg.transmission_filter import TransmissionFilter
+from wgbragg.bsdf.transmission_filter import TransmissionFilter
 
 
 @pytest.fixture(scope="module")

@@ -6,8 +6,10 @@ from pathlib import Path
 
 import pytest
 
-from wgbragg import LayeredBragg, luts, scene
-from wgbragg.scene import (
+from wgbragg import LayeredBragg
+from wgbragg.common import luts
+from wgbragg.scene import model as scene
+from wgbragg.scene.model import (
     AreaLight,
     BraggLayerSpec,
     Camera,
@@ -80,7 +82,7 @@ def no_filters(monkeypatch):
 
 
 def test_presets_are_the_files_shipped():
-    folder = resources.files("wgbragg").joinpath("scenes")
+    folder = resources.files("wgbragg.scene").joinpath("presets")
     shipped = {p.name.removesuffix(".toml") for p in folder.iterdir() if p.name.endswith(".toml")}
     assert shipped == set(scene.PRESETS)
 

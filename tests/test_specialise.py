@@ -1,4 +1,4 @@
-"""Specialisation blocks (``//! if`` / ``//! else`` / ``//! endif``, wgbragg/_specialise.py):
+"""Specialisation blocks (``//! if`` / ``//! else`` / ``//! endif``, wgbragg/gpu/specialise.py):
 which lines each set of override constants keeps, and the errors of malformed blocks."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from wgbragg import gpu
-from wgbragg._specialise import BlockError, specialise
+from wgbragg.gpu.specialise import BlockError, specialise
 
 HEADER = (
     "override LAYERED: bool = false;\n"
@@ -140,7 +140,7 @@ def test_every_shipped_shader_specialises_with_its_defaults(name):
 # ------------------------------------------------------------------ through the harness
 
 KERNEL = """\
-//! include "harness.wgsl"
+//! include "gpu/harness.wgsl"
 override FAST: bool = false;
 @group(0) @binding(0) var<storage, read_write> out: array<f32>;
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -156,8 +156,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
 
 @pytest.fixture
 def tmp_shaders(tmp_path, monkeypatch):
-    (tmp_path / "harness.wgsl").write_text(
-        (gpu.shader_dir() / "harness.wgsl").read_text(encoding="utf-8"), encoding="utf-8")
+    (tmp_path / "gpu/harness.wgsl").write_text(
+        (gpu.shader_dir() / "gpu/harness.wgsl").read_text(encoding="utf-8"), encoding="utf-8")
     monkeypatch.setattr(gpu, "shader_dir", lambda: tmp_path)
     return tmp_path
 

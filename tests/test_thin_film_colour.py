@@ -11,10 +11,10 @@ import pytest
 import tmm
 
 from wgbragg import ThinFilm
-from wgbragg.colorimetry import delta_e_2000, xyz_to_linear_srgb, xyz_weights
-from wgbragg.metals import METALS, SpectralIndex
+from wgbragg.colour.colorimetry import delta_e_2000, xyz_to_linear_srgb, xyz_weights
+from wgbragg.optics.metals import METALS, SpectralIndex
 from wgbragg.optics import thin_film_reflectance
-from wgbragg.thin_film_colour import (
+from wgbragg.colour.thin_film import (
     DEFAULT_ORDER,
     E_TO_D65_BRADFORD,
     FOURIER_METHODS,
@@ -101,7 +101,7 @@ def test_series_coefficients_are_physical():
 def direct_transform(windows, window, x, s=0.0):
     """F(x, s) of a table window by its definition: the 1 nm sum."""
     wavelength, weights = xyz_weights()
-    from wgbragg.thin_film_colour import DISPERSION_NODES, _spline_nodes
+    from wgbragg.colour.thin_film import DISPERSION_NODES, _spline_nodes
 
     hats = (_spline_nodes(DISPERSION_NODES)[1] if windows.count > 1
             else np.ones((1, wavelength.size)))

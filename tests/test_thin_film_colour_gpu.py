@@ -1,5 +1,5 @@
 """float32 WGSL twins for thin films against numpy: the Fourier colour methods
-(``wgsl/thin_film_colour.wgsl``) and dispersive bases in the reflectance and reference
+(``wgsl/colour/thin_film.wgsl``) and dispersive bases in the reflectance and reference
 kernels. The issue's bar is dE2000 0.1 between the two versions of a method."""
 
 import math
@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from wgbragg import ThinFilm
-from wgbragg.colorimetry import delta_e_2000, xyz_to_linear_srgb
-from wgbragg.thin_film_colour import FOURIER_METHODS, MAX_ORDER
-from wgbragg.thin_film_colour_gpu import PARAMS_DTYPE
+from wgbragg.colour.colorimetry import delta_e_2000, xyz_to_linear_srgb
+from wgbragg.colour.thin_film import FOURIER_METHODS, MAX_ORDER
+from wgbragg.colour.thin_film_gpu import PARAMS_DTYPE
 
 pytestmark = pytest.mark.gpu
 

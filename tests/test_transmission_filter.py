@@ -1,4 +1,4 @@
-"""The transmission filter F_alpha (wgbragg.transmission_filter) on both backends.
+"""The transmission filter F_alpha (wgbragg.bsdf.transmission_filter) on both backends.
 
 Checks: the App. C identity (rows of weights sum to G1), the filtered transmissivity against a
 direct 2D quadrature of eq 23, the psi integral against its closed form, the small-roughness
@@ -15,10 +15,11 @@ import numpy as np
 import pytest
 from scipy.integrate import IntegrationWarning
 
-from wgbragg import gpu, transmission_filter
-from wgbragg.microfacet import ggx_G1
+from wgbragg import gpu
+from wgbragg.bsdf import transmission_filter
+from wgbragg.bsdf.microfacet import ggx_G1
 from wgbragg.optics import yeh_reflectance
-from wgbragg.transmission_filter import (
+from wgbragg.bsdf.transmission_filter import (
     F_alpha,
     TransmissionFilter,
     ballistic_transmission_reference,

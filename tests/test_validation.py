@@ -144,7 +144,8 @@ def test_gpu_backend_validates_before_touching_the_device(thing, wavelength, the
                                                           polarization, backend, name,
                                                           monkeypatch):
     """backend="gpu" checks the same things first: the kernels are never reached."""
-    from wgbragg import gpu, kernels
+    from wgbragg import gpu
+    from wgbragg.optics import kernels
 
     def forbidden(*args, **kwargs):
         raise AssertionError("the GPU was reached with invalid input")
@@ -224,7 +225,8 @@ def test_transfer_matrix_accepts_its_domain():
 
 
 def _broadcast_calls():
-    from wgbragg import LayeredBragg, RoughBraggLayer, RoughThinFilm, microfacet
+    from wgbragg import LayeredBragg, RoughBraggLayer, RoughThinFilm
+    from wgbragg.bsdf import microfacet
 
     layered = LayeredBragg([RoughBraggLayer(BraggMirror(1.0, 1.5, 250.0, 250.0, 10), 0.1)])
     film = RoughThinFilm(ThinFilm(**GOOD_FILM), 0.3)
@@ -258,7 +260,7 @@ HALF_PI_FLOAT32 = np.float32(math.pi / 2)  # 1.5707964, above pi/2 in float64
 
 
 def test_float32_half_pi_is_accepted_and_clipped():
-    from wgbragg._validation import check_angle
+    from wgbragg.common.validation import check_angle
 
     assert float(HALF_PI_FLOAT32) > math.pi / 2
     assert check_angle(HALF_PI_FLOAT32) == math.pi / 2
@@ -277,7 +279,7 @@ def test_float32_half_pi_is_accepted_and_clipped():
 
 @pytest.mark.parametrize("value", [np.int64(7), np.int32(7), np.uint8(7), np.int16(7)])
 def test_integer_checks_accept_numpy_integers(value):
-    from wgbragg._validation import check_count, check_integer
+    from wgbragg.common.validation import check_count, check_integer
 
     assert check_integer("k", value, 1, 10) == 7 and type(check_integer("k", value, 1)) is int
     assert check_count("k", value) == 7
@@ -286,7 +288,7 @@ def test_integer_checks_accept_numpy_integers(value):
 @pytest.mark.parametrize("value", [True, np.True_, 7.0, np.float64(7.0), "7", None, 0, 11,
                                    np.int64(11)])
 def test_check_integer_refuses_bools_floats_and_out_of_range(value):
-    from wgbragg._validation import check_integer
+    from wgbragg.common.validation import check_integer
 
     with pytest.raises(ValueError, match=r"\bk must be an integer in \[1, 10\]"):
         check_integer("k", value, 1, 10)
@@ -319,7 +321,8 @@ def test_polarization_must_be_one_string(thing, polarization, backend, monkeypat
     """An array compared elementwise: "s" == np.array("s") passed the check, then the GPU
     kernel's dict lookup raised TypeError (unhashable), and two elements numpy's ambiguous
     truth value."""
-    from wgbragg import gpu, kernels
+    from wgbragg import gpu
+    from wgbragg.optics import kernels
 
     def forbidden(*args, **kwargs):
         raise AssertionError("the GPU was reached with invalid input")
@@ -348,7 +351,7 @@ def test_bool_arrays_are_refused(wavelength, theta, name):
 
 @pytest.mark.parametrize("material", ["x", None, 1.5, np.ones(3)])
 def test_reflectance_map_names_a_material_without_reflectance(material):
-    from wgbragg.maps import reflectance_map
+    from wgbragg.app.maps import reflectance_map
 
     with pytest.raises(ValueError, match=r"\bmaterial must have a reflectance.*BraggMirror"):
         reflectance_map(material, backend="numpy")
@@ -359,7 +362,7 @@ def test_reflectance_map_names_a_material_without_reflectance(material):
     ({"theta": [0.1, 2.0]}, "theta"), ({"polarization": np.array("s")}, "polarization"),
 ])
 def test_reflectance_map_names_bad_grids(options, name):
-    from wgbragg.maps import reflectance_map
+    from wgbragg.app.maps import reflectance_map
 
     with pytest.raises(ValueError, match=names(name)):
         reflectance_map(THINGS[0], backend="numpy", **options)

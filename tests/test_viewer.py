@@ -1,5 +1,5 @@
-"""The demo: the viewer's edits, frames and budgets (``wgbragg.viewer``), its window in a real
-glfw window under Xvfb (``wgbragg.viewer_window``) compared with reference screenshots, and
+"""The demo: the viewer's edits, frames and budgets (``wgbragg.app.viewer``), its window in a real
+glfw window under Xvfb (``wgbragg.app.viewer_window``) compared with reference screenshots, and
 ``demo.py``'s headless mode.
 
 Reference screenshots are ``tests/screenshots/*.png``; ``pytest --regenerate-screenshots``
@@ -24,9 +24,9 @@ import pytest
 from PIL import Image
 
 from conftest import EXPECT_LAVAPIPE
-from wgbragg.render import Renderer, display_transform
-from wgbragg.scene import LayeredBraggMaterial, ThinFilmMaterial
-from wgbragg.viewer import DEFAULT_FILM, Viewer
+from wgbragg.render.renderer import Renderer, display_transform
+from wgbragg.scene.model import LayeredBraggMaterial, ThinFilmMaterial
+from wgbragg.app.viewer import DEFAULT_FILM, Viewer
 
 pytestmark = pytest.mark.gpu
 
@@ -211,7 +211,7 @@ def test_the_first_preview_scale_is_guessed_from_the_paths_shown_before_it():
     """Before any preview frame, a filtered-lighting pixel is taken to cost 0.3 of the paths'
     measured cost (it was full size, 9-12 frames/s at 256 x 256 on lavapipe); a frame that
     compiled pipelines does not hold the estimate up once a normal one is measured."""
-    from wgbragg import viewer as viewer_module
+    from wgbragg.app import viewer as viewer_module
 
     viewer = Viewer("teapot", size=(256, 256))
     budget = viewer_module._PREVIEW_HEADROOM / viewer_module.PREVIEW_BUDGET_FPS
@@ -356,7 +356,7 @@ def display(tmp_path_factory):
 
 @pytest.fixture
 def window(display):
-    from wgbragg.viewer_window import ViewerWindow
+    from wgbragg.app.viewer_window import ViewerWindow
 
     shown = ViewerWindow(Viewer("teapot", size=SIZE, preview_scale=2), size=(1040, 760))
     yield shown

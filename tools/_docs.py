@@ -21,7 +21,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from wgbragg._io import write_text_atomic
+from wgbragg.common.atomic import write_text_atomic
 
 __all__ = [
     "DOC_INTRO",
@@ -197,7 +197,8 @@ def run_facts(gpu_error: str | None = None) -> dict[str, Any]:
     Python and the wgbragg and numpy versions."""
     import numpy as np
 
-    from wgbragg import __version__, gpu
+    from wgbragg import __version__
+    from wgbragg import gpu
 
     try:
         cores = len(os.sched_getaffinity(0))

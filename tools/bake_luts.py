@@ -6,14 +6,14 @@ Usage::
     python tools/bake_luts.py                         # default alphas and the colour tables
     python tools/bake_luts.py --alpha 0.1 0.2         # these filters and the colour tables
     python tools/bake_luts.py --alpha --cache /tmp/c  # colour tables only, into /tmp/c
-    python tools/bake_luts.py --help                  # every option (see wgbragg.cli)
+    python tools/bake_luts.py --help                  # every option (see wgbragg.app.cli)
 """
 
 from __future__ import annotations
 
 import sys
 
-from wgbragg.cli import main as _main
+from wgbragg.app.cli import main as _main
 
 
 def main(argv: list[str] | None = None) -> int:

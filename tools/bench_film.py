@@ -1,6 +1,6 @@
 """Accuracy and speed of the thin-film colour methods of :meth:`wgbragg.ThinFilm.xyz`.
 
-For the Fourier methods (Belcour & Barla 2017; :mod:`wgbragg.thin_film_colour`) at several
+For the Fourier methods (Belcour & Barla 2017; :mod:`wgbragg.colour.thin_film`) at several
 truncation orders this measures, in one run:
 
 - **CIE dE2000 against "reference"** (numpy, float64, 1 nm): mean, 95th percentile and maximum
@@ -136,7 +136,7 @@ def films(cfg: Config) -> list[tuple[str, Any]]:
 
 def rows(cfg: Config) -> list[tuple[str, int]]:
     """(method, order) of every accuracy row, plus the uncorrected Gaussian at the default."""
-    from wgbragg.thin_film_colour import DEFAULT_ORDER
+    from wgbragg.colour.thin_film import DEFAULT_ORDER
 
     out = [(method, order) for method in FOURIER for order in cfg.orders]
     return [*out, (UNCORRECTED, DEFAULT_ORDER)]
@@ -184,14 +184,14 @@ class Results:
 
 
 def _delta_e(xyz_a: np.ndarray, xyz_b: np.ndarray) -> np.ndarray:
-    from wgbragg.colorimetry import delta_e_2000, xyz_to_linear_srgb
+    from wgbragg.colour.colorimetry import delta_e_2000, xyz_to_linear_srgb
 
     return delta_e_2000(xyz_to_linear_srgb(xyz_a), xyz_to_linear_srgb(xyz_b))
 
 
 def _uncorrected(xyz: np.ndarray) -> np.ndarray:
     """Undo the Bradford adaptation: the Gaussian fits' XYZ under illuminant E."""
-    from wgbragg.thin_film_colour import E_TO_D65_BRADFORD
+    from wgbragg.colour.thin_film import E_TO_D65_BRADFORD
 
     return xyz @ np.linalg.inv(E_TO_D65_BRADFORD).T
 
@@ -243,7 +243,7 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
                 gpu_delta_e[method, order][i] = _delta_e(
                     xyz, film.xyz(angles, method, "gpu", order=order))
     from wgbragg import ThinFilm
-    from wgbragg.colorimetry import xyz_to_linear_srgb
+    from wgbragg.colour.colorimetry import xyz_to_linear_srgb
 
     # At grazing incidence every film reflects everything: a perfect reflector.
     perfect = ThinFilm(1.5, 300.0)
@@ -263,7 +263,10 @@ def _time(cfg: Config, angles: np.ndarray, have_gpu: bool,
     """Seconds per colour of every method and order: GPU kernel timestamps on
     ``cfg.timing_angles`` angles, numpy wall clock on the grid's angles; best of two passes,
     tables built and pipelines compiled beforehand."""
-    from wgbragg import ThinFilm, colorimetry, colour_gpu, thin_film_colour_gpu
+    from wgbragg import ThinFilm
+    from wgbragg.colour import colorimetry
+    from wgbragg.colour import reference_gpu as colour_gpu
+    from wgbragg.colour import thin_film_gpu as thin_film_colour_gpu
 
     theta = np.radians(np.linspace(0.0, 89.0, cfg.timing_angles))
     wavelength, weights = colorimetry.xyz_weights()
@@ -296,7 +299,7 @@ def _time(cfg: Config, angles: np.ndarray, have_gpu: bool,
 def _prefilter_check(cfg: Config, angles: np.ndarray, progress: bool) -> list:
     """(base, sigma, order, mean dE, max dE) of fourier-table against the brute force."""
     from wgbragg import ThinFilm
-    from wgbragg.thin_film_colour import DEFAULT_ORDER, MAX_ORDER
+    from wgbragg.colour.thin_film import DEFAULT_ORDER, MAX_ORDER
 
     # Thick enough that every Gauss-Hermite node is a thickness >= 0.
     nodes = np.polynomial.hermite_e.hermegauss(cfg.prefilter_nodes)[0]
@@ -335,7 +338,7 @@ def _yes(flag: bool) -> str:
 
 def render_section(results: Results, command: str) -> str:
     """The markdown section, markers included (no trailing newline)."""
-    from wgbragg.thin_film_colour import (
+    from wgbragg.colour.thin_film import (
         DEFAULT_ORDER,
         DISPERSION_NODES,
         PREFILTER_STEP_NM,

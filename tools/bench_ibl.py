@@ -1,26 +1,26 @@
 """Filtered image-based lighting under uniform white light: an analogue of Kneiphof et al.
-2019, Fig. 7, for the modes of :mod:`wgbragg.ibl` (the renderer's ``ibl="split-sum"`` and
+2019, Fig. 7, for the modes of :mod:`wgbragg.lighting.ibl` (the renderer's ``ibl="split-sum"`` and
 ``ibl="kneiphof"``).
 
 Under uniform white illumination (``Lbar = 1``) the radiance a rough microfacet patch reflects
 towards ``theta_o`` is exactly its directional albedo, ``L_ref = int f(l, v) cos_l dl``
-(:func:`wgbragg.ibl.uniform_reflected_radiance`), with the microfacets' "reference" colour
+(:func:`wgbragg.lighting.ibl.uniform_reflected_radiance`), with the microfacets' "reference" colour
 (1 nm spectral integration). That colour is tabulated on :data:`Config.table_nodes` angles in
 [0, 90] degrees and interpolated by a cubic spline per channel (its error is measured at the
 midpoints and reported), then integrated with the deterministic lobe quadrature of
-:func:`wgbragg.rough_thin_film.reflection_quadrature`. Against it:
+:func:`wgbragg.bsdf.rough_thin_film.reflection_quadrature`. Against it:
 
 - **split-sum** (Belcour & Barla 2017, sec. 5): ``E(cos_o) R(theta_o)``;
 - **kneiphof** (Kneiphof et al. 2019): ``E(cos_o) Rbar(mu_x, sigma_x)`` with the moments a
   renderer reads from a uniformly lit prefiltered environment
-  (:func:`wgbragg.ibl.uniform_light_statistics`, the ``n = v = r`` kernel);
+  (:func:`wgbragg.lighting.ibl.uniform_light_statistics`, the ``n = v = r`` kernel);
 - **kneiphof, exact moments**: the same with the true mean and spread of ``l.v`` under the
-  lobe at ``v`` (:func:`wgbragg.ibl.reflected_light_statistics`; Fig. 7's column b).
+  lobe at ``v`` (:func:`wgbragg.lighting.ibl.reflected_light_statistics`; Fig. 7's column b).
 
 Thin films (``n_film`` = :data:`FILM_INDEX`) take their colour from ``"fourier-table"``
 (M = 3), as the renderer does; for a rough Bragg layer in air over an absorbing base, whose
 lobe has the same form, "kneiphof" is our Gauss-Hermite analogue
-(:func:`wgbragg.ibl.bragg_filtered_reflectance`) and every mode uses the reference colour
+(:func:`wgbragg.lighting.ibl.bragg_filtered_reflectance`) and every mode uses the reference colour
 table (so only the filtering differs).
 
 Outputs:
@@ -168,7 +168,7 @@ class ColourTable:
     def __init__(self, material, nodes: int):
         from scipy.interpolate import CubicSpline
 
-        from wgbragg.colorimetry import delta_e_2000
+        from wgbragg.colour.colorimetry import delta_e_2000
 
         theta = np.linspace(0.0, 0.5 * np.pi, nodes)
         self._spline = CubicSpline(theta, material.rgb(theta, "reference"), axis=0)
@@ -223,8 +223,8 @@ class Lobe:
 
     @classmethod
     def at(cls, theta: np.ndarray, alpha: float, nodes: int) -> Lobe:
-        from wgbragg.ibl import reflected_light_statistics, uniform_light_statistics
-        from wgbragg.rough_thin_film import reflection_quadrature
+        from wgbragg.lighting.ibl import reflected_light_statistics, uniform_light_statistics
+        from wgbragg.bsdf.rough_thin_film import reflection_quadrature
 
         cos_o = np.cos(theta)
         _, cos_d, weight = reflection_quadrature(cos_o, alpha, nodes)
@@ -239,7 +239,7 @@ class Lobe:
 
 def film_radiance(lobe: Lobe, material, table: ColourTable) -> dict[str, np.ndarray]:
     """Radiance (A, 3) of every mode and of the reference for a thin film."""
-    from wgbragg.ibl import film_kneiphof_reflectance, film_split_sum_reflectance
+    from wgbragg.lighting.ibl import film_kneiphof_reflectance, film_split_sum_reflectance
 
     light = lobe.albedo[:, None]
     return {
@@ -253,7 +253,7 @@ def film_radiance(lobe: Lobe, material, table: ColourTable) -> dict[str, np.ndar
 
 def bragg_radiance(lobe: Lobe, table: ColourTable) -> dict[str, np.ndarray]:
     """Radiance (A, 3) of every mode and of the reference for a rough Bragg layer."""
-    from wgbragg.ibl import bragg_filtered_reflectance
+    from wgbragg.lighting.ibl import bragg_filtered_reflectance
 
     light = lobe.albedo[:, None]
     return {
@@ -302,8 +302,8 @@ def materials(cfg: Config) -> list[tuple[str, list[Any]]]:
 
 def run_benchmark(cfg: Config, progress: bool = True) -> Results:
     """Every mode against the reference on the grid of ``cfg``."""
-    from wgbragg.colorimetry import delta_e_2000
-    from wgbragg.metrics import smape
+    from wgbragg.colour.colorimetry import delta_e_2000
+    from wgbragg.common.metrics import smape
 
     start = time.perf_counter()
     theta = np.radians(np.asarray(cfg.angles_deg, np.float64))
@@ -501,7 +501,7 @@ def draw(images: dict[str, np.ndarray], title: str, row_label: str, row_range, p
     reference's 99th percentile channel at 1), written atomically as a PNG."""
     from matplotlib.figure import Figure
 
-    from wgbragg._io import atomic_path
+    from wgbragg.common.atomic import atomic_path
 
     exposure = 1.0 / max(float(np.percentile(images["reference"], 99)), 1e-6)
     panels = (("split-sum", "(a) split-sum"), ("kneiphof", f"(b) {filtered_label}"),
@@ -607,7 +607,7 @@ RENDER_QUICK = RenderConfig(16, 64, 4, ("studio",), ("film over 2.0+0.5i", "Brag
 
 def sphere_scene(folder: Path, environment: str, material: str, alpha: float):
     """A unit sphere filling a nearly orthographic view, under a procedural environment."""
-    from wgbragg.scene import load_scene
+    from wgbragg.scene.model import load_scene
 
     path = folder / "sphere.toml"
     path.write_text(_SPHERE.format(environment=environment,
@@ -621,7 +621,7 @@ def image_errors(image: np.ndarray, reference: np.ndarray) -> tuple[float, float
     reference's 99th-percentile luminance before CIELAB (a white of Y = 1)."""
     import colour
 
-    from wgbragg.metrics import smape
+    from wgbragg.common.metrics import smape
 
     luminance = reference @ np.array([0.2126, 0.7152, 0.0722])
     covered = luminance > 1e-3
@@ -650,7 +650,7 @@ def _frame_seconds(renderer, frames: int = 5) -> float:
 def render_comparison(config: RenderConfig, folder: Path, progress: bool) -> list[dict]:
     """Per (environment, material, alpha): each filtered mode's SMAPE and dE2000 against the
     path-traced reference, and the 1-spp frame time of every mode at the same size."""
-    from wgbragg.render import Renderer
+    from wgbragg.render.renderer import Renderer
 
     rows = []
     cases = [(e, m, a) for e in config.environments for m in config.materials
@@ -747,8 +747,8 @@ def render_figure(config: RenderConfig, folder: Path, path: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from wgbragg.render import Renderer, display_transform
-    from wgbragg._io import atomic_path
+    from wgbragg.render.renderer import Renderer, display_transform
+    from wgbragg.common.atomic import atomic_path
 
     material = config.materials[0]
     modes = ("split-sum", "kneiphof", "monte-carlo")

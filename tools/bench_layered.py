@@ -69,9 +69,10 @@ import _docs  # noqa: E402
 from _docs import human_ratio, human_time  # noqa: E402
 from _docs import markdown_table as _table  # noqa: E402
 
-from wgbragg import ShiftedPoints, gpu  # noqa: E402
-from wgbragg.colorimetry import HERO_WAVELENGTHS  # noqa: E402
-from wgbragg.metrics import smape  # noqa: E402
+from wgbragg import ShiftedPoints
+from wgbragg import gpu
+from wgbragg.colour.colorimetry import HERO_WAVELENGTHS
+from wgbragg.common.metrics import smape
 
 __all__ = [
     "BEGIN_MARKER",

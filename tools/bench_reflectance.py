@@ -12,7 +12,7 @@ the Bloch dispersion between s and p, so it costs less than two s evaluations.
 
 Methods
 -------
-- GPU kernel: ``wgsl/bragg_reflectance.wgsl`` (float32), GPU seconds from timestamp queries
+- GPU kernel: ``wgsl/optics/yeh_reflectance.wgsl`` (float32), GPU seconds from timestamp queries
   (:meth:`wgbragg.gpu.Kernel.benchmark`), buffers uploaded once.
 - GPU end-to-end: ``BraggMirror.reflectance(..., backend="gpu")``, wall clock, i.e. input
   conversion, upload, dispatch and readback, what a user of the public API sees.
@@ -276,21 +276,22 @@ def _import_optional(name: str) -> tuple[Any, str | None]:
 
 
 def _bragg_kernel(polarization: str):
-    from wgbragg import gpu, kernels
+    from wgbragg import gpu
+    from wgbragg.optics import kernels
 
     constants: dict[str, Any] = {
         "POLARIZATION": {"s": 0, "p": 1, "unpolarized": 2}[polarization],
         "HOST_MATCHED": True,
     }
-    # Time the workgroup size the library dispatches with; wgbragg.kernels may pin one.
+    # Time the workgroup size the library dispatches with; wgbragg.optics.kernels may pin one.
     workgroup_size = getattr(kernels, "WORKGROUP_SIZE", None)
     if workgroup_size is not None:
         constants["WORKGROUP_SIZE"] = int(workgroup_size)
-    return gpu.compute_pipeline("bragg_reflectance.wgsl", constants=constants)
+    return gpu.compute_pipeline("optics/yeh_reflectance.wgsl", constants=constants)
 
 
 def _bragg_params(N: int) -> np.ndarray:
-    from wgbragg import kernels
+    from wgbragg.optics import kernels
 
     return kernels.bragg_params(N1, N2, D1_NM, D2_NM, N, N1)
 
@@ -529,7 +530,8 @@ def _version(distribution: str) -> str:
 
 
 def _environment(modules: dict[str, Any]) -> dict[str, Any]:
-    from wgbragg import __version__, gpu
+    from wgbragg import __version__
+    from wgbragg import gpu
 
     info = gpu.adapter_info()
     try:
@@ -788,7 +790,7 @@ def render_section(results: Results, command: str) -> str:
     )
     out.append("2. Flatness is only meaningful for the O(1) closed forms.")
     out.append(
-        f"3. GPU kernel rows: `bragg_reflectance.wgsl` with POLARIZATION = 0 (s) or 2 "
+        f"3. GPU kernel rows: `optics/yeh_reflectance.wgsl` with POLARIZATION = 0 (s) or 2 "
         f"(unpolarized), HOST_MATCHED = true, WORKGROUP_SIZE = {env['workgroup_size']}; "
         f"{cfg.gpu_side}{TIMES}{cfg.gpu_side} grid, median of {cfg.gpu_repeats} dispatches "
         "timed by GPU timestamp queries, buffers uploaded once (`Kernel.benchmark`)."

@@ -2,11 +2,11 @@
 
 Measures, in one run on the same device:
 
-- **samples per second** of every built-in preset (:data:`wgbragg.scene.PRESETS`) at 512 x 512
+- **samples per second** of every built-in preset (:data:`wgbragg.scene.model.PRESETS`) at 512 x 512
   in RGB and in spectral mode, and the GPU memory each scene holds
-  (:attr:`wgbragg.render.Renderer.gpu_bytes`);
+  (:attr:`wgbragg.render.renderer.Renderer.gpu_bytes`);
 - **time to SMAPE 0.05**: for the ``teapot`` preset, wall-clock time until the running image is
-  within SMAPE 0.05 (:func:`wgbragg.metrics.smape`) of a high-spp reference of the same mode,
+  within SMAPE 0.05 (:func:`wgbragg.common.metrics.smape`) of a high-spp reference of the same mode,
   in RGB and in spectral mode (samples doubling from 1 spp; the SMAPE checks not counted), and
   the SMAPE between the two references (the RGB model's colour error);
 - **what a scene costs by what it holds**: one sphere of a near-smooth single Bragg layer
@@ -147,7 +147,7 @@ def _throughput(renderer, passes: int) -> float:
 def _time_to_smape(make_renderer, reference, limit_spp: int) -> tuple[float, int, float]:
     """Render time until ``smape(image, reference) <= TARGET_SMAPE``, the spp then, and the
     SMAPE reached (the last one tried if ``limit_spp`` came first)."""
-    from wgbragg.metrics import smape
+    from wgbragg.common.metrics import smape
 
     renderer = make_renderer(seed=12345)
     elapsed, step = 0.0, 1
@@ -164,11 +164,11 @@ def _time_to_smape(make_renderer, reference, limit_spp: int) -> tuple[float, int
 def run_benchmarks(cfg: Config, progress: bool = True) -> dict:
     import trimesh
 
-    from wgbragg.bvh import build_bvh
-    from wgbragg.meshes import sphere_mesh
-    from wgbragg.metrics import smape
-    from wgbragg.render import Renderer
-    from wgbragg.scene import PRESETS, load_preset, load_scene
+    from wgbragg.render.bvh import build_bvh
+    from wgbragg.scene.meshes import sphere_mesh
+    from wgbragg.common.metrics import smape
+    from wgbragg.render.renderer import Renderer
+    from wgbragg.scene.model import PRESETS, load_preset, load_scene
 
     meter = _docs.LoadMeter()
     results = {"presets": {}, "configurations": {}, "convergence": {}}

@@ -1,14 +1,15 @@
 """Speed and accuracy of the colour methods of :meth:`wgbragg.BraggMirror.xyz`.
 
-For every method of :data:`wgbragg.colour_methods.COLOUR_METHODS` this measures, in one run:
+For every method of :data:`wgbragg.colour.landmark_methods.COLOUR_METHODS` this measures, in one
+run:
 
 - **time per colour**, float64 numpy for every method, and on the GPU for every method of
-  :data:`wgbragg.colour_methods.GPU_COLOUR_METHODS` (read when the run starts, so a new GPU
+  :data:`wgbragg.colour.landmark_methods.GPU_COLOUR_METHODS` (read when the run starts, so a new GPU
   kernel is picked up without touching this file): wall clock of
   ``mirror.xyz(theta, method, backend="gpu")`` on many angles (pipeline compilation
   excluded), and GPU timestamps of the kernel alone where a timing helper exists
-  (:func:`wgbragg.colour_gpu.benchmark_xyz` for ``reference`` and ``spectral``,
-  ``wgbragg.colour_landmarks_gpu.benchmark_xyz`` for the landmark methods);
+  (:func:`wgbragg.colour.reference_gpu.benchmark_xyz` for ``reference`` and ``spectral``,
+  ``wgbragg.colour.landmark_methods_gpu.benchmark_xyz`` for the landmark methods);
 - **speed-up over "reference"** on the same backend, with the same kind of timing, in the
   same run, per period ``Lambda`` (the analogue of the paper's Table 1);
 - **CIE dE2000 against "reference"** (numpy, float64): mean, 95th percentile and maximum over
@@ -288,13 +289,13 @@ class Results:
 
 
 def _rgb(xyz: np.ndarray) -> np.ndarray:
-    from wgbragg.colorimetry import xyz_to_linear_srgb
+    from wgbragg.colour.colorimetry import xyz_to_linear_srgb
 
     return xyz_to_linear_srgb(xyz)
 
 
 def _delta_e(xyz_a: np.ndarray, xyz_b: np.ndarray) -> np.ndarray:
-    from wgbragg.colorimetry import delta_e_2000
+    from wgbragg.colour.colorimetry import delta_e_2000
 
     return delta_e_2000(_rgb(xyz_a), _rgb(xyz_b))
 
@@ -319,11 +320,11 @@ def fine_xyz(mirror, theta, step_nm: float) -> np.ndarray:
     """XYZ by the trapezoid rule on a ``step_nm`` grid over 360-830 nm (numpy, float64).
 
     The continuous integral of the exact unpolarized R against the CMF x D65 density
-    (:func:`wgbragg.colorimetry.xyz_density`), converged where ``step_nm`` resolves every
+    (:func:`wgbragg.colour.colorimetry.xyz_density`), converged where ``step_nm`` resolves every
     oscillation: the yardstick for the 1 nm "reference" itself.
     """
-    from wgbragg import colorimetry
-    from wgbragg.colour_reference import integrate_xyz
+    from wgbragg.colour import colorimetry
+    from wgbragg.colour.reference import integrate_xyz
 
     count = round(470.0 / step_nm)
     wavelength = np.linspace(360.0, 830.0, count + 1)
@@ -345,15 +346,17 @@ def kernel_timer(method: str, options: dict[str, Any]) -> Callable | None:
     """GPU-timestamp timer ``(mirror, theta, repeats) -> seconds`` of ``method``'s kernel.
 
     Returns None where no timing helper is known: the method is then timed by wall clock
-    only. ``reference`` and ``spectral`` dispatch through :mod:`wgbragg.colour_gpu`, whose
+    only. ``reference`` and ``spectral`` dispatch through :mod:`wgbragg.colour.reference_gpu`, whose
     ``benchmark_xyz`` takes the quadrature nodes; the landmark methods through
-    ``wgbragg.colour_landmarks_gpu.benchmark_xyz`` (method name and ``subdivisions``), when
+    ``wgbragg.colour.landmark_methods_gpu.benchmark_xyz`` (method name and ``subdivisions``), when
     that module exists. Arguments are passed by name, and a helper whose signature does not
     take them is not used, so a changed helper cannot silently time the wrong thing.
     """
     import importlib
 
-    from wgbragg import colorimetry, colour_gpu, colour_reference
+    from wgbragg.colour import colorimetry
+    from wgbragg.colour import reference_gpu as colour_gpu
+    from wgbragg.colour import reference as colour_reference
 
     if method in ("reference", "spectral"):
         helper = getattr(colour_gpu, "benchmark_xyz", None)
@@ -372,7 +375,7 @@ def kernel_timer(method: str, options: dict[str, Any]) -> Callable | None:
 
         return nodes_timer
     try:
-        landmarks = importlib.import_module("wgbragg.colour_landmarks_gpu")
+        landmarks = importlib.import_module("wgbragg.colour.landmark_methods_gpu")
     except ImportError:
         return None
     helper = getattr(landmarks, "benchmark_xyz", None)
@@ -415,7 +418,7 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
     -------
     Results
     """
-    from wgbragg.colour_methods import COLOUR_METHODS, GPU_COLOUR_METHODS
+    from wgbragg.colour.landmark_methods import COLOUR_METHODS, GPU_COLOUR_METHODS
 
     methods = list(COLOUR_METHODS)
     have_gpu, gpu_error = _gpu_available()
@@ -731,8 +734,8 @@ def _accuracy_targets(results: Results, name: str, against_reference: np.ndarray
 def grid_setting(results: Results) -> tuple[int, int, str, int] | None:
     """The settings sweep's grid quadrature of "averaged" with its default nodes and
     ``averaging_from``, if it ran."""
-    from wgbragg.colour_grid import GRID_NODES
-    from wgbragg.colour_methods import AVERAGING_MIN_PERIODS
+    from wgbragg.colour.grid import GRID_NODES
+    from wgbragg.colour.landmark_methods import AVERAGING_MIN_PERIODS
 
     return next((k for k in results.settings_delta_e
                  if k[2] == "grid" and (k[0], k[3]) == (AVERAGING_MIN_PERIODS, GRID_NODES)), None)
@@ -1042,9 +1045,9 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
                   rows)
 
     if results.settings_delta_e:
-        from wgbragg.colour_methods import AVERAGING_MIN_PERIODS, PANELS_PER_OSCILLATION
+        from wgbragg.colour.landmark_methods import AVERAGING_MIN_PERIODS, PANELS_PER_OSCILLATION
 
-        from wgbragg.colour_grid import GRID_NODES
+        from wgbragg.colour.grid import GRID_NODES
 
         out += ["", '### "averaged" settings: `quadrature`, `averaging_from`, '
                 '`panels_per_oscillation`, `grid_nodes`', ""]
@@ -1079,7 +1082,7 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
         f"mirrors (d1/Λ {TIMES} N) of that period. The paper's Table 1 rows are its own shader "
         "measurements, quoted for comparison.")
     out.append(
-        "3. dE2000 from linear sRGB (D65) through CIELAB (`wgbragg.colorimetry.delta_e_2000`); "
+        "3. dE2000 from linear sRGB (D65) through CIELAB (`wgbragg.colour.colorimetry.delta_e_2000`); "
         "p95 is the 95th percentile over the angles and mirrors of the column.")
     out.append(
         "4. numpy against GPU: at N = 100 next to sharp transmission resonances one float32 "
@@ -1129,7 +1132,7 @@ def plot_tradeoff(results: Results, path: Path) -> Path:
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
 
-    from wgbragg._io import atomic_path
+    from wgbragg.common.atomic import atomic_path
 
     fig = Figure(figsize=(10, 5.5))
     ax = fig.subplots()

@@ -3,20 +3,20 @@ transmissivity (issue 5, item 6).
 
 Measures, side by side in one run:
 
-- **the F_alpha bake**, :meth:`wgbragg.transmission_filter.TransmissionFilter.bake` at
+- **the F_alpha bake**, :meth:`wgbragg.bsdf.transmission_filter.TransmissionFilter.bake` at
   0.25 degrees x 1000 azimuth samples for alpha in {0.01, 0.05, 0.1, 0.4, 1}: GPU (float32)
   wall clock, pipeline warm (one small untimed bake first), median of the passes; numpy
   (float64) at the same settings, one run per alpha (seconds each); and loading the same
-  filter from a LUT file (:func:`wgbragg.luts.transmission_filter`, cache hit). The GPU bake
+  filter from a LUT file (:func:`wgbragg.common.luts.transmission_filter`, cache hit). The GPU bake
   has no GPU-timestamp helper, so it is timed by the wall clock only;
 - **the integrated transmissivity table of one layer**,
-  :meth:`wgbragg.rough_layer.RoughBraggLayer.transmissivity_table` (n_i x n_lambda, eq 28), for
+  :meth:`wgbragg.bsdf.rough_layer.RoughBraggLayer.transmissivity_table` (n_i x n_lambda, eq 28), for
   Bragg mirrors n1 = 1, n2 = 1.5, Lambda = 500 nm, d1 = d2, N in {5, 100} and alpha in
   {0.05, 0.4}, on the 1 nm grid (471 wavelengths, the default) and on a 5 nm grid
   (95 wavelengths): GPU timestamps of its two passes
-  (:meth:`~wgbragg.rough_layer.RoughBraggLayer.benchmark_table`) and their sum, GPU wall
+  (:meth:`~wgbragg.bsdf.rough_layer.RoughBraggLayer.benchmark_table`) and their sum, GPU wall
   clock end-to-end, numpy float64 wall clock, and the largest GPU-numpy difference;
-- :meth:`~wgbragg.rough_layer.RoughBraggLayer.transmissivity_rgb` per layer, both backends;
+- :meth:`~wgbragg.bsdf.rough_layer.RoughBraggLayer.transmissivity_rgb` per layer, both backends;
 - **table sizes** as float32 (the filter's values, n_i x n_d, and the transmissivity table,
   n_i x n_lambda) beside the paper's "approx. 1.4 MB" and "approx. 620KB" (sec. 4.2.2), and
   the size of the LUT file the cache writes;
@@ -264,20 +264,20 @@ def _wall(fn: Callable[[], Any]) -> tuple[Any, float]:
 
 
 def _bake(cfg: Config, alpha: float, backend: str):
-    from wgbragg.transmission_filter import TransmissionFilter
+    from wgbragg.bsdf.transmission_filter import TransmissionFilter
 
     return TransmissionFilter.bake(alpha, resolution_deg=cfg.resolution_deg,
                                    psi_samples=cfg.psi_samples, backend=backend)
 
 
 def _load_lut(cfg: Config, alpha: float, cache: Path):
-    from wgbragg import luts
+    from wgbragg.common import luts
 
     return luts.transmission_filter(alpha, cfg.resolution_deg, cfg.psi_samples, cache=cache)
 
 
 def _layer(layer: Layer, filters: dict):
-    from wgbragg.rough_layer import RoughBraggLayer
+    from wgbragg.bsdf.rough_layer import RoughBraggLayer
 
     return RoughBraggLayer(layer.mirror(), layer.alpha,
                            transmission_filter=filters[layer.alpha])
@@ -374,7 +374,8 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
     median discards it. Within a pass the GPU cells run first and the CPU cells after them,
     with a pause of :data:`SETTLE_S` before the next pass.
     """
-    from wgbragg import gpu, luts
+    from wgbragg import gpu
+    from wgbragg.common import luts
 
     gpu.get_device()  # fail early if there is no adapter
     load = _docs.LoadMeter()
@@ -589,7 +590,7 @@ def render_section(results: Results, command: str) -> str:
                      f"≈ {human_bytes(PAPER_TABLE_BYTES)}"])
     out += _table(["table", "shape", "float32", "paper (sec. 4.2.2)"], rows)
 
-    out += ["", "### LUT files of the filters (`wgbragg.luts`, as the cache writes them)", ""]
+    out += ["", "### LUT files of the filters (`wgbragg.common.luts`, as the cache writes them)", ""]
     rows = [[f"{alpha:g}", human_bytes(results.lut_bytes[alpha]), results.lut_dtypes[alpha]]
             for alpha in cfg.alphas]
     out += _table([ALPHA, "file", "stored dtypes (theta_i, theta_d, values, weights)"], rows)
@@ -603,7 +604,7 @@ def render_section(results: Results, command: str) -> str:
         "clock, what a caller pays: grid set-up, upload, dispatch, readback, the float64 "
         "weights and the validated, read-only arrays. The bake pipeline is compiled before "
         "timing (one small untimed bake). `TransmissionFilter` has no GPU-timestamp helper, "
-        "so the bake has no kernel-only figure. LUT load: `wgbragg.luts.transmission_filter` "
+        "so the bake has no kernel-only figure. LUT load: `wgbragg.common.luts.transmission_filter` "
         "on a cache hit (read, header and SHA-256 checks, `TransmissionFilter.from_arrays`).")
     out.append(
         "2. Transmissivity: `RoughBraggLayer(mirror, alpha, transmission_filter=filter)`, the "

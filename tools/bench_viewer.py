@@ -1,6 +1,6 @@
 """Interactive budgets of the viewer (``demo.py``): what an edit and a preview frame cost.
 
-Measured through :class:`wgbragg.viewer.Viewer` exactly as its window drives it (the figures
+Measured through :class:`wgbragg.app.viewer.Viewer` exactly as its window drives it (the figures
 are those of :attr:`Viewer.budgets`, wall clock), on the ``teapot`` preset:
 
 - **tables re-baked after a Bragg edit**, in RGB and in spectral mode: ``edits`` edits of the
@@ -24,8 +24,8 @@ are those of :attr:`Viewer.budgets`, wall clock), on the ``teapot`` preset:
   then guessed from their cost per pixel), and in the next (the divisor chosen from the cost
   the first measured: what a user sees from then on).
 
-The targets are the viewer's own constants: :data:`wgbragg.viewer.TABLE_BUDGET_MS`,
-:data:`~wgbragg.viewer.FILTER_BUDGET_S` and :data:`~wgbragg.viewer.PREVIEW_BUDGET_FPS`.
+The targets are the viewer's own constants: :data:`wgbragg.app.viewer.TABLE_BUDGET_MS`,
+:data:`~wgbragg.app.viewer.FILTER_BUDGET_S` and :data:`~wgbragg.app.viewer.PREVIEW_BUDGET_FPS`.
 It prints a markdown section and writes it into ``docs/benchmarks.md`` between
 ``<!-- bench_viewer:begin -->`` and ``<!-- bench_viewer:end -->`` (full mode).
 
@@ -101,7 +101,7 @@ def _empty_cache():
 def _bragg_edits(viewer, edits: int, offset_nm: float) -> tuple[list[float], list[float]]:
     """(table ms, update ms) of ``edits`` period edits, after one uncounted. ``offset_nm``
     keeps the periods apart from another run's: renderers share the layers they have built
-    (``wgbragg.render.SHARED_LAYERS``)."""
+    (``wgbragg.render.renderer.SHARED_LAYERS``)."""
     start = viewer.layers[0].period_nm + offset_nm
     tables, updates = [], []
     for k in range(edits + 1):
@@ -116,7 +116,7 @@ def _bragg_edits(viewer, edits: int, offset_nm: float) -> tuple[list[float], lis
 def _structural_edits(size: tuple[int, int]) -> list[tuple[str, float]]:
     """(label, seconds) of the edits that change what the kernel holds, each with its frame."""
     from wgbragg import gpu
-    from wgbragg.viewer import Viewer
+    from wgbragg.app.viewer import Viewer
 
     gpu.get_device()
     start = time.perf_counter()
@@ -174,7 +174,7 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> dict:
         next interaction; ``"structural"``: [(label, seconds)] of the edits that change the
         kernel; ``"environment"``: the run's facts.
     """
-    from wgbragg.viewer import Viewer
+    from wgbragg.app.viewer import Viewer
 
     meter = _docs.LoadMeter()
     results = {"edits": {}, "previews": {}}
@@ -217,7 +217,7 @@ def _yes(flag: bool) -> str:
 def render_section(results: dict, cfg: Config, command: str) -> str:
     """The markdown section of ``results`` (from :func:`run_benchmarks` with ``cfg``, run by
     ``command``), markers included."""
-    from wgbragg.viewer import FILTER_BUDGET_S, PREVIEW_BUDGET_FPS, TABLE_BUDGET_MS
+    from wgbragg.app.viewer import FILTER_BUDGET_S, PREVIEW_BUDGET_FPS, TABLE_BUDGET_MS
 
     env = results["environment"]
     busy = env.get("background_cores")

@@ -16,8 +16,9 @@
 
 Everything is computed with the float64 numpy backend, so the figures need no GPU. The
 piecewise-constant spectrum of Fig. 3 is rebuilt here from the mirror's public landmarks,
-:func:`wgbragg.colour_methods.envelope` and :func:`~wgbragg.colour_methods.angular_correction`,
-with the same boxes as :func:`wgbragg.colour_methods.approx_xyz` (basic variant).
+:func:`wgbragg.colour.landmark_methods.envelope` and
+:func:`~wgbragg.colour.landmark_methods.angular_correction`,
+with the same boxes as :func:`wgbragg.colour.landmark_methods.approx_xyz` (basic variant).
 
 Usage::
 
@@ -40,9 +41,9 @@ from matplotlib.figure import Figure
 from tqdm import tqdm
 
 from wgbragg import BraggMirror, ThinFilm
-from wgbragg._io import atomic_path
-from wgbragg.colour_methods import angular_correction, envelope
-from wgbragg.landmarks import VISIBLE_OMEGA
+from wgbragg.common.atomic import atomic_path
+from wgbragg.colour.landmark_methods import angular_correction, envelope
+from wgbragg.optics.landmarks import VISIBLE_OMEGA
 from wgbragg.optics import bloch_dispersion, yeh_reflectance
 
 __all__ = [
@@ -103,7 +104,7 @@ def piecewise_constant_spectrum(mirror: BraggMirror, theta: float, polarization:
 
     Boxes span consecutive landmarks (and the ends of the visible range); inside band gaps the
     weight is 1, elsewhere ``w~(theta1) R^e`` at the box's middle (Appendix B), the same boxes
-    that :func:`wgbragg.colour_methods.approx_xyz` integrates.
+    that :func:`wgbragg.colour.landmark_methods.approx_xyz` integrates.
 
     Parameters
     ----------

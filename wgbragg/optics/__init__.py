@@ -4,10 +4,10 @@ These are the numpy twins of the float32 kernels in ``wgsl/``; conventions are s
 :mod:`wgbragg.optics.fresnel`.
 """
 
-from .fresnel import fresnel_r, normal_component
-from .thin_film import airy_amplitude, thin_film_reflectance
-from .transfer_matrix import transfer_matrix_reflectance
-from .yeh import bloch_dispersion, cell_coefficients, yeh_reflectance
+from wgbragg.optics.fresnel import fresnel_r, normal_component
+from wgbragg.optics.thin_film import airy_amplitude, thin_film_reflectance
+from wgbragg.optics.transfer_matrix import transfer_matrix_reflectance
+from wgbragg.optics.yeh import bloch_dispersion, cell_coefficients, yeh_reflectance
 
 __all__ = [
     "airy_amplitude",

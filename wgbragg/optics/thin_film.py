@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import check_broadcast, check_index, check_thickness
-from ._checks import check_complex_index, check_light
-from ._series import sinc, sinhc
-from .fresnel import normal_component
+from wgbragg.common.validation import check_broadcast, check_index, check_thickness
+from wgbragg.optics.checks import check_complex_index, check_light
+from wgbragg.optics.series import sinc, sinhc
+from wgbragg.optics.fresnel import normal_component
 
 __all__ = ["airy_amplitude", "thin_film_reflectance"]
 

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import MAX_THICKNESS_NM, _as_float_array
-from ._checks import check_complex_index, check_light
-from ._series import sinc
-from .fresnel import normal_component
+from wgbragg.common.validation import MAX_THICKNESS_NM, _as_float_array
+from wgbragg.optics.checks import check_complex_index, check_light
+from wgbragg.optics.series import sinc
+from wgbragg.optics.fresnel import normal_component
 
 __all__ = ["transfer_matrix_reflectance"]
 

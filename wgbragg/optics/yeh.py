@@ -4,7 +4,7 @@ The stack is ``host | (n1 d1, n2 d2) x N | n1``: N cells, each a layer of index 
 ``n2``, below a host medium (``host = n1`` is the paper's index-matched top) and above an ``n1``
 substrate. Conventions are those of :mod:`wgbragg.optics.fresnel`.
 
-Numerics (float64 here, the same structure in ``wgsl/yeh.wgsl``):
+Numerics (float64 here, the same structure in ``wgsl/optics/yeh.wgsl``):
 
 * ``1 - cos^2(K Lambda)`` is formed as a product of four factors that each vanish at one kind
   of band edge, instead of from ``cos(K Lambda)`` itself, so it keeps full relative accuracy at
@@ -17,10 +17,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import check_count, check_index, check_thickness
-from ._checks import check_light
-from ._series import sinc, sinhc
-from .fresnel import fresnel_r, normal_component
+from wgbragg.common.validation import check_count, check_index, check_thickness
+from wgbragg.optics.checks import check_light
+from wgbragg.optics.series import sinc, sinhc
+from wgbragg.optics.fresnel import fresnel_r, normal_component
 
 __all__ = ["YEH_METHODS", "bloch_dispersion", "cell_coefficients", "yeh_reflectance"]
 

@@ -1,0 +1,331 @@
+"""The ``wgbragg`` command line.
+
+``wgbragg info`` shows the adapter and versions; ``wgbragg reflectance`` prints R for one
+mirror; ``wgbragg map`` writes a reflectance map (wavelength x angle) as a PNG; ``wgbragg bake``
+fills the LUT cache (transmission filters and colour tables, see :mod:`wgbragg.common.luts`);
+``wgbragg scatterogram`` renders the reflected hemisphere of a rough Bragg layer as a PNG;
+``wgbragg render`` path-traces a scene file or a built-in preset to a PNG and optionally an EXR.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import sys
+import time
+import warnings
+
+import numpy as np
+
+from wgbragg.common.atomic import check_output_folder, check_output_path
+from wgbragg.app.scatterogram import SIZE_RANGE
+
+__all__ = ["main"]
+
+DEFAULT_ALPHAS = (0.05, 0.1, 0.2, 0.4)
+"""GGX roughnesses whose transmission filters ``wgbragg bake`` bakes by default."""
+
+
+def _add_mirror_arguments(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("Bragg mirror (thicknesses in nm)")
+    group.add_argument("--n1", type=float, default=1.0)
+    group.add_argument("--n2", type=float, default=1.5)
+    group.add_argument("--d1", type=float, default=125.0)
+    group.add_argument("--d2", type=float, default=375.0)
+    group.add_argument("-N", "--periods", type=int, default=20)
+    group.add_argument("--host", type=float, default=None, help="incident medium (default n1)")
+    parser.add_argument("--polarization", choices=("unpolarized", "s", "p"), default="unpolarized")
+    parser.add_argument("--backend", choices=("gpu", "numpy"), default="gpu")
+
+
+def _radians(flag: str, degrees, high: float = 90.0, *, below_high: bool = False):
+    """``degrees`` (a flag's value or values) in radians, once each lies in [0, high] (or
+    [0, high) with ``below_high``); the library would report the range in radians."""
+    values = np.asarray(degrees, dtype=np.float64)
+    inside = (values >= 0.0) & ((values < high) if below_high else (values <= high))
+    if not inside.all():  # NaN fails
+        bracket = ")" if below_high else "]"
+        raise ValueError(f"{flag} must be in [0, {high:g}{bracket} degrees")
+    return np.radians(values)
+
+
+def _mirror(args):
+    from wgbragg.bsdf.materials import BraggMirror
+
+    return BraggMirror(n1=args.n1, n2=args.n2, d1=args.d1, d2=args.d2, N=args.periods,
+                       host=args.host)
+
+
+def _info(_args) -> int:
+    import wgpu
+
+    from wgbragg._version import __version__
+    from wgbragg import gpu
+
+    print(f"wgbragg {__version__}, wgpu {wgpu.__version__}")
+    info = gpu.adapter_info()
+    for key, value in info.items():
+        print(f"  {key}: {value}")
+    print(f"  shaders: {gpu.shader_dir()}")
+    return 0
+
+
+def _reflectance(args) -> int:
+    mirror = _mirror(args)
+    wavelength = np.asarray(args.wavelength, dtype=np.float64)
+    theta = _radians("--theta-deg", args.theta_deg)
+    values = mirror.reflectance(wavelength[:, None], theta[None, :], args.polarization,
+                                args.backend)
+    print("wavelength_nm " + " ".join(f"theta={t:g}deg" for t in args.theta_deg))
+    for w, row in zip(args.wavelength, values, strict=True):
+        print(f"{w:g} " + " ".join(f"{v:.6f}" for v in row))
+    return 0
+
+
+def _map(args) -> int:
+    from wgbragg.app.maps import reflectance_map, save_reflectance_map
+
+    check_output_path(args.output, "--output", ".png")
+    mirror = _mirror(args)
+    start = time.perf_counter()
+    result = reflectance_map(mirror, polarization=args.polarization, backend=args.backend)
+    seconds = time.perf_counter() - start
+    title = f"{mirror!r}\n{result.values.size} evaluations ({args.backend}) in {seconds:.3f} s"
+    save_reflectance_map(result, args.output, title)
+    print(args.output)
+    return 0
+
+
+def _report(event) -> None:
+    from tqdm import tqdm
+
+    reason = f" ({event.reason})" if event.reason else ""
+    # Through tqdm, so the line lands above the progress bar instead of through it.
+    tqdm.write(f"{event.action}: {event.path}{reason}", file=sys.stdout)
+
+
+def _bake(args) -> int:
+    from tqdm import tqdm
+
+    from wgbragg.common import luts
+
+    # Every parameter is checked before the first bake, so a bad value at the end of the list
+    # does not surface only after minutes of baking the others.
+    for alpha in args.alpha:
+        luts.transmission_filter_parameters(alpha, args.resolution_deg, args.psi_samples)
+    if args.cache is not None:
+        if not args.cache:  # Path("") is the current folder
+            raise ValueError("--cache must be a folder path, got ''")
+        check_output_folder(args.cache, "--cache")
+    jobs = [
+        # shared=False: baking means checking every file, even one read before.
+        functools.partial(luts.transmission_filter, alpha, args.resolution_deg,
+                          args.psi_samples, args.backend, shared=False)
+        for alpha in args.alpha
+    ]
+    if args.colour_tables:
+        jobs.append(luts.colour_tables)
+    if not jobs:
+        raise ValueError("nothing to bake: give --alpha or leave --colour-tables on")
+    with warnings.catch_warnings():
+        # The "re-baked: PATH (reason)" line already says what a LutWarning would.
+        warnings.simplefilter("ignore", luts.LutWarning)
+        for job in tqdm(jobs, desc="baking LUTs", unit="table", disable=not args.progress):
+            job(cache=args.cache, force=args.force, progress=_report)
+    return 0
+
+
+def _scatterogram(args) -> int:
+    from wgbragg.bsdf.materials import BraggMirror
+    from wgbragg.bsdf.layered.model import LayeredBragg
+    from wgbragg.bsdf.rough_layer import RoughBraggLayer
+    from wgbragg.app.scatterogram import jewel_beetle, save_scatterogram, scatterogram
+
+    check_output_path(args.output, "--output", ".png")
+    theta = _radians("--theta-deg", args.theta_deg, below_high=True)
+    # Before the work, as the output path: the scatterogram itself checks them only after it.
+    if not SIZE_RANGE[0] <= args.size <= SIZE_RANGE[1]:
+        raise ValueError(f"--size must be an integer in [{SIZE_RANGE[0]}, {SIZE_RANGE[1]}], "
+                         f"got {args.size}")
+    if args.exposure is not None and not (np.isfinite(args.exposure) and args.exposure > 0.0):
+        raise ValueError(f"--exposure must be finite and > 0, got {args.exposure}")
+    if not np.isfinite(args.phi_deg):
+        raise ValueError(f"--phi-deg must be a finite number of degrees, got {args.phi_deg}")
+    if args.preset is not None:
+        structure = jewel_beetle(args.preset)
+        label = f"jewel beetle, {args.preset} area (Table 3)"
+    else:
+        mirror = BraggMirror(n1=args.n1, n2=args.n2, d1=args.d1, d2=args.d2, N=args.periods,
+                             host=args.host)
+        structure = LayeredBragg([RoughBraggLayer(mirror, args.alpha)],
+                                 base_albedo=args.base_albedo)
+        label = (f"n1={mirror.n1:g} n2={mirror.n2:g} d1={mirror.d1:g} d2={mirror.d2:g} nm "
+                 f"N={mirror.N} alpha={args.alpha:g}")
+    start = time.perf_counter()
+    result = scatterogram(structure, theta, np.radians(args.phi_deg),
+                          size=args.size, backend=args.backend)
+    seconds = time.perf_counter() - start
+    title = f"{label}\nlight at {args.theta_deg:g} deg; {args.size}x{args.size} in {seconds:.1f} s"
+    save_scatterogram(result, args.output, title, exposure=args.exposure)
+    print(args.output)
+    return 0
+
+
+def _check_render_size(size: tuple[int, int]) -> None:
+    from wgbragg.render.renderer import check_size
+
+    try:
+        check_size(size)
+    except ValueError as error:
+        raise ValueError(f"--{error}") from None
+
+
+def _size(text: str) -> tuple[int, int]:
+    width, _, height = text.lower().partition("x")
+    try:
+        return int(width), int(height)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--size must be WIDTHxHEIGHT, got {text!r}") from None
+
+
+def _render(args) -> int:
+    from wgbragg.common.exr import write_exr
+    from wgbragg.render.renderer import Renderer, save_png
+    from wgbragg.scene.model import load_preset, load_scene
+
+    if (args.scene_file is None) == (args.scene is None):
+        raise ValueError("give either a scene file or --scene NAME, not both or neither")
+    if args.spp is not None and args.seconds is not None:
+        raise ValueError("give either --spp or --seconds, not both")
+    # Before the render: a bad output path or amount must not cost its minutes.
+    check_output_path(args.output, "--output", ".png")
+    if args.exr is not None:
+        check_output_path(args.exr, "--exr", ".exr")
+    if args.spp is not None and args.spp < 1:
+        raise ValueError(f"--spp must be an integer >= 1, got {args.spp}")
+    if args.size is not None:
+        _check_render_size(args.size)
+    scene = load_preset(args.scene) if args.scene else load_scene(args.scene_file)
+    renderer = Renderer(scene, size=args.size, mode=args.mode, ibl=args.ibl)
+    start = time.perf_counter()
+    if args.seconds is not None:
+        image = renderer.render(seconds=args.seconds, progress=args.progress)
+    else:
+        spp = scene.settings.spp if args.spp is None else args.spp
+        image = renderer.render(spp, progress=args.progress)
+    seconds = time.perf_counter() - start
+    broken = int(np.count_nonzero(~np.isfinite(image).all(axis=-1)))
+    if broken:
+        # A kernel bug: say so, and write both files or neither.
+        message = (f"{broken} of {renderer.width * renderer.height} pixels are not finite "
+                   f"(NaN or infinite): please report the scene")
+        if args.exr is not None:
+            raise ValueError(f"{message}; --exr stores only finite images, nothing written")
+        print(f"wgbragg: warning: {message}; they show black in {args.output}",
+              file=sys.stderr)
+    save_png(image, args.output, scene.settings.exposure)
+    written = [str(args.output)]
+    if args.exr is not None:
+        write_exr(args.exr, image)
+        written.append(str(args.exr))
+    print(f"{', '.join(written)}: {renderer.width}x{renderer.height}, {renderer.mode}, "
+          f"ibl {renderer.ibl}, {renderer.passes} spp in {seconds:.1f} s")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="wgbragg", description=__doc__.splitlines()[0])
+    commands = parser.add_subparsers(dest="command", required=True)
+    commands.add_parser("info", help="adapter, versions and shader folder").set_defaults(
+        run=_info)
+    reflect = commands.add_parser("reflectance", help="print R(wavelength, theta) of a mirror")
+    _add_mirror_arguments(reflect)
+    reflect.add_argument("--wavelength", type=float, nargs="+", default=[450.0, 550.0, 650.0],
+                         help="wavelengths in nm")
+    reflect.add_argument("--theta-deg", type=float, nargs="+", default=[0.0, 30.0, 60.0],
+                         help="angles of incidence in degrees, 0..90")
+    reflect.set_defaults(run=_reflectance)
+    mapping = commands.add_parser("map", help="reflectance map (wavelength x angle) as a PNG")
+    _add_mirror_arguments(mapping)
+    mapping.add_argument("-o", "--output", default="out/reflectance_map.png")
+    mapping.set_defaults(run=_map)
+    bake = commands.add_parser("bake", help="bake transmission filters and colour tables into "
+                               "the LUT cache")
+    bake.add_argument("--alpha", type=float, nargs="*", default=list(DEFAULT_ALPHAS),
+                      help="GGX roughnesses of the transmission filters (none: skip them)")
+    bake.add_argument("--resolution-deg", type=float, default=0.25,
+                      help="angular step of the filter tables, degrees in [0.05, 90]")
+    bake.add_argument("--psi-samples", type=int, default=1000,
+                      help="azimuth samples per filter entry, >= 1")
+    bake.add_argument("--backend", choices=("gpu", "numpy"), default="gpu",
+                      help="where filters are baked (not part of the cache key)")
+    bake.add_argument("--cache", default=None,
+                      help="cache folder (default $WGBRAGG_CACHE, else the user cache folder)")
+    bake.add_argument("--colour-tables", action=argparse.BooleanOptionalAction, default=True,
+                      help="bake the colorimetry tables too")
+    bake.add_argument("--force", action="store_true",
+                      help="bake again even where a valid file exists")
+    bake.add_argument("--no-progress", dest="progress", action="store_false",
+                      help="no progress bar")
+    bake.set_defaults(run=_bake)
+    scatter = commands.add_parser(
+        "scatterogram", help="reflected hemisphere of a rough Bragg layer for one light "
+        "direction, as a PNG (Fig. 9)")
+    scatter.add_argument("--preset", choices=("green", "red", "purple"), default=None,
+                         help="a jewel-beetle cuticle area of Table 3 (overrides the mirror)")
+    group = scatter.add_argument_group("Bragg layer (thicknesses in nm), without --preset")
+    group.add_argument("--n1", type=float, default=1.0)
+    group.add_argument("--n2", type=float, default=1.5)
+    group.add_argument("--d1", type=float, default=250.0)
+    group.add_argument("--d2", type=float, default=250.0)
+    group.add_argument("-N", "--periods", type=int, default=10)
+    group.add_argument("--host", type=float, default=None, help="medium above (default n1)")
+    group.add_argument("--alpha", type=float, default=0.1, help="GGX roughness")
+    group.add_argument("--base-albedo", type=float, default=None,
+                       help="grey Lambertian base (default: absorbing)")
+    scatter.add_argument("--theta-deg", type=float, default=0.0,
+                         help="polar angle of the light, degrees in [0, 90)")
+    scatter.add_argument("--phi-deg", type=float, default=0.0, help="azimuth of the light")
+    scatter.add_argument("--size", type=int, default=256,
+                         help="image size in pixels, in [%d, %d]" % SIZE_RANGE)
+    scatter.add_argument("--exposure", type=float, default=None,
+                         help="radiance scale (default: the brightest value maps to 1)")
+    scatter.add_argument("--backend", choices=("gpu", "numpy"), default="numpy")
+    scatter.add_argument("-o", "--output", default="out/scatterogram.png")
+    scatter.set_defaults(run=_scatterogram)
+    render = commands.add_parser(
+        "render", help="path-trace a scene to a PNG (8-bit sRGB) and optionally an EXR (linear)")
+    render.add_argument("scene_file", nargs="?", default=None, help="a scene TOML file")
+    render.add_argument("--scene", default=None, help="a built-in preset instead of a file")
+    render.add_argument("-o", "--output", default="out/render.png")
+    render.add_argument("--spp", type=int, default=None,
+                        help="samples per pixel (default: the scene's settings.spp)")
+    render.add_argument("--size", type=_size, default=None,
+                        help="WIDTHxHEIGHT in pixels (default: the scene's settings.size)")
+    render.add_argument("--seconds", type=float, default=None,
+                        help="render for this long instead of a number of samples")
+    render.add_argument("--mode", choices=("rgb", "spectral"), default=None,
+                        help="light transport (default: the scene's settings.mode)")
+    render.add_argument("--ibl", choices=("monte-carlo", "split-sum", "kneiphof"), default=None,
+                        help="environment lighting: paths, or a filtered image-based lighting "
+                             "mode (default: the scene's settings.ibl)")
+    render.add_argument("--exr", default=None,
+                        help="also write the linear image to this OpenEXR file")
+    render.add_argument("--no-progress", dest="progress", action="store_false",
+                        help="no progress bar")
+    render.set_defaults(run=_render)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.run(args)
+    except (ValueError, RuntimeError, OSError) as error:
+        # OSError: a file that cannot be read or written (missing, a folder, no permission).
+        print(f"wgbragg: error: {error}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,649 @@
+"""Dispatch of the float32 single-reflection kernels (``wgsl/bsdf/layered/model_eval.wgsl``): the
+GPU
+twins of :meth:`LayeredBragg.brdf` (eq 34), :meth:`LayeredBragg.sample` (eq 35) and
+:meth:`LayeredBragg.pdf`, reached through ``backend="gpu"``.
+
+The physics is ``wgsl/bsdf/layered/model.wgsl``, written for a renderer to include; this module
+builds
+its buffers and runs one invocation per pair ``(wi, wo)`` or sample ``(wi, u)``:
+
+- ``layers``: one :data:`LAYER_DTYPE` record per rough layer (its mirror, ``alpha``, filter
+  grid and the offsets of its tables);
+- ``tables``: float32, a fixed header (the colour-matching block of the landmark colour kernel,
+  XYZ -> linear sRGB, the 1 nm XYZ weights in linear sRGB, the hero wavelengths' inverse
+  CDF), then per layer the tables a variant reads: those derived from the layer's 1 nm
+  transmissivity table (:meth:`RoughBraggLayer.transmissivity_table`, computed on the GPU)
+  and, for ``"single-reflection-lut"``, the structure's reflectance LUTs (computed on the
+  GPU);
+- ``node_colours``: per 1 nm node, its linear sRGB weights and the base's albedo in one vec4
+  (the hero colour reads both at each of a sample's wavelengths in two loads);
+- ``transmissivity_quads``: each layer's transmissivity table again, spectral kinds only, as
+  the corners of its cells (:func:`gpu.bilinear_quads`) from the record's
+  ``transmissivity_elsewhere``: one load per lookup, not four (llvmpipe bounds-checks every
+  load); the renderer, which includes the same physics, reads the table in ``tables``;
+- the structure's own values (host index, base albedo) in the uniform.
+
+They are built once per structure and kind (spectral, factored RGB, density; LUT or not) and
+kept in the structure's table cache. Pipelines are specialised (override constants) on the
+number of layers, the coating, the base, the host (Appendix D), LUT or exact, integrated or
+factored RGB and its colour method, hero-wavelength colour, and the number of wavelengths per
+invocation.
+
+Wavelengths. The transmissivity tables, the spectral LUTs and the base's spectrum are tabulated
+at 360, 361, ..., 830 nm and interpolated linearly in between, so spectral results agree with
+the float64 model (which integrates the transmissivity at each requested wavelength) to float32
+rounding at whole nanometres, and to the tables' interpolation error between them. Wavelengths
+outside 360-830 nm are refused. A trailing wavelength axis along which the directions do not
+vary is multiplexed: one invocation evaluates the directions once for all its wavelengths, up
+to :func:`wavelengths_per_invocation`; a longer axis is split over several dispatches.
+
+Loop budget. llvmpipe ends an invocation's loops after a fixed number of iterations
+(:mod:`wgbragg.gpu`, "Loop budget"). The multiplexed wavelengths are split as above; the 471
+nodes of the integrated colour and of the factored "reference" colour bound the number of
+layers (:data:`MAX_INTEGRATED_LAYERS`); the loops of a landmark colour grow with the mirror's
+thickness, so every invocation reports whether its loops were cut and such a result is refused
+with :class:`gpu.LoopBudgetError`.
+
+RGB. ``colour_method="integrated"`` (the default) integrates the spectral model over the 471
+nodes in the kernel; ``"hero"`` (sampling only) estimates that colour from four hero
+wavelengths offset by ``u[..., 3]`` (``wgsl/colour/colorimetry_hero.wgsl``). Factored RGB
+multiplies the colours
+of eq 34's factors: with ``"single-reflection"`` each layer's colour at theta_d is computed in
+the kernel, by a landmark method (``wgsl/colour/landmark_methods.wgsl``: "averaged", "approx",
+"subdivided") or by the 1 nm sum ("reference"); ``"single-reflection-lut"`` reads colours
+tabulated by :meth:`BraggMirror.rgb` with any method.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from wgbragg.colour import colorimetry
+from wgbragg import gpu
+from wgbragg.optics import kernels
+from wgbragg.colour.landmark_methods_gpu import GPU_LANDMARK_METHODS, _check_mirror, _cmf_table
+from wgbragg.bsdf.layered.model import HERO, INTEGRATED
+from wgbragg.common.sampling import ShiftedPoints
+
+__all__ = [
+    "FACTORED_COLOUR_METHODS",
+    "LAYER_DTYPE",
+    "MAX_INTEGRATED_LAYERS",
+    "OPERATIONS",
+    "PARAMS_DTYPE",
+    "WAVELENGTH_RANGE_NM",
+    "benchmark",
+    "brdf",
+    "pdf",
+    "sample",
+    "wavelengths_per_invocation",
+]
+
+WORKGROUP_SIZE = 64
+
+WAVELENGTH_RANGE_NM = colorimetry.WAVELENGTH_RANGE_NM
+"""Wavelengths the GPU tables cover (nm, 1 nm apart): the colorimetry's nodes."""
+
+FACTORED_COLOUR_METHODS = {**GPU_LANDMARK_METHODS, "reference": 3}
+"""``colour_method`` values whose layer colours the kernel computes in place (factored RGB
+without LUT), with their ``COLOUR_METHOD`` codes."""
+
+OPERATIONS = {"brdf": "evaluate", "sample": "sample", "pdf": "density"}
+"""Entry point of each operation in ``bsdf/layered/model_eval.wgsl``."""
+
+LAYER_DTYPE = gpu.struct_dtype([
+    ("n1", "f32"), ("n2", "f32"), ("d1_nm", "f32"), ("d2_nm", "f32"), ("host", "f32"),
+    ("periods", "u32"), ("bulk", "u32"), ("_pad", "u32"),
+    ("alpha", "f32"), ("rows", "u32"), ("rows_per_radian", "f32"),
+    ("transmissivity", "u32"), ("transmissivity_mean", "u32"), ("transmissivity_rgb", "u32"),
+    ("reflectance", "u32"), ("reflectance_rgb", "u32"),
+    ("transmissivity_elsewhere", "u32"), ("_pad0", "u32"), ("_pad1", "u32"), ("_pad2", "u32"),
+])
+"""``RoughLayer`` of bsdf/layered/model.wgsl: 20 four-byte words (no padding in storage either)."""
+
+PARAMS_DTYPE = gpu.struct_dtype([
+    ("base_rgb", "vec3<f32>"), ("host", "f32"), ("base_mean", "f32"), ("first_layer", "u32"),
+    ("base_spectrum", "u32"), ("lut_rows", "u32"), ("lut_rows_per_radian", "f32"),
+    ("_pad0", "u32"), ("_pad1", "u32"), ("_pad2", "u32"),
+    ("count", "u32"), ("wavelength_stride", "u32"), ("incoming_repeat", "u32"),
+    ("operand_repeat", "u32"),
+])
+"""``Params`` of bsdf/layered/model_eval.wgsl: a ``LayeredStructure`` (48 bytes), then the batch."""
+
+_VISIBLE_NODES = 471
+_HERO_SEGMENTS = 512  # HERO_SEGMENTS of wgsl/colour/colorimetry_hero.wgsl
+
+MAX_INTEGRATED_LAYERS = gpu.SAFE_LOOP_ITERATIONS // _VISIBLE_NODES - 2
+"""Most layers of a structure whose RGB the kernel integrates over the 471 nodes in one
+invocation (``colour_method="integrated"``, or ``"reference"`` without LUT): each node costs
+the loop budget ``layers + 2`` iterations (:func:`wavelengths_per_invocation`)."""
+
+
+def wavelengths_per_invocation(layers: int) -> int:
+    """Most multiplexed wavelengths one invocation evaluates, for ``layers`` rough layers.
+
+    An invocation plans for :data:`gpu.SAFE_LOOP_ITERATIONS` loop iterations (llvmpipe's
+    budget), and each wavelength takes one of the wavelength loop and ``layers + 1`` of the
+    layer loop (its exit test counts; a single layer is unrolled): on lavapipe, the budget
+    cut 65535 wavelengths at one layer, 16384 at two, 13107 at three and 10922 at four.
+
+    Parameters
+    ----------
+    layers : int
+        Rough layers of the structure, >= 1.
+
+    Returns
+    -------
+    int
+    """
+    return gpu.SAFE_LOOP_ITERATIONS // (layers + 2)
+
+# What a kernel reads besides the transmission probabilities: the spectral tables (spectral
+# and integrated RGB results), the factored RGB tables, or nothing more (the density).
+_SPECTRAL, _FACTORED, _DENSITY = "spectral", "factored", "density"
+
+
+@dataclasses.dataclass(frozen=True)
+class _Variant:
+    """Buffers of one structure for one kind of table, and its structure-level constants."""
+
+    layers: np.ndarray
+    tables: np.ndarray
+    node_colours: np.ndarray
+    params: np.ndarray
+    constants: dict
+    _device: dict = dataclasses.field(default_factory=dict, repr=False, compare=False)
+
+    def transmissivity_quads(self) -> np.ndarray:
+        """The layers' transmissivity tables as cell corners, from ``tables``, after one
+        unused quad (a buffer is never empty); that quad alone without
+        ``TRANSMISSIVITY_QUADS``. Built here, not with the variant: the renderer, which
+        reads ``tables``, never needs them."""
+        quads = [np.zeros((1, 4), np.float32)]
+        if self.constants["TRANSMISSIVITY_QUADS"]:
+            for record in self.layers:
+                start, rows = int(record["transmissivity"]), int(record["rows"])
+                table = self.tables[start:start + rows * _VISIBLE_NODES]
+                quads.append(gpu.bilinear_quads(table.reshape(rows, _VISIBLE_NODES)))
+        return np.concatenate(quads)
+
+    def device_tables(self) -> tuple[gpu.DeviceArray, ...]:
+        """``tables``, ``node_colours`` and the transmissivity quads on the device, uploaded
+        on first use: they are read-only and larger than a call's own inputs (2.7 MB of
+        quads per layer spectral, against 1.2 MB of ``u`` for 80 000 samples)."""
+        if "tables" not in self._device:
+            self._device["tables"] = (
+                gpu.DeviceArray.upload(self.tables, what="layer tables"),
+                gpu.DeviceArray.upload(self.node_colours, what="node colours"),
+                gpu.DeviceArray.upload(self.transmissivity_quads(),
+                                       what="transmissivity quads"))
+        return self._device["tables"]
+
+
+def _kind(operation: str, wavelength, colour_method: str) -> str:
+    if operation == "pdf":
+        return _DENSITY
+    spectral = wavelength is not None or colour_method in (INTEGRATED, HERO)
+    return _SPECTRAL if spectral else _FACTORED
+
+
+def _variant(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
+    lut = lut and kind != _DENSITY
+    key = ("gpu", kind, lut, colour_method if kind == _FACTORED and lut else None)
+    return structure._cached(key, lambda: _build(structure, kind, lut, colour_method))
+
+
+def _rgb_weights() -> np.ndarray:
+    """The D65-weighted XYZ weights of the 1 nm nodes in linear sRGB, shape (471, 3)."""
+    grid, weights = colorimetry.xyz_weights()
+    if grid.size != _VISIBLE_NODES or grid[0] != WAVELENGTH_RANGE_NM[0]:
+        raise RuntimeError("bsdf/layered/model.wgsl assumes the 1 nm grid 360..830 nm")
+    return weights @ colorimetry.XYZ_TO_LINEAR_SRGB.T
+
+
+def _header() -> list[np.ndarray]:
+    """The tables' fixed start: the CMF block, XYZ -> linear sRGB, the 1 nm XYZ weights in
+    linear sRGB, the hero wavelengths' inverse CDF."""
+    if colorimetry.HERO_SEGMENTS != _HERO_SEGMENTS:
+        raise RuntimeError(
+            f"wgsl/colour/colorimetry_hero.wgsl assumes {_HERO_SEGMENTS} inverse-CDF segments")
+    matrix = np.zeros((3, 4), np.float32)
+    matrix[:, :3] = colorimetry.XYZ_TO_LINEAR_SRGB
+    return [_cmf_table().ravel(), matrix.ravel(), _rgb_weights().astype(np.float32).ravel(),
+            colorimetry.hero_inverse_cdf()]
+
+
+def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
+    blocks = _header()
+    size = sum(block.size for block in blocks)
+
+    def append(table) -> int:
+        nonlocal size
+        offset = size
+        blocks.append(np.ascontiguousarray(table, np.float32).ravel())
+        size += blocks[-1].size
+        return offset
+
+    records = np.zeros(len(structure.layers), LAYER_DTYPE)
+    for index, layer in enumerate(structure.layers):
+        record = records[index]  # a view: structured scalars write through
+        m = layer.mirror
+        mirror = kernels.bragg_params(m.n1, m.n2, m.d1, m.d2, m.N, m.host)
+        for name in ("n1", "n2", "d1_nm", "d2_nm", "host", "periods", "bulk"):
+            record[name] = mirror[name]
+        visible = layer._visible_table("gpu")
+        theta_i = layer.filter.theta_i
+        record["alpha"] = layer.alpha
+        record["rows"] = theta_i.size
+        record["rows_per_radian"] = 1.0 / (theta_i[1] - theta_i[0])
+        record["transmissivity_mean"] = append(visible.mean(axis=1))
+        if kind == _SPECTRAL:
+            record["transmissivity"] = append(visible)
+            if lut:
+                record["reflectance"] = append(structure._reflectance_lut(index, "gpu"))
+        elif kind == _FACTORED:
+            weights = colorimetry.xyz_weights()[1]
+            record["transmissivity_rgb"] = append(colorimetry.xyz_to_linear_srgb(visible @ weights))
+            if lut:
+                record["reflectance_rgb"] = append(
+                    structure._reflectance_rgb_lut(index, "gpu", colour_method))
+    params = np.zeros((), PARAMS_DTYPE)
+    base = structure._brdf_base()
+    params["base_rgb"] = base.rgb
+    params["host"] = structure.host_index
+    params["base_mean"] = 0.0 if structure.absorbing_base else base.mean()
+    lut_grid = structure._lut_grid()
+    params["lut_rows"] = lut_grid.size
+    params["lut_rows_per_radian"] = 1.0 / (lut_grid[1] - lut_grid[0])
+    # Per 1 nm node, the rgb weights and the base's albedo in one vec4 (the hero colour reads
+    # both at each of a sample's wavelengths: two vec4 loads for eight scalar ones).
+    node_colours = np.zeros((_VISIBLE_NODES, 4), np.float32)
+    node_colours[:, :3] = _rgb_weights()
+    if kind == _SPECTRAL and not structure.absorbing_base:
+        albedo = base.spectrum(colorimetry.xyz_weights()[0])
+        params["base_spectrum"] = append(albedo)
+        node_colours[:, 3] = albedo
+    # bsdf/layered/model_eval.wgsl reads the transmissivity tables as cell corners (one load per
+    # lookup, not four) where they fit the budget: at 4x a table's size they need 2.7 MB per
+    # layer at the filters' default resolution.
+    cells = (records["rows"].astype(np.int64) - 1) * (_VISIBLE_NODES - 1)
+    quads = kind == _SPECTRAL and gpu.bilinear_quads_fit(1 + int(cells.sum()))
+    if quads:
+        records["transmissivity_elsewhere"] = 1 + np.concatenate([[0], np.cumsum(cells)[:-1]])
+    tables = np.concatenate(blocks)
+    for array in (tables, node_colours, records, params):
+        array.setflags(write=False)
+    host_matched = all(np.float32(r["host"]) == np.float32(r["n1"]) for r in records)
+    constants = {
+        "LAYERS": len(structure.layers),
+        "COATING": structure.has_coating,
+        "BASE": int(not structure.absorbing_base),
+        "HOST_MATCHED": host_matched,
+        "MATCHED_LAYERS": host_matched and all(
+            not r["bulk"] and np.float32(r["n2"]) >= np.float32(r["n1"]) for r in records),
+        "WORKGROUP_SIZE": WORKGROUP_SIZE,
+        "TRANSMISSIVITY_QUADS": quads,
+    }
+    return _Variant(records, tables, node_colours, params, constants)
+
+
+def _constants(variant: _Variant, kind: str, lut: bool, colour_method: str,
+               wavelengths: int) -> dict:
+    """Override constants of a request: only those its code paths read, so that requests
+    differing elsewhere share a pipeline."""
+    constants = {name: variant.constants[name]
+                 for name in ("LAYERS", "COATING", "BASE", "HOST_MATCHED", "WORKGROUP_SIZE")}
+    if kind == _DENSITY:
+        return constants
+    constants["LUT"] = lut
+    constants["WAVELENGTHS"] = wavelengths
+    constants["INTEGRATED"] = kind == _SPECTRAL
+    constants["HERO"] = kind == _SPECTRAL and wavelengths == 0 and colour_method == HERO
+    if kind == _SPECTRAL:
+        constants["TRANSMISSIVITY_QUADS"] = variant.constants["TRANSMISSIVITY_QUADS"]
+    if kind == _FACTORED and not lut:
+        constants["COLOUR_METHOD"] = FACTORED_COLOUR_METHODS[colour_method]
+        if colour_method in GPU_LANDMARK_METHODS:
+            constants["MATCHED_LAYERS"] = variant.constants["MATCHED_LAYERS"]
+    return constants
+
+
+def _check_request(structure, wavelength, method: str, colour_method: str) -> None:
+    layers = len(structure.layers)
+    nodes_in_kernel = wavelength is None and (
+        colour_method == INTEGRATED
+        or (colour_method == "reference" and method != "single-reflection-lut"))
+    if nodes_in_kernel and layers > MAX_INTEGRATED_LAYERS:
+        raise ValueError(
+            f"layers: backend='gpu' sums colour_method={colour_method!r} over "
+            f"{_VISIBLE_NODES} wavelengths in one invocation for 1 to {MAX_INTEGRATED_LAYERS} "
+            f"layers (llvmpipe's loop budget), got {layers}: pass wavelength_nm and integrate, "
+            "or use backend='numpy'")
+    if wavelength is not None:
+        low, high = WAVELENGTH_RANGE_NM
+        if not np.all((wavelength >= low) & (wavelength <= high)):
+            raise ValueError(f"backend='gpu' tabulates the model over {low:g}-{high:g} nm: "
+                             "wavelength_nm must lie in that range (use backend='numpy' "
+                             "outside it)")
+        return
+    if colour_method in (INTEGRATED, HERO) or method == "single-reflection-lut":
+        return
+    if colour_method not in FACTORED_COLOUR_METHODS:
+        raise ValueError(
+            f"backend='gpu' computes factored layer colours in the kernel with colour_method "
+            f"in {tuple(FACTORED_COLOUR_METHODS)}, got {colour_method!r}: use one of them, or "
+            "method='single-reflection-lut', which tabulates any colour method")
+    if colour_method in GPU_LANDMARK_METHODS:
+        for layer in structure.layers:
+            _check_mirror(layer.mirror, colour_method)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Batch:
+    """How a broadcast request maps onto invocations: ``count`` invocations over the leading
+    shape ``invocations`` (the request's shape with a multiplexed axis kept as 1), each with
+    ``wavelengths`` wavelengths (0: RGB) from ``wavelength`` (flat, ``stride`` per invocation)."""
+
+    shape: tuple
+    invocations: tuple
+    count: int
+    wavelengths: int
+    wavelength: np.ndarray
+    stride: int
+
+
+def _multiplexed(direction_shape: tuple, wavelength) -> bool:
+    """Whether the request's trailing axis holds wavelengths along which the directions do
+    not vary."""
+    shape = np.broadcast_shapes(direction_shape, wavelength.shape)
+    padded = (1,) * (len(shape) - len(direction_shape)) + tuple(direction_shape)
+    return len(shape) > 0 and padded[-1] == 1 and shape[-1] > 1
+
+
+def _wavelength_parts(structure, direction_shape: tuple, wavelength) -> list:
+    """``wavelength`` split along a multiplexed axis into parts that an invocation evaluates
+    within llvmpipe's loop budget (:func:`wavelengths_per_invocation`)."""
+    if wavelength is None or not _multiplexed(direction_shape, wavelength):
+        return [wavelength]
+    step = wavelengths_per_invocation(len(structure.layers))
+    return [wavelength[..., start:start + step]
+            for start in range(0, wavelength.shape[-1], step)]
+
+
+def _batch(direction_shape: tuple, wavelength) -> _Batch:
+    if wavelength is None:
+        count = int(np.prod(direction_shape, dtype=np.int64))
+        return _Batch(direction_shape, direction_shape, count, 0, np.zeros(1, np.float32), 0)
+    shape = np.broadcast_shapes(direction_shape, wavelength.shape)
+    multiplexed = _multiplexed(direction_shape, wavelength)
+    invocations = (*shape[:-1], 1) if multiplexed else shape
+    per_invocation = shape[-1] if multiplexed else 1
+    count = int(np.prod(invocations, dtype=np.int64))
+    wl_padded = (1,) * (len(shape) - wavelength.ndim) + wavelength.shape
+    if multiplexed and all(n == 1 for n in wl_padded[:-1]):
+        # The same wavelengths for every invocation: upload them once.
+        flat = np.ascontiguousarray(wavelength.reshape(-1), np.float32)
+        stride = 0
+    else:
+        flat = np.ascontiguousarray(np.broadcast_to(wavelength, shape), np.float32).ravel()
+        stride = per_invocation
+    return _Batch(shape, invocations, count, per_invocation, flat, stride)
+
+
+def _vec4(array, shape) -> np.ndarray:
+    # Cast before broadcasting: a direction shared by many samples is converted once.
+    array = np.asarray(array, np.float32)
+    if array.shape == (*shape, 4) and array.flags.c_contiguous:
+        return array.reshape(-1, 4)
+    out = np.empty((*shape, 4), np.float32)
+    out[..., :array.shape[-1]] = array
+    if array.shape[-1] == 3:
+        out[..., 3] = 0.0
+    return out.reshape(-1, 4)
+
+
+def _shared_vec4(array, shape) -> tuple[np.ndarray, int]:
+    """``array`` (leading shape broadcast to ``shape``, one trailing axis) as vec4 rows without
+    its trailing broadcast axes, and how many consecutive invocations share each row: a view
+    direction shared by all of a pixel's samples is uploaded once, not once per sample."""
+    leading = array.shape[:-1]
+    padded = (1,) * (len(shape) - len(leading)) + leading
+    kept = len(shape)
+    while kept > 0 and padded[kept - 1] == 1:
+        kept -= 1
+    repeat = int(np.prod(shape[kept:], dtype=np.int64))
+    compact = np.reshape(array, (*padded, array.shape[-1]))[(..., *(0,) * (len(shape) - kept),
+                                                              slice(None))]
+    return _vec4(compact, shape[:kept]), max(repeat, 1)
+
+
+def _operand(second, invocations, sample: bool) -> tuple[np.ndarray, int, bool]:
+    """The operand's vec4 rows (u32 words), ``operand_repeat``, and whether they are a
+    shifted point set: a ``sample``'s :class:`ShiftedPoints` whose groups are the leading axes
+    of ``invocations`` (a pixel's samples) goes as its points then its shifts, a few kB instead
+    of 16 bytes per sample; any other operand as :func:`_shared_vec4`."""
+    if isinstance(second, ShiftedPoints):
+        if not sample or tuple(second.shape[:-1]) != tuple(invocations):
+            second = second.values(np.float32)
+        else:
+            count, dims = second.points.shape
+            rows = np.zeros((count + second.shifts.size // dims, 4), np.uint32)
+            rows[:count, :dims] = second.points
+            rows[count:, :dims] = second.shifts.reshape(-1, dims)
+            return rows, count, True
+    rows, repeat = _shared_vec4(second, invocations)
+    return rows.view(np.uint32), repeat, False
+
+
+def _setup(structure, operation: str, first, second, wavelength, batch: _Batch, method: str,
+           colour_method: str):
+    kind = _kind(operation, wavelength, colour_method)
+    lut = method == "single-reflection-lut" and kind != _DENSITY
+    variant = _variant(structure, kind, lut, colour_method)
+    params = variant.params.copy()
+    params["count"], params["wavelength_stride"] = batch.count, batch.stride
+    channels = 1 if operation == "pdf" else (batch.wavelengths or 3)
+    directions = batch.count if operation == "sample" else 1
+    incoming, params["incoming_repeat"] = _shared_vec4(first, batch.invocations)
+    operand, params["operand_repeat"], shifted = _operand(second, batch.invocations,
+                                                          operation == "sample")
+    constants = _constants(variant, kind, lut, colour_method, batch.wavelengths)
+    if operation == "sample":
+        constants["SHIFTED_OPERAND"] = shifted
+    kernel = gpu.compute_pipeline("bsdf/layered/model_eval.wgsl", OPERATIONS[operation], constants)
+    inputs = [incoming, operand, batch.wavelength, variant.layers, *variant.device_tables()]
+    outputs = [(batch.count * channels, np.float32), ((directions, 4), np.float32),
+               (1, np.uint32)]
+    return kernel, inputs, outputs, params
+
+
+def _run(structure, operation, first, second, wavelength, batch, method, colour_method):
+    if batch.count == 0:
+        return np.zeros(0, np.float32), np.zeros((0, 4), np.float32)
+    # Per invocation: two vec4 directions, its wavelengths (unless shared) and its values.
+    channels = 1 if operation == "pdf" else (batch.wavelengths or 3)
+    per_invocation = 4 * max(4, channels, batch.stride)
+    step = max(1, gpu.max_buffer_bytes() // per_invocation)
+    if batch.count <= step:
+        return _dispatch(structure, operation, first, second, wavelength, batch, method,
+                         colour_method)
+    # More than the device's largest buffer holds: dispatch consecutive invocations apart
+    # (a ShiftedPoints expanded here: beyond max_buffer_bytes / 16 samples per call).
+    first, second = _vec4(first, batch.invocations), _vec4(second, batch.invocations)
+    values, drawn = [], []
+    for start in range(0, batch.count, step):
+        stop = min(start + step, batch.count)
+        part = dataclasses.replace(
+            batch, invocations=(stop - start,), count=stop - start,
+            wavelength=(batch.wavelength[start * batch.stride:stop * batch.stride]
+                        if batch.stride else batch.wavelength))
+        value, drawn_part = _dispatch(structure, operation, first[start:stop],
+                                      second[start:stop], wavelength, part, method,
+                                      colour_method)
+        values.append(value)
+        drawn.append(drawn_part)
+    return np.concatenate(values), np.concatenate(drawn)
+
+
+def _dispatch(structure, operation, first, second, wavelength, batch, method, colour_method):
+    kernel, inputs, outputs, params = _setup(structure, operation, first, second, wavelength,
+                                             batch, method, colour_method)
+    value, drawn, cut = kernel.run(inputs, outputs, params, count=batch.count)
+    thickest = max(layer.mirror.n1 * layer.mirror.d1 + layer.mirror.n2 * layer.mirror.d2
+                   for layer in structure.layers)
+    colour = f", colour_method={colour_method!r}" if batch.wavelengths == 0 else ""
+    gpu.check_loops(cut, f"LayeredBragg.{operation} on {len(structure.layers)} layers with "
+                         f"periods up to n1 d1 + n2 d2 = {thickest:g} nm{colour}")
+    return value, drawn
+
+
+def _values(value: np.ndarray, batch: _Batch) -> np.ndarray:
+    value = value.astype(np.float64)
+    if batch.wavelengths == 0:
+        return value.reshape((*batch.shape, 3))
+    return value.reshape(batch.shape)
+
+
+def brdf(structure, wi, wo, wavelength, method: str, colour_method: str) -> np.ndarray:
+    """Eq 34 by the float32 kernel; arguments as :meth:`LayeredBragg.brdf`, checked.
+
+    Parameters
+    ----------
+    structure : LayeredBragg
+    wi, wo : numpy.ndarray, shape (..., 3)
+        Unit directions in air.
+    wavelength : numpy.ndarray or None
+        Wavelengths in nm, in 360-830; ``None`` for linear sRGB.
+    method : {"single-reflection", "single-reflection-lut"}
+    colour_method : str
+        RGB: "integrated" (or "hero", :func:`sample` only); or factored, by a method of
+        :data:`FACTORED_COLOUR_METHODS` (any colour method with the LUT).
+
+    Returns
+    -------
+    numpy.ndarray
+        float64 ``f`` in 1/sr, shaped as :meth:`LayeredBragg.brdf`'s result.
+    """
+    _check_request(structure, wavelength, method, colour_method)
+    shape = np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1])
+    values = []
+    for part in _wavelength_parts(structure, shape, wavelength):
+        batch = _batch(shape, part)
+        value, _ = _run(structure, "brdf", wi, wo, part, batch, method, colour_method)
+        values.append(_values(value, batch))
+    return values[0] if len(values) == 1 else np.concatenate(values, axis=-1)
+
+
+def pdf(structure, wi, wo) -> np.ndarray:
+    """:meth:`LayeredBragg.pdf` by the float32 kernel (1/sr), for checked unit directions."""
+    batch = _batch(np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1]), None)
+    value, _ = _run(structure, "pdf", wi, wo, None, batch, "single-reflection", INTEGRATED)
+    return value.astype(np.float64).reshape(batch.shape)
+
+
+def sample(structure, wi, u, wavelength, method: str, colour_method: str):
+    """Eq 35 and the chosen lobe by the float32 kernel; as :meth:`LayeredBragg.sample`.
+
+    Parameters
+    ----------
+    structure : LayeredBragg
+    wi : numpy.ndarray, shape (..., 3)
+        Unit directions in air with ``z > 0``.
+    u : numpy.ndarray, shape (..., 3), or (..., 4) with ``colour_method="hero"``
+        Uniform numbers in [0, 1]; or :class:`ShiftedPoints`, whose groups, when they are the
+        samples' leading shape, the kernel expands itself.
+    wavelength, method, colour_method
+        As for :func:`brdf`.
+
+    Returns
+    -------
+    wo, weight, pdf : numpy.ndarray
+        float64, shaped as :meth:`LayeredBragg.sample`'s results.
+    """
+    _check_request(structure, wavelength, method, colour_method)
+    sample_shape = np.broadcast_shapes(wi.shape[:-1], u.shape[:-1])
+    weights = []
+    for part in _wavelength_parts(structure, sample_shape, wavelength):
+        batch = _batch(sample_shape, part)
+        # Every part draws the same directions from (wi, u): keep the first part's.
+        value, drawn_part = _run(structure, "sample", wi, u, part, batch, method, colour_method)
+        if not weights:
+            drawn = _reduce(drawn_part.astype(np.float64).reshape((*batch.invocations, 4)),
+                            sample_shape)
+        weights.append(_values(value, batch))
+    weight = weights[0] if len(weights) == 1 else np.concatenate(weights, axis=-1)
+    return drawn[..., :3], weight, drawn[..., 3]
+
+
+def _reduce(array: np.ndarray, shape: tuple) -> np.ndarray:
+    """``array`` (leading shape broadcast from ``shape``, one trailing axis) back on ``shape``:
+    along the axes that broadcasting added or stretched, the values repeat, so take the first."""
+    extra = array.ndim - 1 - len(shape)
+    index = (0,) * extra + tuple(slice(0, 1) if n == 1 else slice(None) for n in shape)
+    return array[index].reshape((*shape, array.shape[-1]))
+
+
+def benchmark(structure, operation: str, wi, second, wavelength=None,
+              method: str = "single-reflection", colour_method: str = INTEGRATED,
+              repeats: int = 5) -> float:
+    """Median GPU seconds of one dispatch (buffers uploaded once), as the operations above.
+
+    Parameters
+    ----------
+    structure : LayeredBragg
+    operation : {"brdf", "sample", "pdf"}
+    wi : array_like, shape (..., 3)
+        Unit directions in air.
+    second : array_like, shape (..., 3)
+        ``wo`` (brdf, pdf) or ``u`` (sample; shape (..., 4) with ``colour_method="hero"``;
+        or :class:`ShiftedPoints` of 3 or 4 numbers per point, expanded in the kernel).
+    wavelength : array_like, optional
+        nm, in 360-830; ``None``: RGB.
+    method, colour_method
+        As for :meth:`LayeredBragg.brdf`.
+    repeats : int
+        Timed dispatches.
+
+    Returns
+    -------
+    float
+        Seconds; ``count / seconds`` is the evaluation rate (pairs or samples per second).
+
+    Raises
+    ------
+    ValueError
+        As the operations, and for a multiplexed wavelength axis longer than
+        :func:`wavelengths_per_invocation` (which the operations split over dispatches).
+    """
+    if operation not in OPERATIONS:
+        raise ValueError(f"operation must be one of {tuple(OPERATIONS)}, got {operation!r}")
+    wi = np.asarray(wi, np.float64)
+    if not isinstance(second, ShiftedPoints):
+        second = np.asarray(second, np.float64)
+    wavelength = None if wavelength is None else np.asarray(wavelength, np.float64)
+    _check_request(structure, wavelength, method, colour_method)
+    if isinstance(second, ShiftedPoints) and (operation != "sample"
+                                              or second.shape[-1] not in (3, 4)):
+        raise ValueError("second: a ShiftedPoints is the u of operation='sample', 3 or 4 "
+                         f"numbers per point; got operation={operation!r}, u shape "
+                         f"{second.shape}")
+    if colour_method == HERO and (operation != "sample" or second.shape[-1:] != (4,)):
+        raise ValueError("colour_method='hero' is timed for operation='sample' with u of "
+                         f"trailing length 4; got operation={operation!r}, u shape "
+                         f"{second.shape}")
+    shape = np.broadcast_shapes(wi.shape[:-1], second.shape[:-1])
+    wavelength = None if operation == "pdf" else wavelength
+    if len(_wavelength_parts(structure, shape, wavelength)) > 1:
+        raise ValueError(
+            f"wavelength: one dispatch evaluates 1 to "
+            f"{wavelengths_per_invocation(len(structure.layers))} multiplexed wavelengths for "
+            f"{len(structure.layers)} layers (llvmpipe's loop budget), got "
+            f"{np.broadcast_shapes(shape, wavelength.shape)[-1]}")
+    batch = _batch(shape, wavelength)
+    if batch.count == 0:
+        return 0.0
+    kernel, inputs, outputs, params = _setup(structure, operation, wi, second, wavelength,
+                                             batch, method, colour_method)
+    return kernel.benchmark(inputs, outputs, params, repeats=repeats, count=batch.count)

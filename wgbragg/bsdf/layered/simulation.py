@@ -1,0 +1,487 @@
+"""Position-free Monte Carlo simulation of a layered Bragg structure, on the GPU.
+
+The reference light transport of Fourneau, Pacanowski & Barla 2024 (sec. 4.2): a random walk
+in the structure of :class:`~wgbragg.bsdf.layered.model.LayeredBragg` that ignores lateral positions
+(Guo, Hasan & Zhao 2018), where every path may reflect any number of times. It validates the
+single-reflection model (eq 34), which keeps the paths that reflect once.
+
+The walk
+--------
+Directions are unit vectors in the surface frame (+z the normal); inside the structure every
+medium is the host ``n = n1`` of the layers. A path enters from air along ``-wi`` refracted
+into ``n``, then meets, as its direction says, the next layer below or above, the base, or the
+coating from inside:
+
+* a layer, in its frame (the normal flipped for a path coming from below), with incident
+  direction ``i`` at ``theta`` from the normal. ``transmission="ballistic"`` transmits
+  undeviated with probability ``p_t = 2 <t(theta)> / (1 + G1(theta))`` (eq 31 with ``t``
+  averaged over the path's wavelengths, eq 33) and weight ``t_k / p_t``, where
+  ``t = f_t cos`` is the integrated transmissivity (eq 28, the layer's table interpolated
+  linearly in ``theta`` and wavelength); otherwise it reflects about a visible GGX normal
+  ``m ~ VNDF(i)``, weight ``R_k(theta_d) G1(o) / (1 - p_t)`` with ``theta_d`` the angle
+  between ``i`` and ``m`` and ``R`` the mirror's unpolarized reflectance (Yeh).
+  ``transmission="naive"`` samples ``m ~ VNDF(i)`` first, then reflects with probability
+  ``P_r = <R(theta_d)>`` (weight ``R_k G1(o) / P_r``) or transmits (weight
+  ``(1 - R_k) G1(i) / (1 - P_r)``). Both have the expectation of the layer's transmission
+  ``t`` plus its lobe's albedo; what is left, at least ``1 - G1`` (eq 30), is absorbed.
+* the coating from inside (only when ``n != 1``): a specular reflection back down with the
+  Fresnel probability ``F_in`` (1 under total internal reflection), weight 1; else the path
+  leaves, refracted into air. Without a coating every path reaching the top leaves.
+* the base: absorbing, the path ends; Lambertian, it continues along a cosine-distributed
+  direction with weight ``albedo_k``.
+
+Russian roulette on the throughput starts after three reflections (unbiased), and
+``max_bounces`` caps the number of reflections of a path (the coating's internal ones and the
+base's included), a truncation.
+
+Loop budget. llvmpipe ends an invocation's loops after a fixed number of iterations
+(:mod:`wgbragg.gpu`, "Loop budget"), and a walk's loops grow with its reflections and the
+layers it crosses. An invocation therefore runs as many paths as fit in
+:data:`wgbragg.gpu.SAFE_LOOP_ITERATIONS` when each takes the longest walk ``max_bounces``
+allows (:func:`walk_iterations`), and ``max_bounces`` is at most :func:`bounce_limit`, where
+one such walk fills it.
+
+Estimators
+----------
+With ``wo`` given, the BRDF ``f(wi, wo)`` in 1/sr, without the coating's Dirac reflection, by
+next-event estimation: every vertex where a path meets a layer from above, or the base, is
+connected to ``o' = wo`` refracted into ``n``. It adds ``beta f_v(i, o') prod t(o')``:
+``beta`` the path's throughput, ``f_v`` the layer's microfacet lobe (eq 17, ``R_k`` at the
+half vector) or ``albedo_k / pi``, and the product over the layers above of their
+transmission along ``o'``, the ballistic ``t_k(theta_o')`` or, for ``"naive"``, one unbiased
+sample ``G1(o') (1 - R_k(theta_d))`` with ``m ~ VNDF(o')`` per layer. The sum of a path's
+contributions, times ``T_c(wi) T_c(wo) / n^2`` (the coating's transmittances and the
+compression of solid angle by refraction, as in eq 34 and :mod:`wgbragg.bsdf.layered.model`), is one
+sample of ``f``. ``mode="single"`` connects only vertices reached without a reflection and
+never samples one (a layer then transmits with probability 1, weight ``t_k`` or
+``G1 (1 - R_k)``): it estimates eq 34 exactly, deterministically for ``"ballistic"``
+spectral queries, where it reproduces :meth:`LayeredBragg.brdf` up to float32 and table
+interpolation.
+
+With ``wo=None``, the paths themselves, a particle estimator: the direction in which each
+leaves into air and its weight, so that ``E[weight g(direction)]`` is the integral of
+``f g cos`` over the hemisphere for any ``g``, the coating's Dirac reflection included (sampled
+at entry with probability ``F(wi)``, weight 1). The mean weight is the directional albedo.
+``mode="single"`` keeps the paths that reflect exactly once (the Dirac reflection counts):
+after that reflection the layers transmit with probability 1 and the coating lets the path out
+with weight ``1 - F_in``. Absorbed paths have weight 0 and direction 0.
+
+Wavelengths
+-----------
+A path carries :data:`PATH_WAVELENGTHS` wavelengths at once (no dispersion in the structure,
+eq 33). In spectral mode they are a group of the given ones, with the transmissivity tables
+evaluated at exactly those; up to :data:`MAX_WAVELENGTHS` are estimated in groups (the last
+padded with its last wavelength), all groups drawing the same random numbers, so their noise
+is correlated as if one path carried them all. In RGB mode they are hero wavelengths,
+stratified in the inverse cumulative distribution of the summed CIE XYZ density over
+360-830 nm (one random offset per path) and weighted by ``xyz_density / pdf`` into linear sRGB
+(D65), with the tables and the base albedo on the 1 nm grid, so that a spectrally flat ``f``
+gives ``f (1, 1, 1)`` in expectation.
+
+References
+----------
+Fourneau, Pacanowski & Barla, "Interactive Exploration of Vivid Material Iridescence using Bragg
+Mirrors", Computer Graphics Forum 43(2), 2024, sec. 4.2-4.3, eqs 17 and 28-35.
+Guo, Hasan & Zhao, "Position-Free Monte Carlo Simulation for Arbitrary Layered BSDFs", ACM
+Transactions on Graphics 37(6), 2018.
+Heitz, "Sampling the GGX Distribution of Visible Normals", JCGT 7(4), 2018.
+O'Neill, "PCG: A Family of Simple Fast Space-Efficient Statistically Good Algorithms for Random
+Number Generation", HMC-CS-2014-0905, 2014.
+"""
+
+from __future__ import annotations
+
+
+import numpy as np
+
+from wgbragg.colour import colorimetry
+from wgbragg import gpu
+from wgbragg.optics import kernels
+from wgbragg.common.validation import (
+    check_broadcast,
+    check_directions,
+    check_integer,
+    check_wavelength,
+)
+from wgbragg.bsdf.layered.model import LayeredBragg, _refract_in, coating_reflectance
+
+__all__ = ["MAX_WAVELENGTHS", "MODES", "PATH_WAVELENGTHS", "TRANSMISSIONS", "bounce_limit",
+           "simulate", "walk_iterations"]
+
+MODES = ("all", "single")
+"""``mode=``: every path, or the paths that reflect once (eq 34)."""
+
+TRANSMISSIONS = ("ballistic", "naive")
+"""``transmission=``: the integrated transmissivity tables (eqs 28, 31, 33), or a visible
+normal sampled at every layer crossing."""
+
+MAX_WAVELENGTHS = 64
+"""Most wavelengths of a spectral BRDF estimate (``wo`` given)."""
+
+PATH_WAVELENGTHS = 4
+"""Wavelengths a path carries: RGB hero wavelengths, or a group of the given ones."""
+
+_WORKGROUP_SIZE = 64
+# Most paths an invocation runs (fewer when their walks may be long): next-event estimation
+# reduces them in the invocation, so more paths write fewer statistics.
+_PATHS_PER_INVOCATION = 64
+_PARTICLES_PER_INVOCATION = 16
+# Invocations of one dispatch; more queries, or more paths, go in several dispatches.
+_MAX_INVOCATIONS = 2**22
+
+_LAYER_DTYPE = gpu.struct_dtype([
+    *((name, "u32" if name in ("periods", "bulk", "_pad") else "f32")
+      for name in kernels.BRAGG_MIRROR_DTYPE.names),
+    ("alpha", "f32"), ("table", "u32"), ("rows", "u32"), ("row_step", "f32"),
+])
+_PARAMS_DTYPE = gpu.struct_dtype([
+    ("queries", "u32"), ("first_query", "u32"), ("groups", "u32"), ("batches", "u32"),
+    ("paths", "u32"), ("seed", "u32"),
+    ("host", "f32"), ("max_reflections", "u32"), ("columns", "u32"),
+    ("per_invocation", "u32"), ("first_batch", "u32"), ("_pad", "u32"),
+])
+
+
+def walk_iterations(layers: int, max_bounces: int) -> int:
+    """Loop iterations that one walk may take in the kernel, at most (llvmpipe's budget).
+
+    A walk makes up to ``max_bounces + 1`` reflections, each after crossing up to ``layers``
+    layers, and each crossing or reflection loops over the layers above for next-event
+    estimation and over four wavelengths for Yeh's formula: ``12 + 4 layers`` iterations,
+    a bound fitted with a margin of 1.4 to 1.8 to lavapipe's longest walks (paths trapped under
+    a coating of index 10 over transparent layers and a white base, naive transmission: 23,
+    42, 88 and 216 iterations a reflection at 1, 2, 4 and 8 layers).
+
+    Parameters
+    ----------
+    layers : int
+        Rough layers of the structure, >= 1.
+    max_bounces : int
+        As :func:`simulate`'s.
+
+    Returns
+    -------
+    int
+    """
+    return (max_bounces + 1) * (layers + 1) * (12 + 4 * layers)
+
+
+def bounce_limit(layers: int) -> int:
+    """Largest ``max_bounces`` of :func:`simulate` for a structure of ``layers`` rough layers:
+    one walk then fits in :data:`wgbragg.gpu.SAFE_LOOP_ITERATIONS` (:func:`walk_iterations`);
+    0 when not even one reflection does (63 layers or more).
+
+    Parameters
+    ----------
+    layers : int
+        >= 1.
+
+    Returns
+    -------
+    int
+        233 for 4 layers, 81 for 8; below the default 64 from 10 layers on.
+    """
+    return max(0, gpu.SAFE_LOOP_ITERATIONS // walk_iterations(layers, 0) - 1)
+
+
+_MAX_LAYERS = max(n for n in range(1, 1000) if bounce_limit(n) >= 1)
+
+
+def _check_wavelengths(wavelength_nm) -> np.ndarray | None:
+    if wavelength_nm is None:
+        return None
+    wavelength = check_wavelength(wavelength_nm)
+    if wavelength.ndim != 1 or not 1 <= wavelength.size <= MAX_WAVELENGTHS:
+        raise ValueError(f"wavelength_nm must be 1-D with 1 to {MAX_WAVELENGTHS} values, got "
+                         f"shape {wavelength.shape}")
+    low, high = colorimetry.WAVELENGTH_RANGE_NM
+    if not np.all((wavelength >= low) & (wavelength <= high)):
+        raise ValueError(f"wavelength_nm must be in [{low:g}, {high:g}] nm")
+    return wavelength
+
+
+def _spectrum_rows(structure: LayeredBragg, wavelength: np.ndarray | None) -> np.ndarray:
+    """The ``spectrum`` buffer: sRGB density and albedo on the 1 nm grid, or the padded
+    wavelengths and their albedo."""
+    if wavelength is None:
+        grid, weights = colorimetry.xyz_weights()
+        rgb = colorimetry.xyz_to_linear_srgb(weights / colorimetry.WAVELENGTH_STEP_NM)
+        rows = np.column_stack([rgb, structure.base_spectrum(grid)])
+    else:
+        rows = np.zeros((wavelength.size, 4))
+        rows[:, 0], rows[:, 3] = wavelength, structure.base_spectrum(wavelength)
+    return rows.astype(np.float32)
+
+
+def _padded(wavelength: np.ndarray) -> np.ndarray:
+    """Whole groups of PATH_WAVELENGTHS, the last filled with its last wavelength."""
+    lanes = -(-wavelength.size // PATH_WAVELENGTHS) * PATH_WAVELENGTHS
+    return np.concatenate([wavelength, np.full(lanes - wavelength.size, wavelength[-1])])
+
+
+def _layers(structure: LayeredBragg, wavelength, ballistic: bool):
+    """Per-layer parameters, their transmissivity tables for ballistic transmission
+    (concatenated, kept in the structure's table cache) and whether the tables are cell
+    corners (RGB, where they fit :func:`gpu.bilinear_quads_fit`)."""
+    records = np.zeros(len(structure.layers), _LAYER_DTYPE)
+    for index, layer in enumerate(structure.layers):
+        m = layer.mirror
+        mirror = kernels.bragg_params(m.n1, m.n2, m.d1, m.d2, m.N, m.host)
+        for name in kernels.BRAGG_MIRROR_DTYPE.names:
+            records[index][name] = mirror[name]
+        records[index]["alpha"] = layer.alpha
+    if not ballistic:
+        return records, np.zeros((1, 4), np.float32), False
+    columns = colorimetry.xyz_weights()[0].size if wavelength is None else wavelength.size
+    rows = np.array([layer.filter.theta_i.size for layer in structure.layers], np.int64)
+    # One load per lookup (llvmpipe bounds-checks every load): RGB tables as the corners of
+    # their cells, at 4x their size where that fits; spectral rows in groups of four
+    # wavelengths, a path's. Else the plain RGB tables, four floats per vec4.
+    quads = wavelength is None and gpu.bilinear_quads_fit(int(((rows - 1) * (columns - 1)).sum()))
+
+    def vec4_rows(table: np.ndarray) -> np.ndarray:
+        return gpu.bilinear_quads(table) if quads else np.asarray(table, np.float32).ravel()
+
+    def build():
+        tables = np.concatenate([vec4_rows(layer.transmissivity_table(wavelength, "gpu"))
+                                 for layer in structure.layers])
+        if not quads:
+            tables = np.concatenate([tables, np.zeros(-tables.size % 4, np.float32)])
+        return tables.reshape(-1, 4)
+
+    key = ("simulation", None if wavelength is None else wavelength.tobytes())
+    # Kept on the device, as the model's (layered_gpu._Variant.device_tables): read-only,
+    # and no call needs them on the host.
+    tables = structure._cached(key, lambda: gpu.DeviceArray.upload(build(), what="layer tables"))
+    if quads:
+        sizes = (rows - 1) * (columns - 1)  # vec4s
+    elif wavelength is None:
+        sizes = rows * columns  # floats
+    else:
+        sizes = rows * columns // 4  # vec4s
+    records["table"] = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    records["rows"] = rows
+    for index, layer in enumerate(structure.layers):
+        grid = layer.filter.theta_i
+        records[index]["row_step"] = grid[1] - grid[0]
+    return records, tables, quads
+
+
+def _combine(counts, means, squares):
+    """Chan et al.'s pairwise combination of Welford statistics: ``counts`` (b,) paths of
+    ``b`` batches with means and sums of squared deviations ``(q, b, c)``, to the total
+    count and ``(q, c)`` mean and sum of squared deviations."""
+    total = counts.sum()
+    mean = np.einsum("b,qbc->qc", counts, means) / total
+    spread = squares.sum(axis=1) + np.einsum("b,qbc->qc", counts, (means - mean[:, None]) ** 2)
+    return total, mean, spread
+
+
+def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all",
+             transmission="ballistic", seed=0, return_error=False, max_bounces=64):
+    """Monte Carlo simulation of light transport in a layered Bragg structure (sec. 4.2).
+
+    Parameters
+    ----------
+    structure : LayeredBragg
+    wi : array_like, shape (..., 3)
+        Unit directions towards the light, in air, strictly above the horizon.
+    wo : array_like, shape (..., 3), optional
+        Unit directions towards the viewer, broadcast against ``wi``: estimate the BRDF
+        there (0 where ``wo`` is at or below the horizon). ``None``: return the paths.
+    wavelength_nm : array_like, optional
+        1-D wavelengths in [360, 830] nm, 1 to :data:`MAX_WAVELENGTHS` with ``wo`` and 1 to
+        :data:`PATH_WAVELENGTHS` without: a spectral result with a trailing axis over them.
+        ``None``: linear sRGB (D65).
+    paths : int
+        Paths per ``wi`` (or per pair), >= 1 (>= 2 with ``return_error``).
+    mode : {"all", "single"}
+        Every path, or only those that reflect once (eq 34).
+    transmission : {"ballistic", "naive"}
+        Layer crossings from the integrated transmissivity tables (eq 28, 31, 33), or by
+        sampling a visible normal at each crossing.
+    seed : int
+        In [0, 2**32): the result is deterministic for a seed.
+    return_error : bool
+        With ``wo``: also return the standard error of the estimate.
+    max_bounces : int
+        Most reflections of a path, 1 to :func:`bounce_limit` of the structure's number of
+        layers (llvmpipe's loop budget: 233 for 4 layers); longer paths are cut off.
+
+    Returns
+    -------
+    f : numpy.ndarray
+        With ``wo``: the BRDF in 1/sr, shape ``broadcast(wi, wo)[:-1] + (K,)`` (spectral) or
+        ``+ (3,)`` (RGB), without the coating's Dirac reflection.
+    error : numpy.ndarray
+        With ``return_error``: its standard error, same shape.
+    directions, weights : numpy.ndarray
+        With ``wo=None``: shapes ``wi.shape[:-1] + (paths, 3)`` and
+        ``wi.shape[:-1] + (paths, K or 3)``: the exit direction of each path in air and its
+        weight, ``E[weights g(directions)] = int f g cos dwo`` including the coating's Dirac
+        reflection; absorbed paths have weight 0 and direction 0.
+
+    Raises
+    ------
+    ValueError
+        For a parameter out of its range or of the wrong shape, named in the message.
+    wgbragg.gpu.LoopBudgetError
+        (a ValueError) Should llvmpipe end a walk early all the same (the kernel reports it).
+
+    Notes
+    -----
+    The estimators are described in the module docstring. Statistics are accumulated in
+    float32 over the paths of a GPU invocation (Welford's update; up to 64, fewer for long
+    walks) and combined in float64.
+
+    Examples
+    --------
+    >>> from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer
+    >>> m = BraggMirror(n1=1.0, n2=1.5, d1=250.0, d2=250.0, N=10)
+    >>> s = LayeredBragg([RoughBraggLayer(m, alpha=0.1)], base_albedo=0.5)
+    >>> wi, wo = [0.0, 0.0, 1.0], [0.5, 0.0, 0.75 ** 0.5]
+    >>> f, error = s.simulate(wi, wo, [450.0, 550.0], paths=4096,
+    ...                       return_error=True)  # doctest: +SKIP
+    >>> directions, weights = s.simulate(wi, paths=4096)  # doctest: +SKIP
+    """
+    if not isinstance(structure, LayeredBragg):
+        raise ValueError(f"structure must be a LayeredBragg, got {type(structure).__name__}")
+    wi = check_directions(wi, "wi")
+    if np.any(wi[..., 2] <= 0.0):
+        raise ValueError("wi must lie strictly above the horizon: wi[..., 2] in (0, 1]")
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+    if transmission not in TRANSMISSIONS:
+        raise ValueError(f"transmission must be one of {TRANSMISSIONS}, got {transmission!r}")
+    wavelength = _check_wavelengths(wavelength_nm)
+    paths = check_integer("paths", paths, 1, 2**31 - 1)
+    seed = check_integer("seed", seed, 0, 2**32 - 1)
+    layers = len(structure.layers)
+    most_bounces = bounce_limit(layers)
+    if most_bounces < 1:
+        raise ValueError(f"structure: the GPU walk takes 1 to {_MAX_LAYERS} rough layers "
+                         f"(llvmpipe's loop budget), got {layers}")
+    max_bounces = check_integer("max_bounces", max_bounces, 1, most_bounces)
+    if not isinstance(return_error, bool):
+        raise ValueError(f"return_error must be a bool, got {return_error!r}")
+    if return_error and (wo is None or paths < 2):
+        raise ValueError("return_error needs wo and paths >= 2")
+    if wo is not None:
+        wo = check_directions(wo, "wo")
+        shape = check_broadcast(wi=wi.shape[:-1], wo=wo.shape[:-1])
+        wi, wo = np.broadcast_to(wi, (*shape, 3)), np.broadcast_to(wo, (*shape, 3))
+    else:
+        shape = wi.shape[:-1]
+
+    ballistic = transmission == "ballistic"
+    next_event = wo is not None
+    if wavelength is None:
+        lanes, channels = None, 3
+    else:
+        lanes, channels = _padded(wavelength), wavelength.size
+        if not next_event and channels > PATH_WAVELENGTHS:
+            raise ValueError(f"wavelength_nm: with wo=None a path carries at most "
+                             f"{PATH_WAVELENGTHS} wavelengths, got {channels} (call again "
+                             "with the same seed for more: the paths share random numbers)")
+    if 0 in shape:  # no query: what the same call on one more query would give, empty
+        if not next_event:
+            return np.zeros((*shape, paths, 3)), np.zeros((*shape, paths, channels))
+        empty = np.zeros((*shape, channels))
+        return (empty, empty.copy()) if return_error else empty
+    groups = 1 if lanes is None else lanes.size // PATH_WAVELENGTHS
+    n = structure.host_index
+    records, tables, quads = _layers(structure, lanes, ballistic)
+    kernel = gpu.compute_pipeline("bsdf/layered/simulation.wgsl", constants={
+        "WORKGROUP_SIZE": _WORKGROUP_SIZE,
+        "LAYERS": layers,
+        "COATING": structure.has_coating,
+        "LAMBERTIAN": not structure.absorbing_base,
+        "BALLISTIC": ballistic,
+        "SINGLE": mode == "single",
+        "NEXT_EVENT": next_event,
+        "RGB": lanes is None,
+        "QUADS": quads,
+        # Layers share their host (LayeredBragg); Appendix D where it is not their n1.
+        "HOST_MATCHED": all(layer.ballistic for layer in structure.layers),
+    })
+    # bounce_limit guarantees that one walk fits.
+    per_invocation = min(_PATHS_PER_INVOCATION if next_event else _PARTICLES_PER_INVOCATION,
+                         gpu.SAFE_LOOP_ITERATIONS // walk_iterations(layers, max_bounces))
+    batches = -(-paths // per_invocation)
+
+    wi_flat = wi.reshape(-1, 3)
+    up = np.ones(wi_flat.shape[0], bool)
+    wo_flat = np.tile([0.0, 0.0, 1.0], (wi_flat.shape[0], 1))
+    if next_event:
+        up = wo.reshape(-1, 3)[:, 2] > 0.0
+        wo_flat = np.where(up[:, None], wo.reshape(-1, 3), wo_flat)
+    # Refracted here in float64: in float32, 1 - sin^2 rounds a grazing cosine to 0.
+    queries = np.zeros((wi_flat.shape[0], 3, 4), np.float32)
+    queries[:, 0, :3] = wi_flat
+    queries[:, 1, :3], queries[:, 2, :3] = _refract_in(wi_flat, n), _refract_in(wo_flat, n)
+
+    params = np.zeros((), _PARAMS_DTYPE)
+    params["groups"], params["paths"] = groups, paths
+    params["seed"], params["host"] = seed, n
+    params["max_reflections"] = max_bounces - 1 if next_event else max_bounces
+    params["columns"] = colorimetry.xyz_weights()[0].size if lanes is None else lanes.size
+    params["per_invocation"] = per_invocation
+    inputs = [None, records, tables, _spectrum_rows(structure, lanes),
+              colorimetry.hero_inverse_cdf() if lanes is None else np.zeros(1, np.float32)]
+
+    if next_event:
+        # Invocations write a mean and an m2 (vec4) each: a query's batches may need several
+        # dispatches, or a dispatch may hold several queries.
+        batch_step = min(batches, max(1, _MAX_INVOCATIONS // groups))
+        chunk = max(1, _MAX_INVOCATIONS // (groups * batch_step))
+    else:
+        batch_step = batches
+        limit = int(gpu.get_device().limits["max-storage-buffer-binding-size"])
+        if 16 * (paths + 1) > limit:
+            raise ValueError(f"paths={paths} take more than {limit} bytes of weights per wi: "
+                             "use fewer (and another seed for more)")
+        chunk = (limit - 16) // (16 * paths)
+    counts = np.minimum(per_invocation, paths - per_invocation * np.arange(batches))
+    results = []
+    for start in range(0, len(queries), chunk):
+        part = queries[start:start + chunk]
+        params["queries"], params["first_query"] = len(part), start
+        inputs[0] = part.reshape(-1, 4)
+        pieces = []
+        for first_batch in range(0, batches, batch_step):
+            step = min(batch_step, batches - first_batch)
+            params["batches"], params["first_batch"] = step, first_batch
+            rows = 2 * len(part) * groups * step if next_event else len(part) * paths
+            outputs = [((rows, 4), np.float32),
+                       ((1 if next_event else rows + 1, 4), np.float32)]
+            count = len(part) * groups * step if next_event else len(part) * batches
+            values, directions = kernel.run(inputs, outputs, params, count=count)
+            gpu.check_loops(directions[-1:, 3],
+                            f"simulate on {layers} layers with max_bounces={max_bounces}")
+            if not next_event:
+                pieces.append((values, directions[:-1]))
+                continue
+            values = values.astype(np.float64).reshape(len(part), groups, step, 2, 4)
+            values = values.transpose(0, 2, 3, 1, 4).reshape(len(part), step, 2, 4 * groups)
+            pieces.append(_combine(counts[first_batch:first_batch + step],
+                                   values[..., 0, :channels], values[..., 1, :channels]))
+        results.append(pieces[0] if not next_event else _combine(
+            np.array([piece[0] for piece in pieces]),
+            np.stack([piece[1] for piece in pieces], axis=1),
+            np.stack([piece[2] for piece in pieces], axis=1)))
+
+    if not next_event:
+        directions = np.concatenate([d for _, d in results])[:, :3].astype(np.float64)
+        weights = np.concatenate([v for v, _ in results])[:, :channels].astype(np.float64)
+        return (directions.reshape(*shape, paths, 3), weights.reshape(*shape, paths, channels))
+
+    mean = np.concatenate([piece[1] for piece in results])
+    spread = np.concatenate([piece[2] for piece in results])
+    scale = ((1.0 - coating_reflectance(wi_flat[:, 2], n))
+             * (1.0 - coating_reflectance(wo_flat[:, 2], n)) / (n * n))
+    scale = np.where(up, scale, 0.0)[:, None]
+    estimate = (mean * scale).reshape(*shape, channels)
+    if not return_error:
+        return estimate
+    error = np.sqrt(spread / ((paths - 1) * paths)) * scale
+    return estimate, error.reshape(*shape, channels)

@@ -1,0 +1,457 @@
+"""Colorimetry of reflectance spectra: D65-weighted CIE 1931 XYZ, linear sRGB and CIE dE2000.
+
+A reflectance spectrum ``R(lambda)`` seen under CIE illuminant D65 by the CIE 1931 2 degree
+standard observer has the tristimulus values
+
+    XYZ = int R(lambda) cmf(lambda) D65(lambda) dlambda / int ybar(lambda) D65(lambda) dlambda
+
+integrated over 360-830 nm, normalised so that a perfect reflector (``R = 1``) has ``Y = 1``. The
+*reference quadrature* is the 1 nm Riemann sum on the integer wavelengths 360, 361, ..., 830,
+i.e. the sum of :func:`xyz_weights`; it is what ``colour.sd_to_XYZ(..., method="Integration")``
+computes on the same 1 nm shape.
+
+All spectral data (CMFs, illuminant, sRGB matrix, D65 chromaticity) come from colour-science;
+nothing is typed in here. Units: wavelengths in nanometres; XYZ with ``Y = 1`` for the perfect
+reflector (colour's ``[0, 1]`` domain-range scale); linear sRGB with the perfect reflector at
+about ``(1, 1, 1)``.
+
+References
+----------
+CIE 015:2018, Colorimetry, 4th edition (tristimulus integration, CIE 1931 observer, D65).
+IEC 61966-2-1:1999, sRGB (XYZ to linear sRGB matrix).
+Sharma, Wu & Dalal, "The CIEDE2000 color-difference formula", Color Res. Appl. 30(1), 2005.
+Mansencal et al., colour-science, https://www.colour-science.org.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+
+import colour
+import numpy as np
+
+from wgbragg.common.validation import check_broadcast
+
+__all__ = [
+    "CMFS_NAME",
+    "HERO_SEGMENTS",
+    "HERO_WAVELENGTHS",
+    "ILLUMINANT_NAME",
+    "WAVELENGTH_RANGE_NM",
+    "WAVELENGTH_STEP_NM",
+    "XYZ_TO_LINEAR_SRGB",
+    "cumulative_table",
+    "cumulative_xyz",
+    "delta_e_2000",
+    "hero_inverse_cdf",
+    "hero_wavelengths",
+    "linear_srgb_to_xyz",
+    "spectral_xyz",
+    "xyz_density",
+    "xyz_to_linear_srgb",
+    "xyz_weights",
+]
+
+WAVELENGTH_RANGE_NM = (360.0, 830.0)
+"""Visible range integrated over, nm: the extent of colour's CIE 1931 2 degree CMF table."""
+
+WAVELENGTH_STEP_NM = 1.0
+"""Spacing of the reference quadrature and of the tabulated density, nm."""
+
+HERO_WAVELENGTHS = 4
+"""Wavelengths of one hero sample (:func:`hero_wavelengths`): one vec4 on the GPU."""
+
+HERO_SEGMENTS = 512
+"""Segments of :func:`hero_inverse_cdf`."""
+
+CMFS_NAME = "CIE 1931 2 Degree Standard Observer"
+ILLUMINANT_NAME = "D65"
+
+_RGB_SPACE = colour.RGB_COLOURSPACES["sRGB"]
+
+XYZ_TO_LINEAR_SRGB: np.ndarray = np.array(_RGB_SPACE.matrix_XYZ_to_RGB, dtype=np.float64)
+"""XYZ -> linear sRGB (IEC 61966-2-1, from colour); D65 white maps to about (1, 1, 1)."""
+XYZ_TO_LINEAR_SRGB.setflags(write=False)
+
+_LINEAR_SRGB_TO_XYZ = np.linalg.inv(XYZ_TO_LINEAR_SRGB)
+_LINEAR_SRGB_TO_XYZ.setflags(write=False)
+
+_D65_XY = np.array(colour.CCS_ILLUMINANTS[CMFS_NAME][ILLUMINANT_NAME], dtype=np.float64)
+
+
+# --------------------------------------------------------------------------- tables
+
+
+@functools.cache
+def _tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(wavelength_nm[471], weights[471, 3], cumulative[471, 3]), read-only."""
+    start, end = WAVELENGTH_RANGE_NM
+    shape = colour.SpectralShape(start, end, WAVELENGTH_STEP_NM)
+    cmfs = colour.MSDS_CMFS[CMFS_NAME].copy().align(shape)
+    # colour's D65 table stops at 780 nm; align() interpolates it linearly to 1 nm and holds
+    # the 780 nm value beyond, exactly as colour.sd_to_XYZ aligns an illuminant to the CMFs.
+    illuminant = colour.SDS_ILLUMINANTS[ILLUMINANT_NAME].copy().align(shape)
+    wavelength = np.asarray(shape.wavelengths, dtype=np.float64)
+    weighted = np.asarray(cmfs.values, np.float64) * np.asarray(illuminant.values, np.float64)[
+        :, None
+    ]
+    weights = weighted / weighted[:, 1].sum()
+    # Trapezoid rule on the density weights / step (cell integrals of the linear interpolant).
+    density = weights / WAVELENGTH_STEP_NM
+    cells = 0.5 * (density[1:] + density[:-1]) * WAVELENGTH_STEP_NM
+    cumulative = np.concatenate([np.zeros((1, 3)), np.cumsum(cells, axis=0)])
+    for table in (wavelength, weights, cumulative):
+        table.setflags(write=False)
+    return wavelength, weights, cumulative
+
+
+def xyz_weights() -> tuple[np.ndarray, np.ndarray]:
+    """Reference quadrature: 1 nm nodes and their D65-weighted XYZ weights.
+
+    Returns
+    -------
+    wavelength_nm : numpy.ndarray
+        Shape ``(471,)``: 360, 361, ..., 830 nm.
+    weights : numpy.ndarray
+        Shape ``(471, 3)``: ``cmf(lambda) D65(lambda) / sum_lambda ybar(lambda) D65(lambda)``
+        (dimensionless, the 1 nm step included), so ``weights.sum(0)`` is the XYZ of the perfect
+        reflector, with ``Y = 1`` to rounding. Both arrays are read-only and cached.
+
+    Notes
+    -----
+    CMFs: colour's ``MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]`` (tabulated at 1 nm over
+    360-830 nm). Illuminant: colour's ``SDS_ILLUMINANTS["D65"]`` (5 nm, 300-780 nm) aligned to
+    the CMF shape with colour's ``align`` (linear interpolation; beyond 780 nm the 780 nm value
+    is held, as ``colour.sd_to_XYZ`` does). ``sum_k R_k weights_k`` equals
+    ``colour.sd_to_XYZ(sd, cmfs, D65, method="Integration") / 100`` on the same shape.
+
+    Examples
+    --------
+    >>> wavelength, weights = xyz_weights()
+    >>> wavelength.shape, weights.shape
+    ((471,), (471, 3))
+    >>> print(f"{weights.sum(0)[1]:.12f}")
+    1.000000000000
+    """
+    wavelength, weights, _ = _tables()
+    return wavelength, weights
+
+
+def _real_array(name: str, value) -> np.ndarray:
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{name} must be a real number or array of real numbers") from error
+    if raw.dtype.kind not in "biuf":
+        raise ValueError(f"{name} must be a real number or array of real numbers, got {raw.dtype}")
+    array = raw.astype(np.float64)
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{name} must be finite (no NaN or infinity)")
+    return array
+
+
+def _cell(wavelength: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(index i of the 1 nm cell, fraction t in [0, 1], inside mask) for in-range wavelengths."""
+    start, end = WAVELENGTH_RANGE_NM
+    inside = (wavelength >= start) & (wavelength <= end)
+    position = (np.clip(wavelength, start, end) - start) / WAVELENGTH_STEP_NM
+    last = round((end - start) / WAVELENGTH_STEP_NM)
+    index = np.minimum(np.floor(position).astype(np.intp), last - 1)
+    return index, position - index, inside
+
+
+def xyz_density(wavelength_nm) -> np.ndarray:
+    """The normalised XYZ weight as a continuous density per nm.
+
+    Parameters
+    ----------
+    wavelength_nm : array_like
+        Wavelengths in nm, any shape, finite.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``wavelength_nm.shape + (3,)``, in nm^-1: :func:`xyz_weights` divided by the 1 nm
+        step, linearly interpolated between the 1 nm nodes, 0 outside 360-830 nm. Its integral
+        over 360-830 nm is the perfect reflector's XYZ (``Y = 1`` up to the trapezoid-versus-sum
+        difference, ~2e-6).
+
+    Raises
+    ------
+    ValueError
+        If ``wavelength_nm`` is not real or not finite.
+
+    Examples
+    --------
+    >>> bool(np.allclose(xyz_density([555.0]), xyz_weights()[1][195]))
+    True
+    """
+    wavelength = _real_array("wavelength_nm", wavelength_nm)
+    weights = _tables()[1] / WAVELENGTH_STEP_NM
+    index, t, inside = _cell(wavelength)
+    t = t[..., None]
+    value = (1.0 - t) * weights[index] + t * weights[index + 1]
+    return np.where(inside[..., None], value, 0.0)
+
+
+def cumulative_xyz(wavelength_nm) -> np.ndarray:
+    """Integral of :func:`xyz_density` from 360 nm to ``wavelength_nm``.
+
+    Parameters
+    ----------
+    wavelength_nm : array_like
+        Wavelengths in nm, any shape, finite.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``wavelength_nm.shape + (3,)``, dimensionless, nondecreasing in the wavelength:
+        0 at and below 360 nm, the perfect reflector's XYZ at and above 830 nm. Exact for the
+        piecewise-linear density (trapezoids on the 1 nm table, the quadratic within a cell),
+        so the integral of a constant ``w`` over ``[l0, l1]`` is
+        ``w * (cumulative_xyz(l1) - cumulative_xyz(l0))``.
+
+    Raises
+    ------
+    ValueError
+        If ``wavelength_nm`` is not real or not finite.
+
+    Examples
+    --------
+    >>> box = cumulative_xyz(830.0) - cumulative_xyz(360.0)
+    >>> bool(abs(box[1] - 1.0) < 1e-5)
+    True
+    """
+    wavelength = _real_array("wavelength_nm", wavelength_nm)
+    _, weights, cumulative = _tables()
+    density = weights / WAVELENGTH_STEP_NM
+    index, t, _ = _cell(wavelength)
+    t = t[..., None]
+    d0, d1 = density[index], density[index + 1]
+    step = WAVELENGTH_STEP_NM
+    return cumulative[index] + step * (d0 * t + 0.5 * (d1 - d0) * t * t)
+
+
+def cumulative_table() -> tuple[np.ndarray, np.ndarray]:
+    """:func:`cumulative_xyz` at the 1 nm nodes, for upload to the GPU.
+
+    Returns
+    -------
+    wavelength_nm : numpy.ndarray
+        Shape ``(471,)``, 360-830 nm (read-only).
+    cumulative : numpy.ndarray
+        Shape ``(471, 3)`` float64 (read-only); ``astype(np.float32)`` for a storage buffer.
+        Between nodes the exact value adds the cell's quadratic (see :func:`cumulative_xyz`).
+    """
+    wavelength, _, cumulative = _tables()
+    return wavelength, cumulative
+
+
+@functools.cache
+def hero_inverse_cdf() -> np.ndarray:
+    """Wavelengths at equal steps of the cumulative summed XYZ density, for hero sampling.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(HERO_SEGMENTS + 1,)`` float32, nm, read-only: 360 nm, then the wavelength
+        below which ``j / HERO_SEGMENTS`` of ``int (x + y + z)`` lies, ..., 830 nm. A
+        wavelength drawn uniformly within segment ``j`` has the constant density
+        ``1 / (HERO_SEGMENTS (node[j+1] - node[j]))`` per nm: samples land where the eye is
+        sensitive. The GPU kernels read this table (``wgsl/colour/colorimetry_hero.wgsl``).
+    """
+    grid, cumulative = cumulative_table()
+    total = cumulative.sum(axis=1)
+    nodes = np.interp(np.linspace(0.0, total[-1], HERO_SEGMENTS + 1), total, grid)
+    nodes[0], nodes[-1] = grid[0], grid[-1]
+    nodes = nodes.astype(np.float32)
+    nodes.setflags(write=False)
+    return nodes
+
+
+def hero_wavelengths(offset) -> tuple[np.ndarray, np.ndarray]:
+    """Hero wavelengths (Wilkie et al. 2014) stratified in :func:`hero_inverse_cdf`.
+
+    Parameters
+    ----------
+    offset : array_like
+        Uniform numbers in [0, 1], any shape: one per sample.
+
+    Returns
+    -------
+    wavelength_nm : numpy.ndarray
+        Shape ``offset.shape + (HERO_WAVELENGTHS,)``: wavelength ``k`` at the cumulative
+        fraction ``(offset + k) / HERO_WAVELENGTHS``.
+    scale : numpy.ndarray
+        Same shape, nm: ``1 / (HERO_WAVELENGTHS pdf(wavelength))``, so that
+        ``xyz_to_linear_srgb(sum_k v_k scale_k xyz_density(wavelength_k))`` is an unbiased
+        estimate of the linear sRGB of a spectrum ``v`` (a spectrum of 1 gives about
+        ``(1, 1, 1)``, exactly in expectation). The float64 twin of ``hero_wavelengths`` in
+        ``wgsl/colour/colorimetry_hero.wgsl``, which the layered simulation, the renderer's
+        spectral mode and
+        the single-reflection sampler use.
+
+    Raises
+    ------
+    ValueError
+        If ``offset`` is not real, finite and within [0, 1].
+
+    References
+    ----------
+    Wilkie, Nawaz, Droske, Weidlich & Hanika, "Hero Wavelength Spectral Sampling", Computer
+    Graphics Forum 33(4), 2014.
+
+    Examples
+    --------
+    >>> wavelength, scale = hero_wavelengths([0.5])
+    >>> wavelength.shape
+    (1, 4)
+    """
+    offset = _real_array("offset", offset)
+    if not np.all((offset >= 0.0) & (offset <= 1.0)):
+        raise ValueError("offset must be in [0, 1]")
+    nodes = hero_inverse_cdf().astype(np.float64)
+    position = ((offset[..., None] + np.arange(HERO_WAVELENGTHS)) / HERO_WAVELENGTHS
+                * HERO_SEGMENTS)
+    segment = np.minimum(position.astype(np.intp), HERO_SEGMENTS - 1)
+    lower, upper = nodes[segment], nodes[segment + 1]
+    wavelength = lower + (position - segment) * (upper - lower)
+    return wavelength, (HERO_SEGMENTS / HERO_WAVELENGTHS) * (upper - lower)
+
+
+# --------------------------------------------------------------------------- colour spaces
+
+
+def _xyz_array(name: str, value) -> np.ndarray:
+    array = _real_array(name, value)
+    if array.ndim == 0 or array.shape[-1] != 3:
+        raise ValueError(f"{name} must have a last axis of length 3, got shape {array.shape}")
+    return array
+
+
+def xyz_to_linear_srgb(xyz) -> np.ndarray:
+    """CIE XYZ (perfect reflector ``Y = 1``) to linear (not gamma-encoded) sRGB.
+
+    Parameters
+    ----------
+    xyz : array_like
+        Shape ``(..., 3)``, finite.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(..., 3)``: ``xyz @ XYZ_TO_LINEAR_SRGB.T``; unclipped (out-of-gamut colours have
+        components below 0 or above 1).
+
+    Raises
+    ------
+    ValueError
+        If the last axis is not 3 or a value is not finite.
+
+    Examples
+    --------
+    >>> rgb = xyz_to_linear_srgb(xyz_weights()[1].sum(0))
+    >>> bool(np.all(np.abs(rgb - 1.0) < 2e-3))
+    True
+    """
+    return _xyz_array("xyz", xyz) @ XYZ_TO_LINEAR_SRGB.T
+
+
+def linear_srgb_to_xyz(rgb) -> np.ndarray:
+    """Inverse of :func:`xyz_to_linear_srgb` (the exact matrix inverse), shape ``(..., 3)``."""
+    return _xyz_array("rgb", rgb) @ _LINEAR_SRGB_TO_XYZ.T
+
+
+def delta_e_2000(rgb_a, rgb_b) -> np.ndarray:
+    """CIE dE2000 colour difference between two linear sRGB colours.
+
+    Parameters
+    ----------
+    rgb_a, rgb_b : array_like
+        Linear sRGB, shape ``(..., 3)``, broadcastable, finite; the perfect reflector at about
+        ``(1, 1, 1)``.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``broadcast(rgb_a, rgb_b).shape[:-1]``; 0 for equal colours, symmetric.
+
+    Raises
+    ------
+    ValueError
+        If a last axis is not 3, a value is not finite, or the shapes do not broadcast.
+
+    Notes
+    -----
+    Linear sRGB -> XYZ by the exact inverse of :data:`XYZ_TO_LINEAR_SRGB` (so the difference
+    of two results of :func:`xyz_to_linear_srgb` is that of their XYZ), XYZ -> CIELAB with
+    colour's D65 chromaticity as reference white (``Y_n = 1``), then
+    ``colour.delta_E(..., method="CIE 2000")``. As a rule of thumb, 1 is a just-noticeable
+    difference.
+
+    Examples
+    --------
+    >>> float(delta_e_2000([0.2, 0.3, 0.4], [0.2, 0.3, 0.4]))
+    0.0
+    """
+    a = linear_srgb_to_xyz(_xyz_array("rgb_a", rgb_a))
+    b = linear_srgb_to_xyz(_xyz_array("rgb_b", rgb_b))
+    check_broadcast(rgb_a=a.shape, rgb_b=b.shape)
+    a, b = np.broadcast_arrays(a, b)
+    lab_a = colour.XYZ_to_Lab(a, _D65_XY)
+    lab_b = colour.XYZ_to_Lab(b, _D65_XY)
+    return np.asarray(colour.delta_E(lab_a, lab_b, method="CIE 2000"), dtype=np.float64)
+
+
+# --------------------------------------------------------------------------- spectra
+
+
+def spectral_xyz(
+    reflectance_fn: Callable[[np.ndarray], np.ndarray] | np.ndarray,
+    wavelength_nm,
+    weights,
+) -> np.ndarray:
+    """Weighted sum ``sum_k R_k w_k`` of a sampled spectrum.
+
+    Parameters
+    ----------
+    reflectance_fn : callable or array_like
+        Either ``R`` itself, shape ``(..., K)``, sampled at ``wavelength_nm``, or a function
+        of the wavelengths (shape ``(K,)``) returning that array.
+    wavelength_nm : array_like
+        Shape ``(K,)``, nm: the nodes, e.g. from :func:`xyz_weights`.
+    weights : array_like
+        Shape ``(K, 3)``: XYZ weight of each node, e.g. from :func:`xyz_weights`.
+
+    Returns
+    -------
+    numpy.ndarray
+        XYZ, shape ``(..., 3)``.
+
+    Raises
+    ------
+    ValueError
+        If the shapes disagree or a value is not finite.
+
+    Examples
+    --------
+    >>> wavelength, weights = xyz_weights()
+    >>> xyz = spectral_xyz(np.full((2, 471), 0.5), wavelength, weights)
+    >>> xyz.shape, bool(np.allclose(xyz[:, 1], 0.5))
+    ((2, 3), True)
+    """
+    wavelength = _real_array("wavelength_nm", wavelength_nm)
+    weight = _real_array("weights", weights)
+    if wavelength.ndim != 1 or weight.shape != (wavelength.size, 3):
+        raise ValueError(
+            f"wavelength_nm must have shape (K,) and weights (K, 3), got {wavelength.shape} and "
+            f"{weight.shape}"
+        )
+    values = reflectance_fn(wavelength) if callable(reflectance_fn) else reflectance_fn
+    reflectance = _real_array("reflectance_fn", values)
+    if reflectance.ndim == 0 or reflectance.shape[-1] != wavelength.size:
+        raise ValueError(
+            f"reflectance_fn must give shape (..., {wavelength.size}), got {reflectance.shape}"
+        )
+    return reflectance @ weight

@@ -1,0 +1,2 @@
+"""Light: equirectangular environment maps, procedural environments, prefiltered environments
+and the image-based-lighting reflectance terms."""

@@ -1,0 +1,180 @@
+"""The procedural environments of the path tracer in float64 numpy: the twin of
+``environment_radiance`` in ``wgsl/render/renderer_scene.wgsl``, for references and tests.
+
+An environment is light arriving from infinitely far away, a function of the unit direction
+``d`` it arrives from (pointing away from the scene, +y up, as :mod:`wgbragg.render.renderer`):
+
+- ``"uniform"``: the scene's constant ``radiance`` in every direction, no disc;
+- ``"sky"`` and ``"studio"``: for ``d_y >= 0`` a gradient from the horizon colour to the
+  zenith colour by ``sqrt(d_y)``, the ground colour below, and a disc source (the sun, the
+  studio's key light) whose radiance is added within its angular radius; every radiance is
+  the palette's times ``intensity`` (:data:`PALETTES`). The renderer uploads these very
+  parameters (:meth:`ProceduralEnvironment.from_scene`), so the twin cannot drift from it.
+
+Radiance is in the scene's relative units per linear sRGB channel (a uniform environment of
+radiance 1 around a white Lambertian object makes it appear with radiance 1); angles are in
+degrees where a palette gives them. EXR environments are images, not formulas: their float64
+twin is :mod:`wgbragg.lighting.environment_map`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from wgbragg.scene.model import Environment
+
+__all__ = ["PALETTES", "PROCEDURAL_TYPES", "ProceduralEnvironment", "environment_radiance"]
+
+PALETTES = {
+    "sky": ((0.25, 0.45, 0.9), (0.9, 0.95, 1.0), (0.1, 0.1, 0.1), 80.0, 2.5, 50.0, 30.0),
+    "studio": ((0.6, 0.6, 0.6), (0.35, 0.35, 0.35), (0.03, 0.03, 0.03), 6.0, 15.0, 45.0, -45.0),
+}
+"""Per type: zenith, horizon and ground colours, disc radiance, disc radius (deg), disc
+elevation (deg) and azimuth (deg, from +z towards +x)."""
+
+PROCEDURAL_TYPES = ("uniform", "sky", "studio")
+"""``Environment.type`` values this module evaluates."""
+
+
+@dataclasses.dataclass(frozen=True)
+class ProceduralEnvironment:
+    """The parameters of a procedural environment as the renderer uploads them.
+
+    Build one with :meth:`from_scene`.
+
+    Parameters
+    ----------
+    zenith, horizon, ground : numpy.ndarray, shape (3,)
+        Linear sRGB radiance straight up, at the horizon (``d_y = 0``) and below it.
+    disc_radiance : numpy.ndarray, shape (3,)
+        Linear sRGB radiance added inside the disc (zeros without one).
+    disc_cos : float
+        Cosine of the disc's angular radius; 1 without a disc (then nothing lies inside it
+        since ``disc_direction`` is zero).
+    disc_direction : numpy.ndarray, shape (3,)
+        Unit direction towards the disc's centre, zeros without a disc.
+    """
+
+    zenith: np.ndarray
+    horizon: np.ndarray
+    ground: np.ndarray
+    disc_radiance: np.ndarray
+    disc_cos: float
+    disc_direction: np.ndarray
+
+    @classmethod
+    def from_scene(cls, environment: Environment) -> ProceduralEnvironment:
+        """The parameters of a scene's procedural environment, as the renderer uploads them.
+
+        Parameters
+        ----------
+        environment : wgbragg.scene.model.Environment
+            Of type ``"uniform"``, ``"sky"`` or ``"studio"``.
+
+        Returns
+        -------
+        ProceduralEnvironment
+
+        Raises
+        ------
+        ValueError
+            For an ``"exr"`` environment (see :mod:`wgbragg.lighting.environment_map`) or an unknown
+            type.
+        """
+        if environment.type == "exr":
+            raise ValueError("an 'exr' environment is an image, not a procedural environment: "
+                             "evaluate it with wgbragg.lighting.environment_map")
+        if environment.type not in PROCEDURAL_TYPES:
+            raise ValueError(f"environment.type must be one of {PROCEDURAL_TYPES}, got "
+                             f"{environment.type!r}")
+        zeros = np.zeros(3)
+        if environment.type == "uniform":
+            radiance = np.asarray(environment.radiance, np.float64)
+            return cls(radiance, radiance, radiance, zeros, 1.0, zeros)
+        zenith, horizon, ground, disc, radius_deg, elevation_deg, azimuth_deg = (
+            PALETTES[environment.type])
+        scale = float(environment.intensity)
+        elevation, azimuth = math.radians(elevation_deg), math.radians(azimuth_deg)
+        # Azimuth from +z towards +x, elevation from the horizon towards +y.
+        direction = np.array([math.cos(elevation) * math.sin(azimuth), math.sin(elevation),
+                              math.cos(elevation) * math.cos(azimuth)])
+        return cls(np.multiply(zenith, scale), np.multiply(horizon, scale),
+                   np.multiply(ground, scale), np.full(3, disc * scale),
+                   math.cos(math.radians(radius_deg)), direction)
+
+    @property
+    def has_disc(self) -> bool:
+        """Whether a disc source (the sun, a key light) adds radiance somewhere."""
+        return bool(np.any(self.disc_radiance > 0.0) and np.any(self.disc_direction != 0.0))
+
+    @property
+    def disc_solid_angle(self) -> float:
+        """Solid angle of the disc in sr, ``2 pi (1 - disc_cos)`` (0 without one)."""
+        return 2.0 * math.pi * (1.0 - self.disc_cos) if self.has_disc else 0.0
+
+    def radiance(self, directions, disc: bool = True) -> np.ndarray:
+        """Radiance arriving from unit ``directions``.
+
+        Parameters
+        ----------
+        directions : array_like, shape (..., 3)
+            Unit directions towards the environment (+y up).
+        disc : bool
+            Add the disc; without it, the gradient and ground alone, which quadratures can
+            integrate apart from the disc's sharp edge.
+
+        Returns
+        -------
+        numpy.ndarray, shape (..., 3), float64
+            Linear sRGB radiance.
+        """
+        d = np.asarray(directions, np.float64)
+        if d.ndim == 0 or d.shape[-1] != 3:
+            raise ValueError(f"directions must have a trailing axis of length 3, got shape "
+                             f"{d.shape}")
+        up = d[..., 1:2]
+        # As the shader: the gradient for d_y >= 0 (sqrt of d_y), the ground below.
+        sky = np.where(up >= 0.0,
+                       self.horizon + np.sqrt(np.maximum(up, 0.0)) * (self.zenith - self.horizon),
+                       self.ground)
+        if disc and self.has_disc:
+            inside = (d @ self.disc_direction >= self.disc_cos)[..., None]
+            sky = sky + np.where(inside, self.disc_radiance, 0.0)
+        return sky
+
+
+def environment_radiance(environment: Environment, directions) -> np.ndarray:
+    """Radiance of a procedural environment arriving from unit ``directions``, in float64.
+
+    The twin of ``environment_radiance`` in ``wgsl/render/renderer_scene.wgsl``, with the parameters
+    :mod:`wgbragg.render.renderer` uploads for the environment (see the module docstring).
+
+    Parameters
+    ----------
+    environment : wgbragg.scene.model.Environment
+        Of type ``"uniform"``, ``"sky"`` or ``"studio"``.
+    directions : array_like, shape (..., 3)
+        Unit directions towards the environment, in the scene's axes (+y up).
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 3), float64
+        Linear sRGB radiance in the scene's relative units.
+
+    Raises
+    ------
+    ValueError
+        For an ``"exr"`` environment (use :mod:`wgbragg.lighting.environment_map`), an unknown type,
+        or directions without a trailing axis of 3.
+
+    Examples
+    --------
+    >>> from wgbragg.scene.model import Environment
+    >>> studio = Environment("studio", intensity=2.0)
+    >>> environment_radiance(studio, [[0.0, 1.0, 0.0], [0.0, -1.0, 0.0]]).tolist()
+    [[1.2, 1.2, 1.2], [0.06, 0.06, 0.06]]
+    """
+    return ProceduralEnvironment.from_scene(environment).radiance(directions)
