@@ -13,16 +13,14 @@ from wgbragg.colour import reference as colour_reference
 from wgbragg.colour.colorimetry import delta_e_2000, xyz_to_linear_srgb
 from wgbragg.colour.landmark_methods import (
     AVERAGING_MIN_PERIODS,
-    COLOUR_METHODS,
     EXACT_MIN_OSCILLATION_NM,
     PANEL_NM,
     PANELS_PER_OSCILLATION,
-    THIN_FILM_COLOUR_METHODS,
     _quadrature,
     _zones,
     angular_correction,
-    option_names,
 )
+from wgbragg.colour.methods import COLOUR_METHODS, THIN_FILM_COLOUR_METHODS, option_names
 
 THETA = np.radians(np.arange(0.0, 90.0, 15.0))
 GRID = [(period, fraction, N) for period, fraction in itertools.product((244.0, 500.0, 988.0),

@@ -40,7 +40,7 @@ import pytest
 from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer, ShiftedPoints
 from wgbragg import gpu
 from wgbragg.bsdf.layered import model_gpu as layered_gpu
-from wgbragg.bsdf.layered.model import _refract_in
+from wgbragg.bsdf.layered.model import refract_in
 from wgbragg.bsdf.transmission_filter import TransmissionFilter
 
 pytestmark = pytest.mark.gpu
@@ -249,7 +249,7 @@ def near_component_boundary(s, wi, u):
     n = s.host_index
     fresnel = s.coating_reflectance(wi)
     pick = (u[:, 0] - fresnel) / (1.0 - fresnel)
-    edges = np.cumsum(s._component_probabilities(_refract_in(wi, n)[:, 2], "numpy"), axis=-1)
+    edges = np.cumsum(s._component_probabilities(refract_in(wi, n)[:, 2], "numpy"), axis=-1)
     near_pick = np.min(np.abs(pick[:, None] - edges), axis=-1) < PICK_MARGIN
     return near_pick | (np.abs(u[:, 0] - fresnel) < PICK_MARGIN)
 
@@ -634,7 +634,7 @@ def test_plain_transmissivity_tables_give_the_quads_results(structures, monkeypa
     plain = dataclasses.replace(structures["two-layers"])
     got = plain.sample(wi, u, backend="gpu", colour_method="hero")
     for layout, s in ((True, with_quads), (False, plain)):
-        variant = layered_gpu._variant(s, "spectral", False, "hero")
+        variant = layered_gpu.gpu_variant(s, "spectral", False, "hero")
         assert variant.constants["TRANSMISSIVITY_QUADS"] is layout
     for a, b in zip(got, expected, strict=True):
         np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-7)

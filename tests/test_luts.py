@@ -18,6 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from wgbragg.bsdf import filter_cache
+from wgbragg.colour import tables
 from wgbragg.common import luts
 
 KIND = "test-ramp"
@@ -460,11 +462,11 @@ def fake_filter(monkeypatch) -> types.ModuleType:
 
 def test_transmission_filter_through_the_cache(cache, fake_filter):
     events = []
-    baked = luts.transmission_filter(0.2, 10, 16, backend="numpy", progress=events.append)
+    baked = filter_cache.transmission_filter(0.2, 10, 16, backend="numpy", progress=events.append)
     # Read again in this process: the same object, the file not even reopened.
-    assert luts.transmission_filter(0.2, 10.0, 16, backend="gpu") is baked
-    luts._loaded_filters.clear()  # as a new process would
-    loaded = luts.transmission_filter(0.2, 10.0, 16, backend="gpu", progress=events.append)
+    assert filter_cache.transmission_filter(0.2, 10.0, 16, backend="gpu") is baked
+    filter_cache._loaded_filters.clear()  # as a new process would
+    loaded = filter_cache.transmission_filter(0.2, 10.0, 16, backend="gpu", progress=events.append)
     assert fake_filter.bakes == [(0.2, 10.0, 16, "numpy")]  # backend is not in the key
     assert [e.action for e in events] == ["baked", "loaded"]
     assert events[0].kind == "transmission-filter"
@@ -473,31 +475,31 @@ def test_transmission_filter_through_the_cache(cache, fake_filter):
     for name in ("theta_i", "theta_d", "values", "weights"):
         np.testing.assert_array_equal(getattr(loaded, name), getattr(baked, name))
     assert loaded.values.shape == (10, 9)
-    luts.transmission_filter(0.4, 10, 16, backend="numpy")
+    filter_cache.transmission_filter(0.4, 10, 16, backend="numpy")
     assert len(fake_filter.bakes) == 2 and len(list(cache.iterdir())) == 2
 
 
 def test_shared_filter_is_dropped_when_its_file_changes(cache, fake_filter):
     """A file rewritten (or removed) since it was read is read and verified again, so a
     corrupted file is never served from memory either."""
-    first = luts.transmission_filter(0.2, 10, 16, backend="numpy")
-    path = luts.lut_path(luts.TRANSMISSION_FILTER, luts.transmission_filter_parameters(0.2, 10,
+    first = filter_cache.transmission_filter(0.2, 10, 16, backend="numpy")
+    path = luts.lut_path(luts.TRANSMISSION_FILTER, filter_cache.transmission_filter_parameters(0.2, 10,
                                                                                        16))
     path.write_bytes(path.read_bytes()[:-10])  # truncated
     events = []
     with pytest.warns(luts.LutWarning):
-        again = luts.transmission_filter(0.2, 10, 16, backend="numpy", progress=events.append)
+        again = filter_cache.transmission_filter(0.2, 10, 16, backend="numpy", progress=events.append)
     assert again is not first and [e.action for e in events] == ["re-baked"]
-    assert luts.transmission_filter(0.2, 10, 16, backend="numpy") is again
+    assert filter_cache.transmission_filter(0.2, 10, 16, backend="numpy") is again
     events.clear()
-    unshared = luts.transmission_filter(0.2, 10, 16, backend="numpy", shared=False,
+    unshared = filter_cache.transmission_filter(0.2, 10, 16, backend="numpy", shared=False,
                                         progress=events.append)
     assert unshared is not again and [e.action for e in events] == ["loaded"]
-    assert luts.transmission_filter(0.2, 10, 16, backend="numpy", force=True) is not again
+    assert filter_cache.transmission_filter(0.2, 10, 16, backend="numpy", force=True) is not again
 
 
 def test_transmission_filter_parameters_are_normalised():
-    parameters = luts.transmission_filter_parameters(np.float32(0.5), 5, 64.0)
+    parameters = filter_cache.transmission_filter_parameters(np.float32(0.5), 5, 64.0)
     assert parameters["alpha"] == 0.5 and type(parameters["alpha"]) is float
     assert type(parameters["resolution_deg"]) is float
     assert parameters["psi_samples"] == 64 and type(parameters["psi_samples"]) is int
@@ -524,17 +526,17 @@ def test_transmission_filter_parameters_are_normalised():
 )
 def test_transmission_filter_rejects_bad_parameters(cache, fake_filter, arguments, message):
     with pytest.raises(ValueError, match=message):
-        luts.transmission_filter(**{"alpha": 0.1, **arguments})
+        filter_cache.transmission_filter(**{"alpha": 0.1, **arguments})
     assert fake_filter.bakes == [] and not cache.exists()
 
 
 def test_real_transmission_filter_round_trip(cache):
     """The real module, once it exists: a tiny numpy bake, then the same filter from disk."""
     module = pytest.importorskip("wgbragg.bsdf.transmission_filter")
-    baked = luts.transmission_filter(0.3, 5, 64, backend="numpy")
-    luts._loaded_filters.clear()  # as a new process would
+    baked = filter_cache.transmission_filter(0.3, 5, 64, backend="numpy")
+    filter_cache._loaded_filters.clear()  # as a new process would
     events = []
-    loaded = luts.transmission_filter(0.3, 5, 64, backend="numpy", progress=events.append)
+    loaded = filter_cache.transmission_filter(0.3, 5, 64, backend="numpy", progress=events.append)
     assert [e.action for e in events] == ["loaded"]
     assert isinstance(loaded, module.TransmissionFilter)
     for name in ("theta_i", "theta_d", "values", "weights"):
@@ -550,8 +552,8 @@ def test_colour_tables_match_colorimetry(cache):
     from wgbragg.colour import colorimetry
 
     events = []
-    baked = luts.colour_tables(progress=events.append)
-    loaded = luts.colour_tables(progress=events.append)
+    baked = tables.colour_tables(progress=events.append)
+    loaded = tables.colour_tables(progress=events.append)
     assert [e.action for e in events] == ["baked", "loaded"]
     _assert_same(loaded, baked)
     wavelength, weights = colorimetry.xyz_weights()

@@ -145,13 +145,13 @@ def test_gpu_backend_validates_before_touching_the_device(thing, wavelength, the
                                                           monkeypatch):
     """backend="gpu" checks the same things first: the kernels are never reached."""
     from wgbragg import gpu
-    from wgbragg.optics import kernels
+    from wgbragg.optics import thin_film_gpu, yeh_gpu
 
     def forbidden(*args, **kwargs):
         raise AssertionError("the GPU was reached with invalid input")
 
-    monkeypatch.setattr(kernels, "bragg_reflectance", forbidden)
-    monkeypatch.setattr(kernels, "thin_film_reflectance", forbidden)
+    monkeypatch.setattr(yeh_gpu, "bragg_reflectance", forbidden)
+    monkeypatch.setattr(thin_film_gpu, "thin_film_reflectance", forbidden)
     monkeypatch.setattr(gpu, "get_device", forbidden)
     monkeypatch.setattr(gpu, "compute_pipeline", forbidden)
     with pytest.raises(ValueError, match=names(name)):
@@ -322,13 +322,14 @@ def test_polarization_must_be_one_string(thing, polarization, backend, monkeypat
     kernel's dict lookup raised TypeError (unhashable), and two elements numpy's ambiguous
     truth value."""
     from wgbragg import gpu
-    from wgbragg.optics import kernels
+    from wgbragg.optics import pointwise_gpu, thin_film_gpu, yeh_gpu
 
     def forbidden(*args, **kwargs):
         raise AssertionError("the GPU was reached with invalid input")
 
     monkeypatch.setattr(gpu, "compute_pipeline", forbidden)
-    monkeypatch.setattr(kernels, "_evaluate", forbidden)
+    for module in (pointwise_gpu, yeh_gpu, thin_film_gpu):
+        monkeypatch.setattr(module, "evaluate_pointwise", forbidden, raising=False)
     with pytest.raises(ValueError, match=names("polarization")):
         thing.reflectance(550.0, 0.1, polarization, backend)
 

@@ -1,5 +1,5 @@
 // Test kernel: the GGX functions of bsdf/microfacet.wgsl at one roughness, for comparison with
-// wgbragg.microfacet. Per element: values = (D(m_z), G1(wi_z), pdf(wi, m), 0) and
+// wgbragg.bsdf.microfacet. Per element: values = (D(m_z), G1(wi_z), pdf(wi, m), 0) and
 // sampled = (m(wi, u), 0). Directions are vec4 with w unused (the storage stride of vec3).
 //! include "gpu/harness.wgsl"
 //! include "gpu/numerics.wgsl"

@@ -107,24 +107,26 @@ def _report(event) -> None:
 def _bake(args) -> int:
     from tqdm import tqdm
 
+    from wgbragg.bsdf import filter_cache
+    from wgbragg.colour import tables
     from wgbragg.common import luts
 
     # Every parameter is checked before the first bake, so a bad value at the end of the list
     # does not surface only after minutes of baking the others.
     for alpha in args.alpha:
-        luts.transmission_filter_parameters(alpha, args.resolution_deg, args.psi_samples)
+        filter_cache.transmission_filter_parameters(alpha, args.resolution_deg, args.psi_samples)
     if args.cache is not None:
         if not args.cache:  # Path("") is the current folder
             raise ValueError("--cache must be a folder path, got ''")
         check_output_folder(args.cache, "--cache")
     jobs = [
         # shared=False: baking means checking every file, even one read before.
-        functools.partial(luts.transmission_filter, alpha, args.resolution_deg,
+        functools.partial(filter_cache.transmission_filter, alpha, args.resolution_deg,
                           args.psi_samples, args.backend, shared=False)
         for alpha in args.alpha
     ]
     if args.colour_tables:
-        jobs.append(luts.colour_tables)
+        jobs.append(tables.colour_tables)
     if not jobs:
         raise ValueError("nothing to bake: give --alpha or leave --colour-tables on")
     with warnings.catch_warnings():

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wgbragg.common.atomic import atomic_path, check_output_path
-from wgbragg.common.validation import _as_float_array, check_material
+from wgbragg.common.validation import as_float_array, check_material
 
 __all__ = ["ReflectanceMap", "reflectance_map", "save_reflectance_map"]
 
@@ -48,8 +48,8 @@ def reflectance_map(material, *, wavelength_nm=None, theta=None, polarization="u
     wavelength = np.linspace(360.0, 830.0, 941) if wavelength_nm is None else wavelength_nm
     angle = np.radians(np.linspace(0.0, 90.0, 361)) if theta is None else theta
     # Ranges are the material's to check; here only what ravel needs (no strings, no NaN).
-    wavelength = _as_float_array("wavelength_nm", wavelength).ravel()
-    angle = _as_float_array("theta", angle).ravel()
+    wavelength = as_float_array("wavelength_nm", wavelength).ravel()
+    angle = as_float_array("theta", angle).ravel()
     values = material.reflectance(wavelength[None, :], angle[:, None], polarization, backend)
     return ReflectanceMap(material, wavelength, angle, values, polarization, backend)
 

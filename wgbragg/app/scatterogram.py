@@ -22,7 +22,10 @@ import os
 import numpy as np
 
 from wgbragg.common.atomic import atomic_path, check_output_path
-from wgbragg.common.validation import _as_float_array, check_angle, check_integer
+from wgbragg.common.validation import as_float_array, check_angle, check_integer
+from wgbragg.bsdf.materials import BraggMirror
+from wgbragg.bsdf.layered.model import LayeredBragg
+from wgbragg.bsdf.rough_layer import RoughBraggLayer
 
 __all__ = [
     "CIRCLES_DEG",
@@ -66,10 +69,6 @@ def jewel_beetle(area: str):
         One rough layer (alpha = 0.05) of the area's mirror, seen from air, over an absorbing
         base.
     """
-    from wgbragg.bsdf.materials import BraggMirror
-    from wgbragg.bsdf.layered.model import LayeredBragg
-    from wgbragg.bsdf.rough_layer import RoughBraggLayer
-
     if area not in JEWEL_BEETLE_AREAS:
         raise ValueError(f"area must be one of {tuple(JEWEL_BEETLE_AREAS)}, got {area!r}")
     p = JEWEL_BEETLE_AREAS[area]
@@ -133,7 +132,7 @@ def scatterogram(structure, theta_i=0.0, phi_i=0.0, size=256, method="single-ref
     theta = check_angle(theta_i, "theta_i")
     if theta.ndim != 0 or theta >= np.pi / 2:
         raise ValueError(f"theta_i must be one angle in [0, pi/2) radians, got {theta_i!r}")
-    phi = _as_float_array("phi_i", phi_i)
+    phi = as_float_array("phi_i", phi_i)
     if phi.ndim != 0 or not np.isfinite(phi):
         raise ValueError(f"phi_i must be one finite angle in radians, got {phi_i!r}")
     theta, phi_i = float(theta), float(phi)

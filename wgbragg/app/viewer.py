@@ -58,7 +58,7 @@ import types
 
 import numpy as np
 
-from wgbragg.common import luts
+from wgbragg.bsdf import filter_cache
 from wgbragg.common.validation import (
     check_count,
     check_extinction,
@@ -67,10 +67,10 @@ from wgbragg.common.validation import (
     check_thickness,
 )
 from wgbragg.colour.colorimetry import xyz_weights
-from wgbragg.colour.landmark_methods import COLOUR_METHODS
+from wgbragg.colour.methods import COLOUR_METHODS
 from wgbragg.bsdf.materials import BraggMirror
 from wgbragg.optics.metals import METALS
-from wgbragg.render.renderer import Renderer, _ibl_levels, display_transform
+from wgbragg.render.renderer import Renderer, ibl_levels, display_transform
 from wgbragg.scene.model import (
     ENVIRONMENT_TYPES,
     MAX_EXPOSURE,
@@ -287,7 +287,7 @@ def _strip_angles(samples) -> np.ndarray:
 def _filtered_ibl_allowed(scene: Scene) -> bool:
     """Whether filtered image-based lighting can shade ``scene`` (no smooth coating)."""
     try:
-        _ibl_levels(scene, PREVIEW_IBL, "rgb")
+        ibl_levels(scene, PREVIEW_IBL, "rgb")
     except ValueError:
         return False
     return True
@@ -325,7 +325,7 @@ class Viewer:
         The scene's ``settings.mode`` by default.
     colour_method : str
         RGB mode's layer colours, and the colour strip's: one of
-        :data:`wgbragg.colour.landmark_methods.COLOUR_METHODS`.
+        :data:`wgbragg.colour.methods.COLOUR_METHODS`.
     seed : int
         Renderer seed: the same edits and frames give the same images.
     max_bounces : int
@@ -622,7 +622,7 @@ class Viewer:
             lowest go first.
         mode : {"rgb", "spectral"}
         colour_method : str
-            One of :data:`wgbragg.colour.landmark_methods.COLOUR_METHODS`.
+            One of :data:`wgbragg.colour.methods.COLOUR_METHODS`.
         environment : str
             One of :attr:`environments`.
         yaw_deg, pitch_deg : float
@@ -849,7 +849,7 @@ class Viewer:
         """Time the roughness's filter, which the renderer's update then finds in memory."""
         events = []
         start = time.perf_counter()
-        luts.transmission_filter(alpha, progress=events.append)
+        filter_cache.transmission_filter(alpha, progress=events.append)
         budgets = self.budgets
         budgets.filter_s = time.perf_counter() - start
         budgets.filter_source = events[-1].action if events else "in memory"

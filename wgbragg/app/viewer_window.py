@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 from wgbragg import gpu
-from wgbragg.colour.landmark_methods import COLOUR_METHODS
+from wgbragg.colour.methods import COLOUR_METHODS
 from wgbragg.app.viewer import (
     FILM_COLOUR_METHOD,
     FILTER_BUDGET_S,

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wgbragg.common.validation import _as_float_array, check_broadcast, check_directions
+from wgbragg.common.validation import as_float_array, check_broadcast, check_directions
 
 __all__ = [
     "ALPHA_MAX",
@@ -44,14 +44,14 @@ ALPHA_MAX = 1.0
 
 def check_alpha(value, name: str = "alpha", low: float = ALPHA_MIN) -> np.ndarray:
     """GGX roughness in [``low``, :data:`ALPHA_MAX`] as a float64 array."""
-    array = _as_float_array(name, value)
+    array = as_float_array(name, value)
     if not np.all((array >= low) & (array <= ALPHA_MAX)):
         raise ValueError(f"{name} must be in [{low:g}, {ALPHA_MAX:g}]")
     return array
 
 
 def _check_cosine(value, name: str) -> np.ndarray:
-    array = _as_float_array(name, value)
+    array = as_float_array(name, value)
     if not np.all((array >= -1.0) & (array <= 1.0)):
         raise ValueError(f"{name} must be in [-1, 1]")
     return array
@@ -62,7 +62,7 @@ def _sin2(cos: np.ndarray) -> np.ndarray:
     return (1.0 - cos) * (1.0 + cos)
 
 
-def _D(cos: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+def ggx_D_unchecked(cos: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     a2 = alpha * alpha
     # cos^4 (alpha^2 + tan^2)^2 = (alpha^2 cos^2 + sin^2)^2: no tangent, finite at the horizon.
     denominator = a2 * cos * cos + _sin2(cos)
@@ -71,7 +71,7 @@ def _D(cos: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     return np.where(cos > 0.0, value, 0.0)
 
 
-def _G1_over_cos(cos: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+def ggx_G1_over_cos(cos: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     """G1 / cos theta = 2 / (cos + sqrt(cos^2 + alpha^2 sin^2)), finite at cos = 0."""
     return 2.0 / (cos + np.sqrt(cos * cos + alpha * alpha * _sin2(cos)))
 
@@ -109,7 +109,7 @@ def ggx_D(cos_theta_m, alpha) -> np.ndarray:
     cos = _check_cosine(cos_theta_m, "cos_theta_m")
     alpha = check_alpha(alpha)
     check_broadcast(cos_theta_m=cos.shape, alpha=alpha.shape)
-    return _D(cos, alpha)
+    return ggx_D_unchecked(cos, alpha)
 
 
 def ggx_G1(cos_theta, alpha) -> np.ndarray:
@@ -147,7 +147,7 @@ def ggx_G1(cos_theta, alpha) -> np.ndarray:
     cos = _check_cosine(cos_theta, "cos_theta")
     alpha = check_alpha(alpha)
     check_broadcast(cos_theta=cos.shape, alpha=alpha.shape)
-    return np.where(cos > 0.0, cos * _G1_over_cos(np.maximum(cos, 0.0), alpha), 0.0)
+    return np.where(cos > 0.0, cos * ggx_G1_over_cos(np.maximum(cos, 0.0), alpha), 0.0)
 
 
 def ggx_sample_visible_normal(wi, u, alpha) -> np.ndarray:
@@ -185,7 +185,7 @@ def ggx_sample_visible_normal(wi, u, alpha) -> np.ndarray:
     Heitz 2018, listing 1.
     """
     wi = check_directions(wi, "wi", upper=True)
-    u = _as_float_array("u", u)
+    u = as_float_array("u", u)
     if u.ndim == 0 or u.shape[-1] != 2:
         raise ValueError(f"u must have a trailing axis of length 2, got shape {u.shape}")
     if not np.all((u >= 0.0) & (u <= 1.0)):
@@ -252,7 +252,7 @@ def ggx_visible_normal_pdf(wi, m, alpha) -> np.ndarray:
     check_broadcast(wi=wi.shape[:-1], m=m.shape[:-1], alpha=alpha.shape)
     cos_wm = np.maximum(np.sum(wi * m, axis=-1), 0.0)
     cos_m = np.clip(m[..., 2], -1.0, 1.0)
-    return _G1_over_cos(np.clip(wi[..., 2], 0.0, 1.0), alpha) * cos_wm * _D(cos_m, alpha)
+    return ggx_G1_over_cos(np.clip(wi[..., 2], 0.0, 1.0), alpha) * cos_wm * ggx_D_unchecked(cos_m, alpha)
 
 
 def half_vector(wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
@@ -271,7 +271,7 @@ def half_vector(wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
     -----
     The sum is scaled by its largest component before it is normalised: at grazing
     ``wi + wo`` can be 1e-300, whose square underflows to 0 (the float32 twin is
-    ``half_vector`` of ``wgsl/bsdf/layered/model_directions.wgsl``).
+    ``half_vector`` of ``wgsl/bsdf/layered/coating.wgsl``).
     """
     h = wi + wo
     h = h / np.max(np.abs(h), axis=-1, keepdims=True)

@@ -24,12 +24,13 @@ import numpy as np
 
 from wgbragg.colour import colorimetry
 from wgbragg import gpu
-from wgbragg.optics import kernels
+from wgbragg.optics import pointwise_gpu, yeh_gpu
 from wgbragg.common.validation import check_angle, check_backend, check_broadcast, check_wavelength
 from wgbragg.bsdf.materials import BraggMirror
 from wgbragg.bsdf.microfacet import ggx_G1
 from wgbragg.optics.yeh import cell_coefficients, yeh_reflectance
 from wgbragg.bsdf.transmission_filter import TransmissionFilter, check_filter_alpha
+from wgbragg.bsdf import filter_cache
 
 __all__ = ["RoughBraggLayer"]
 
@@ -178,7 +179,7 @@ class RoughBraggLayer:
         GGX roughness in [0.01, 1].
     transmission_filter : TransmissionFilter, optional
         The filter of ``alpha``; by default the cached one at 0.25 degrees and 1000 azimuth
-        samples (:func:`wgbragg.common.luts.transmission_filter`, baked on the GPU on first use).
+        samples (:func:`wgbragg.common.filter_cache.transmission_filter`, baked on the GPU on first use).
 
     Raises
     ------
@@ -215,9 +216,8 @@ class RoughBraggLayer:
         """The transmission filter F_alpha in use (baked or loaded on first access)."""
         if self.transmission_filter is not None:
             return self.transmission_filter
-        from wgbragg.common import luts
 
-        return luts.transmission_filter(self.alpha)
+        return filter_cache.transmission_filter(self.alpha)
 
     # ------------------------------------------------------------------ eq 28
 
@@ -301,19 +301,19 @@ class RoughBraggLayer:
         weights, theta_d, ends = _filter_on_gpu(self.filter)
         rows, quads = weights.shape[:2]
         n = wavelength.size
-        mirror = kernels.bragg_params(m.n1, m.n2, m.d1, m.d2, m.N, m.host)
+        mirror = yeh_gpu.bragg_params(m.n1, m.n2, m.d1, m.d2, m.N, m.host)
         wavelength = gpu.DeviceArray.upload(wavelength.astype(np.float32))
         cell_means = self._cell_means
         passes = []
         if cell_means:
             passes.append(gpu.compute_pipeline(
                 "bsdf/rough_layer_phases.wgsl",
-                constants={"WORKGROUP_SIZE": kernels.WORKGROUP_SIZE},
+                constants={"WORKGROUP_SIZE": pointwise_gpu.WORKGROUP_SIZE},
             ).bind([wavelength, ends], [((ends.shape[0] * n, 2), np.float32)], mirror))
         phases = passes[0].outputs[0] if cell_means else np.zeros((1, 2), np.float32)
         transmittance = gpu.compute_pipeline(
             "bsdf/rough_layer_transmittance.wgsl",
-            constants={"WORKGROUP_SIZE": kernels.WORKGROUP_SIZE, "HOST_MATCHED": self.ballistic,
+            constants={"WORKGROUP_SIZE": pointwise_gpu.WORKGROUP_SIZE, "HOST_MATCHED": self.ballistic,
                        "CELL_MEANS": cell_means},
         ).bind([wavelength, theta_d, phases], [(4 * quads * n, np.float32)], mirror)
         params = np.zeros((), _PARAMS_DTYPE)

@@ -40,7 +40,7 @@ import numbers
 import numpy as np
 
 from wgbragg.common.validation import (
-    _as_float_array,
+    as_float_array,
     check_angle,
     check_broadcast,
     check_directions,
@@ -48,13 +48,14 @@ from wgbragg.common.validation import (
 )
 from wgbragg.bsdf.materials import ThinFilm
 from wgbragg.bsdf.microfacet import (
-    _D,
-    _G1_over_cos,
+    ggx_D_unchecked,
+    ggx_G1_over_cos,
     check_alpha,
     ggx_sample_visible_normal,
     half_vector,
 )
 from wgbragg.colour.thin_film import DEFAULT_ORDER, FOURIER_METHODS
+from wgbragg.colour.thin_film import check_order
 
 __all__ = [
     "ALPHA_MIN",
@@ -93,7 +94,7 @@ def _check_method(method) -> str:
 
 
 def _check_unit_cosine(value, name: str) -> np.ndarray:
-    array = _as_float_array(name, value)
+    array = as_float_array(name, value)
     if not np.all((array >= 0.0) & (array <= 1.0)):
         raise ValueError(f"{name} must be in [0, 1]")
     return array
@@ -228,9 +229,9 @@ def _quadrature(cos_v: np.ndarray, alpha: np.ndarray, n: int, mirror: bool):
     # (v.m) / cos theta_m, written without the division that fails at theta_m = pi/2.
     projected = cv[..., None] + sv[..., None] * np.where(cm > 0.0, sm / np.where(
         cm > 0.0, cm, 1.0), 0.0) * cos_phi
-    g1_l = lz * _G1_over_cos(lz, a[..., None])
+    g1_l = lz * ggx_G1_over_cos(lz, a[..., None])
     # Half the circle (phi in [0, pi]) counted twice: 2 / (2 pi); dt = 2 u du.
-    weight = ((wu * 2.0 * u)[..., None] * wphi / np.pi * _G1_over_cos(cv, a)[..., None]
+    weight = ((wu * 2.0 * u)[..., None] * wphi / np.pi * ggx_G1_over_cos(cv, a)[..., None]
               * np.maximum(projected, 0.0) * g1_l)
     count = cos_v.size
     l, cos_d, weight = l.reshape(count, -1, 3), cos_d.reshape(count, -1), weight.reshape(count, -1)
@@ -306,8 +307,6 @@ class RoughThinFilm:
         wavelength = None if wavelength_nm is None else _spectral_wavelengths(wavelength_nm)
         method = _check_method(method)
         if method != "reference":
-            from wgbragg.colour.thin_film import check_order
-
             check_order(order)
         return wavelength, method
 
@@ -356,9 +355,9 @@ class RoughThinFilm:
         # h.wi = sqrt((1 + wi.wo) / 2): symmetric in wi and wo to the last bit.
         cos_d = np.sqrt(np.clip(0.5 * (1.0 + np.sum(wi * wo, axis=-1)), 0.0, 1.0))
         a = self.alpha
-        lobe = (0.25 * _D(np.clip(h[..., 2], -1.0, 1.0), a)
-                * _G1_over_cos(np.minimum(wi[..., 2], 1.0), a)
-                * _G1_over_cos(np.minimum(wo[..., 2], 1.0), a))
+        lobe = (0.25 * ggx_D_unchecked(np.clip(h[..., 2], -1.0, 1.0), a)
+                * ggx_G1_over_cos(np.minimum(wi[..., 2], 1.0), a)
+                * ggx_G1_over_cos(np.minimum(wo[..., 2], 1.0), a))
         lobe = np.where(up, lobe, 0.0)
         return lobe[..., None] * self._reflectance(cos_d, wavelength, method, order)
 
@@ -389,8 +388,8 @@ class RoughThinFilm:
         wo = np.where(up[..., None], wo, safe)
         h = half_vector(wi, wo)
         a = self.alpha
-        density = (0.25 * _G1_over_cos(np.minimum(wi[..., 2], 1.0), a)
-                   * _D(np.clip(h[..., 2], -1.0, 1.0), a))
+        density = (0.25 * ggx_G1_over_cos(np.minimum(wi[..., 2], 1.0), a)
+                   * ggx_D_unchecked(np.clip(h[..., 2], -1.0, 1.0), a))
         return np.where(up, density, 0.0)
 
     def sample(self, wi, u, wavelength_nm=None, method="fourier-table", order=DEFAULT_ORDER):
@@ -434,7 +433,7 @@ class RoughThinFilm:
         wo = wo / np.linalg.norm(wo, axis=-1, keepdims=True)
         above = wo[..., 2] > 0.0
         g1 = np.where(above, np.clip(wo[..., 2], 0.0, 1.0)
-                      * _G1_over_cos(np.clip(wo[..., 2], 0.0, 1.0), self.alpha), 0.0)
+                      * ggx_G1_over_cos(np.clip(wo[..., 2], 0.0, 1.0), self.alpha), 0.0)
         weight = g1[..., None] * self._reflectance(cos_d, wavelength, method, order)
         return wo, weight, self.pdf(wi, wo)
 

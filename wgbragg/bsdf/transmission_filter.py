@@ -30,13 +30,13 @@ import numpy as np
 
 from wgbragg import gpu
 from wgbragg.common.validation import (
-    _as_float_array,
+    as_float_array,
     check_angle,
     check_backend,
     check_broadcast,
     check_count,
 )
-from wgbragg.bsdf.microfacet import _D, _G1_over_cos, check_alpha
+from wgbragg.bsdf.microfacet import ggx_D_unchecked, ggx_G1_over_cos, check_alpha
 
 __all__ = [
     "BAKE_PARAMS_DTYPE",
@@ -193,7 +193,7 @@ def _filter_from_terms(incident: np.ndarray, difference: np.ndarray, alpha: floa
     # D~ = alpha^2 / (pi d^2) of eq 18, with sin^2 theta_m from the accurate 1 - cos theta_m.
     d = alpha * alpha * cos_m * cos_m + one_minus_cos * (2.0 - one_minus_cos)
     psi_integral = alpha * alpha / np.pi * (1.0 / (d * d)).mean(axis=-1) * psi_max
-    prefactor = ci * _G1_over_cos(ci, alpha) ** 2 * 2.0 * cd * sd
+    prefactor = ci * ggx_G1_over_cos(ci, alpha) ** 2 * 2.0 * cd * sd
     return np.where(cos_delta > 0.0, prefactor * psi_integral, 0.0)
 
 
@@ -330,7 +330,7 @@ class TransmissionFilter:
         set_(self, "resolution_deg", _check_resolution(_unwrap(self.resolution_deg)))
         set_(self, "psi_samples", check_count("psi_samples", _unwrap(self.psi_samples)))
         for name in ("theta_i", "theta_d", "values", "weights"):
-            array = np.array(_as_float_array(name, getattr(self, name)), np.float64)
+            array = np.array(as_float_array(name, getattr(self, name)), np.float64)
             array.setflags(write=False)
             set_(self, name, array)
         if self.theta_i.ndim != 1 or self.theta_i.size < 2:
@@ -429,7 +429,7 @@ class TransmissionFilter:
         ValueError
             If the last axis of ``T`` is not ``len(theta_d)``.
         """
-        T = _as_float_array("T", T)
+        T = as_float_array("T", T)
         if T.ndim == 0 or T.shape[-1] != self.theta_d.size:
             raise ValueError(
                 f"T must have a last axis of len(theta_d) = {self.theta_d.size}, "
@@ -516,10 +516,10 @@ def ballistic_transmission_reference(T: Callable[[np.ndarray], np.ndarray], thet
         return 2.0 * quad(integrand, 0.0, phi_max, epsabs=epsabs, limit=200)[0]
 
     def polar(theta_m: float) -> float:
-        return float(_D(np.cos(theta_m), alpha)) * math.sin(theta_m) * azimuthal(theta_m)
+        return float(ggx_D_unchecked(np.cos(theta_m), alpha)) * math.sin(theta_m) * azimuthal(theta_m)
 
     split = min(10.0 * alpha, np.pi / 4)
     total = sum(quad(polar, lo, hi, epsabs=epsabs, limit=200)[0]
                 for lo, hi in ((0.0, split), (split, np.pi / 2)))
-    g1_over_cos = float(_G1_over_cos(ci, alpha))
+    g1_over_cos = float(ggx_G1_over_cos(ci, alpha))
     return ci * g1_over_cos**2 * total

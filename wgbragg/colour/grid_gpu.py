@@ -20,8 +20,8 @@ import numpy as np
 from wgbragg.colour import reference_gpu as colour_gpu
 from wgbragg.colour import grid as colour_grid
 from wgbragg import gpu
-from wgbragg.optics import kernels
-from wgbragg.colour.landmark_methods import _total_reflection
+from wgbragg.optics import yeh_gpu
+from wgbragg.colour.landmark_methods import total_reflection
 from wgbragg.optics.landmarks import VISIBLE_OMEGA
 
 __all__ = ["WORKGROUP_SIZE", "benchmark_grid_xyz", "grid_angle_inputs", "grid_xyz"]
@@ -46,7 +46,7 @@ def grid_angle_inputs(mirror, theta, averaging_from: int, panel_nm: float) -> np
     out = np.zeros((theta.size, 12), np.float32)
     out[:, :8] = colour_gpu.angle_inputs(mirror, theta)
     averaged = colour_grid.averaged_angles(mirror, theta, averaging_from, panel_nm)
-    total = _total_reflection(mirror, theta)
+    total = total_reflection(mirror, theta)
     out[:, 8] = np.where(total, MODE_TOTAL, np.where(averaged, MODE_AVERAGED, MODE_EXACT))
     return out
 
@@ -68,7 +68,7 @@ def _dispatch_inputs(mirror, theta, averaging_from: int, nodes: int, panel_nm: f
         "WORKGROUP_SIZE": WORKGROUP_SIZE,
     }
     kernel = gpu.compute_pipeline("colour/grid_bragg.wgsl", constants=constants)
-    params = kernels.bragg_params(mirror.n1, mirror.n2, mirror.d1, mirror.d2, mirror.N, mirror.host)
+    params = yeh_gpu.bragg_params(mirror.n1, mirror.n2, mirror.d1, mirror.d2, mirror.N, mirror.host)
     angle = np.asarray(theta, np.float64)
     inputs = [_weight_table(nodes),
               grid_angle_inputs(mirror, angle.ravel(), averaging_from, panel_nm)]

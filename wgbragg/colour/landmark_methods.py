@@ -1,5 +1,5 @@
-"""Colour methods: of a Bragg mirror from its spectral landmarks (numpy reference), and the
-registry of the thin-film methods (:mod:`wgbragg.colour.thin_film`).
+"""Colour of a Bragg mirror from its spectral landmarks (numpy reference; the GPU twin is
+:mod:`wgbragg.colour.landmark_methods_gpu`):
 
 - ``"approx"`` and ``"subdivided"``: the piecewise-constant spectra of Fourneau, Pacanowski &
   Barla 2024 (sec. 3.2.2, App. B), integrated with cumulative CMF tables (eq 15).
@@ -21,34 +21,27 @@ registry of the thin-film methods (:mod:`wgbragg.colour.thin_film`).
 
 from __future__ import annotations
 
-import inspect
-
 import numpy as np
 
 from wgbragg.colour import colorimetry
 from wgbragg.colour import grid as colour_grid
 from wgbragg.common.validation import check_angle, check_integer
 from wgbragg.colour.grid import GRID_NODES
-from wgbragg.optics.landmarks import VISIBLE_OMEGA, _ranges, find_landmarks_many
+from wgbragg.optics.landmarks import VISIBLE_OMEGA, integer_ranges, find_landmarks_many
 from wgbragg.optics.yeh import cell_coefficients, yeh_reflectance
-from wgbragg.colour.thin_film import DEFAULT_ORDER, FOURIER_METHODS, fourier_xyz
 
 __all__ = [
     "AVERAGING_MIN_PERIODS",
-    "COLOUR_METHODS",
     "EXACT_MIN_OSCILLATION_NM",
-    "GPU_COLOUR_METHODS",
     "MAX_AVERAGING_FROM",
     "MAX_PANELS_PER_OSCILLATION",
     "PANELS_PER_OSCILLATION",
     "PANEL_NM",
     "QUADRATURES",
-    "THIN_FILM_COLOUR_METHODS",
     "angular_correction",
     "approx_xyz",
     "averaged_xyz",
     "envelope",
-    "option_names",
 ]
 
 AVERAGING_MIN_PERIODS = 16
@@ -136,7 +129,7 @@ def _box_integral(lambda_lo, lambda_hi):
     return colorimetry.cumulative_xyz(lambda_hi) - colorimetry.cumulative_xyz(lambda_lo)
 
 
-def _total_reflection(mirror, theta):
+def total_reflection(mirror, theta):
     """Grazing incidence in n1, or beyond its critical angle: every wavelength is reflected."""
     return mirror.host * np.sin(theta) >= mirror.n1
 
@@ -179,7 +172,7 @@ def _approx_polarized(mirror, theta, polarization, subdivisions):
                 for part in (theta[:half], theta[half:])])
     starts = np.repeat(lo, pieces)
     widths = np.repeat((hi - lo) / pieces, pieces)
-    _, steps = _ranges(np.zeros(pieces.size, dtype=int), pieces)
+    _, steps = integer_ranges(np.zeros(pieces.size, dtype=int), pieces)
     omega_lo = starts + steps * widths
     omega_hi = omega_lo + widths
     piece_owner = np.repeat(owner, pieces)
@@ -236,7 +229,7 @@ def _per_angle(mirror, theta, colours):
         return mirror.reflectance(550.0, theta, "unpolarized")[..., None] * _white()
     flat = theta.reshape(-1)
     out = np.empty((flat.size, 3))
-    total = _total_reflection(mirror, flat)
+    total = total_reflection(mirror, flat)
     out[total] = _white()
     rest = np.flatnonzero(~total)
     # Mode intervals in view at any angle: n_plus <= n1 d1 + n2 d2 (q1 d1 <= n1 d1 past n2's
@@ -411,7 +404,7 @@ def _averaged_unpolarized(mirror, theta, averaging_from, panels_per_oscillation)
                                      averaging_from=averaging_from,
                                      panels_per_oscillation=panels_per_oscillation)
     nodes = 3 * panels
-    zone, step = _ranges(np.zeros(lo.size, dtype=int), nodes)
+    zone, step = integer_ranges(np.zeros(lo.size, dtype=int), nodes)
     panel, point = np.divmod(step, 3)
     u = (panel + _GAUSS_NODES[point]) / panels[zone]
     s, ds = _zone_map(u, lower_edge[zone], upper_edge[zone])
@@ -512,86 +505,6 @@ def check_panels_per_oscillation(value) -> int:
     return check_integer("panels_per_oscillation", value, 1, MAX_PANELS_PER_OSCILLATION)
 
 
-def option_names(method) -> tuple[str, ...]:
-    """The keyword options a colour method of :data:`COLOUR_METHODS` or
-    :data:`THIN_FILM_COLOUR_METHODS` takes (beyond material, theta and backend)."""
-    declared = getattr(method, "options", None)
-    if declared is not None:
-        return declared
-    return tuple(inspect.signature(method).parameters)[3:]
-
-
-def _landmark_method(function, gpu_twin, **fixed):
-    def method(material, theta, backend, **options):
-        if backend == "gpu":
-            # float32 WGSL twin (wgsl/colour/landmark_methods_bragg.wgsl), same options and errors.
-            from wgbragg.colour import landmark_methods_gpu as colour_landmarks_gpu
-
-            return getattr(colour_landmarks_gpu, gpu_twin)(material, theta, **options)
-        if backend != "numpy":
-            raise ValueError(
-                f"backend {backend!r} is not available for this method yet; GPU colour methods: "
-                f"{sorted(GPU_COLOUR_METHODS)}"
-            )
-        return function(material, theta, **fixed, **options)
-
-    method.options = tuple(name for name in tuple(inspect.signature(function).parameters)[2:]
-                           if name not in fixed)
-    return method
-
-
-def _reference(material, theta, backend):
-    from wgbragg.colour.reference import reference_xyz
-
-    return reference_xyz(material, theta, backend)
-
-
-def _spectral(material, theta, backend, samples=16, seed=None):
-    from wgbragg.colour.reference import spectral_xyz_stratified
-
-    return spectral_xyz_stratified(material, theta, samples, backend, seed)
-
-
-def _subdivided(mirror, theta, s=3):
-    return approx_xyz(mirror, theta, subdivisions=check_subdivisions(s))
-
-
 def check_subdivisions(s) -> int:
     """``s`` of "subdivided": an integer in [1, :data:`MAX_SUBDIVISIONS`], else ValueError."""
     return check_integer("s (subdivision quality)", s, 1, MAX_SUBDIVISIONS)
-
-
-def _approx_basic(mirror, theta):
-    return approx_xyz(mirror, theta)
-
-
-COLOUR_METHODS = {
-    "reference": _reference,
-    "spectral": _spectral,
-    "approx": _landmark_method(_approx_basic, "approx_xyz"),
-    "subdivided": _landmark_method(_subdivided, "subdivided_xyz"),
-    "averaged": _landmark_method(averaged_xyz, "averaged_xyz"),
-}
-"""Colour methods of :meth:`BraggMirror.xyz`, by name (``method=``)."""
-
-
-def _fourier(name):
-    def method(film, theta, backend, order=DEFAULT_ORDER, thickness_std_nm=0.0):
-        if backend == "gpu":
-            # float32 WGSL twin (wgsl/colour/thin_film.wgsl), same options and errors.
-            from wgbragg.colour import thin_film_gpu as thin_film_colour_gpu
-
-            return thin_film_colour_gpu.fourier_xyz(film, theta, name, order, thickness_std_nm)
-        return fourier_xyz(film, theta, name, order, thickness_std_nm)
-
-    return method
-
-
-THIN_FILM_COLOUR_METHODS = {
-    "reference": _reference,
-    "spectral": _spectral,
-    **{name: _fourier(name) for name in FOURIER_METHODS},
-}
-"""Colour methods of :meth:`ThinFilm.xyz`, by name (``method=``); all have a GPU kernel."""
-
-GPU_COLOUR_METHODS = ("reference", "spectral", "approx", "subdivided", "averaged")

@@ -42,7 +42,7 @@ from wgbragg.colour import colorimetry
 from wgbragg.colour import grid as colour_grid
 from wgbragg.colour import grid_gpu as colour_grid_gpu
 from wgbragg import gpu
-from wgbragg.optics import kernels
+from wgbragg.optics import yeh_gpu
 from wgbragg.colour.grid import GRID_NODES
 from wgbragg.colour.landmark_methods import (
     AVERAGING_MIN_PERIODS,
@@ -53,7 +53,8 @@ from wgbragg.colour.landmark_methods import (
     check_quadrature,
     check_subdivisions,
 )
-from wgbragg.bsdf.materials import BraggMirror
+from wgbragg.optics.stacks import BraggStack
+from wgbragg.optics.landmarks import KINDS
 
 __all__ = [
     "DENSITY_SLOPE_BITS",
@@ -87,7 +88,7 @@ PARAMS_DTYPE = gpu.struct_dtype([
 
 
 @functools.cache
-def _cmf_table() -> np.ndarray:
+def cmf_table() -> np.ndarray:
     """(942, 4) float32, read-only: the density at the 471 nodes (per nm), then its cumulative
     integral (w = 0)."""
     wavelength, cumulative = colorimetry.cumulative_table()
@@ -132,10 +133,10 @@ def pack_density_slopes(slope: np.ndarray) -> np.ndarray:
 
 @functools.cache
 def _packed_cmf_table() -> np.ndarray:
-    """(942, 4) uint32, read-only: :func:`_cmf_table`'s float32 bits, with w of the first 470
+    """(942, 4) uint32, read-only: :func:`cmf_table`'s float32 bits, with w of the first 470
     rows the packed slope of the cell above (:func:`pack_density_slopes`), so that a
     quadrature node reads one row."""
-    cmf = _cmf_table()
+    cmf = cmf_table()
     nodes = cmf.shape[0] // 2
     packed = cmf.view(np.uint32).copy()
     # From the float32 densities, so that each cell ends within half a step of its upper node.
@@ -145,8 +146,8 @@ def _packed_cmf_table() -> np.ndarray:
     return packed
 
 
-def _check_mirror(mirror, method: str) -> BraggMirror:
-    if not isinstance(mirror, BraggMirror):
+def check_mirror(mirror, method: str) -> BraggStack:
+    if not isinstance(mirror, BraggStack):
         raise ValueError(
             f"material must be a BraggMirror for method {method!r}, got {type(mirror).__name__}"
         )
@@ -160,13 +161,13 @@ def _check_mirror(mirror, method: str) -> BraggMirror:
 
 
 
-def _kernel_and_params(mirror: BraggMirror, method: str, subdivisions: int,
+def _kernel_and_params(mirror: BraggStack, method: str, subdivisions: int,
                        averaging_from: int = AVERAGING_MIN_PERIODS,
                        panels_per_oscillation: int = PANELS_PER_OSCILLATION):
     if method not in GPU_LANDMARK_METHODS:
         raise ValueError(f"method must be one of {tuple(GPU_LANDMARK_METHODS)}, got {method!r}")
-    _check_mirror(mirror, method)
-    base = kernels.bragg_params(mirror.n1, mirror.n2, mirror.d1, mirror.d2, mirror.N, mirror.host)
+    check_mirror(mirror, method)
+    base = yeh_gpu.bragg_params(mirror.n1, mirror.n2, mirror.d1, mirror.d2, mirror.N, mirror.host)
     params = np.zeros((), PARAMS_DTYPE)
     for name in ("n1", "n2", "d1_nm", "d2_nm", "host", "periods", "bulk"):
         params[name] = base[name]
@@ -284,7 +285,7 @@ def _grid_setting(mirror, averaging_from, panels_per_oscillation, quadrature, gr
     _checked_options(1, averaging_from, panels_per_oscillation)
     quadrature = check_quadrature(quadrature)
     grid_nodes = colour_grid.check_grid_nodes(grid_nodes)
-    if (quadrature == "grid" and isinstance(mirror, BraggMirror)
+    if (quadrature == "grid" and isinstance(mirror, BraggStack)
             and colour_grid.grid_applies(mirror, averaging_from, grid_nodes, PANEL_NM)):
         return int(averaging_from), grid_nodes
     return None
@@ -301,7 +302,7 @@ def averaged_xyz(mirror, theta, averaging_from=AVERAGING_MIN_PERIODS,
                         panels_per_oscillation=panels_per_oscillation)
 
 
-def find_landmarks_gpu(mirror: BraggMirror, theta, polarization: str = "s"):
+def find_landmarks_gpu(mirror: BraggStack, theta, polarization: str = "s"):
     """Landmarks found by the float32 kernel (``wgsl/optics/landmarks_eval.wgsl``).
 
     A test aid mirroring :func:`wgbragg.optics.landmarks.find_landmarks`.
@@ -319,11 +320,9 @@ def find_landmarks_gpu(mirror: BraggMirror, theta, polarization: str = "s"):
         ``omega`` float64 rad/nm increasing, ``kind`` strings of ``landmarks.KINDS``; at most
         :data:`LANDMARK_CAPACITY` each.
     """
-    from wgbragg.optics.landmarks import KINDS
-
     if polarization not in ("s", "p"):
         raise ValueError(f"polarization must be 's' or 'p', got {polarization!r}")
-    params = kernels.bragg_params(mirror.n1, mirror.n2, mirror.d1, mirror.d2, mirror.N, mirror.host)
+    params = yeh_gpu.bragg_params(mirror.n1, mirror.n2, mirror.d1, mirror.d2, mirror.N, mirror.host)
     kernel = gpu.compute_pipeline(
         "optics/landmarks_eval.wgsl",
         constants={"POLARIZATION": int(polarization == "p"), "CAPACITY": LANDMARK_CAPACITY,

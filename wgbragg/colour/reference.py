@@ -17,8 +17,9 @@ from __future__ import annotations
 import numpy as np
 
 from wgbragg.colour import colorimetry
+from wgbragg.colour import reference_gpu as colour_gpu
 from wgbragg.common.validation import (
-    _as_float_array,
+    as_float_array,
     check_angle,
     check_backend,
     check_count,
@@ -40,7 +41,6 @@ STRATA_RANGE_NM = (
     colorimetry.WAVELENGTH_RANGE_NM[0] - 0.5 * colorimetry.WAVELENGTH_STEP_NM,
     colorimetry.WAVELENGTH_RANGE_NM[1] + 0.5 * colorimetry.WAVELENGTH_STEP_NM,
 )
-
 """Interval split into strata, nm: 359.5-830.5, the union of the reference's 1 nm cells."""
 
 MAX_SAMPLES = 100_000
@@ -84,7 +84,7 @@ def integrate_xyz(material, theta, wavelength_nm, weights, backend="numpy") -> n
     angle = check_angle(theta)
     # Checked here for both backends: the kernel would integrate whatever it is given.
     wavelength = check_wavelength(wavelength_nm)
-    weight = _as_float_array("weights", weights)
+    weight = as_float_array("weights", weights)
     if wavelength.ndim != 1 or weight.shape != (wavelength.size, 3):
         raise ValueError(
             f"wavelength_nm must have shape (K,) and weights (K, 3), got {wavelength.shape} and "
@@ -93,8 +93,6 @@ def integrate_xyz(material, theta, wavelength_nm, weights, backend="numpy") -> n
     if not np.all(np.isfinite(weight)):
         raise ValueError("weights must be finite")
     if backend == "gpu":
-        from wgbragg.colour import reference_gpu as colour_gpu
-
         return colour_gpu.integrate_xyz(material, angle, wavelength, weight)
     flat = angle.ravel()
     xyz = np.empty((flat.size, 3))

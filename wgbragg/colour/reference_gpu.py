@@ -3,7 +3,7 @@
 
 One invocation per angle loops over the quadrature nodes it is given (wavelengths and their
 XYZ weights, uploaded as storage buffers) and accumulates ``R * weight`` in a plain
-float32 sum, ``R`` unpolarized. Pipelines are specialised like :mod:`wgbragg.optics.kernels`: the
+float32 sum, ``R`` unpolarized. Pipelines are specialised like :mod:`wgbragg.optics.pointwise_gpu`: the
 Bragg kernel compiles Appendix D out when the host equals ``n1``, the film kernel reads a
 dispersive base's index per node (``DISPERSIVE``).
 
@@ -27,8 +27,8 @@ from __future__ import annotations
 import numpy as np
 
 from wgbragg import gpu
-from wgbragg.optics import kernels
-from wgbragg.bsdf.materials import BraggMirror, ThinFilm
+from wgbragg.optics import thin_film_gpu, yeh_gpu
+from wgbragg.optics.stacks import BraggStack, ThinFilmStack
 
 __all__ = [
     "CHUNK_NODES",
@@ -41,7 +41,7 @@ __all__ = [
 ]
 
 # One invocation evaluates a whole spectrum (471 reflectances for the reference), so even a few
-# hundred angles should fill several workgroups: 64 rather than kernels' 256. On lavapipe
+# hundred angles should fill several workgroups: 64 rather than the reflectance kernels' 256. On lavapipe
 # (2 cores) 16, 64 and 256 time the same within noise for 90 to 16384 angles.
 WORKGROUP_SIZE = 64
 
@@ -50,17 +50,17 @@ CHUNK_NODES = gpu.SAFE_LOOP_ITERATIONS
 
 
 def _kernel_and_params(material) -> tuple[gpu.Kernel, np.ndarray]:
-    if isinstance(material, BraggMirror):
+    if isinstance(material, BraggStack):
         m = material
-        params = kernels.bragg_params(m.n1, m.n2, m.d1, m.d2, m.N, m.host)
+        params = yeh_gpu.bragg_params(m.n1, m.n2, m.d1, m.d2, m.N, m.host)
         constants = {
             "HOST_MATCHED": bool(np.float32(m.host) == np.float32(m.n1)),
             "WORKGROUP_SIZE": WORKGROUP_SIZE,
         }
         return gpu.compute_pipeline("colour/reference_bragg.wgsl", constants=constants), params
-    if isinstance(material, ThinFilm):
+    if isinstance(material, ThinFilmStack):
         f = material
-        params = np.zeros((), kernels.THIN_FILM_DTYPE)
+        params = np.zeros((), thin_film_gpu.THIN_FILM_DTYPE)
         params["host"], params["n_film"], params["d_nm"] = f.host, f.n_film, f.d
         params["n_base"], params["k_base"] = f.n_base, f.k_base
         constants = {"WORKGROUP_SIZE": WORKGROUP_SIZE, "DISPERSIVE": f.dispersive}
@@ -92,7 +92,7 @@ def split_float32(x) -> np.ndarray:
     return out
 
 
-def angle_inputs(mirror: BraggMirror, theta) -> np.ndarray:
+def angle_inputs(mirror: BraggStack, theta) -> np.ndarray:
     """The Bragg kernel's per-angle inputs, formed in float64 from the 1-D float64 ``theta``:
     float32 of shape ``(theta.size, 8)``.
 
@@ -118,7 +118,7 @@ def angle_inputs(mirror: BraggMirror, theta) -> np.ndarray:
 def _dispatches(material, theta, wavelength_nm, weights):
     """(one bound dispatch per chunk of at most CHUNK_NODES nodes, theta's shape)."""
     kernel, params = _kernel_and_params(material)
-    bragg = isinstance(material, BraggMirror)
+    bragg = isinstance(material, BraggStack)
     wavelength = np.asarray(wavelength_nm, np.float64).ravel()
     # The Bragg kernel reads 1 / lambda split (see split_float32), the film kernel lambda.
     nodes_in = (split_float32(1.0 / wavelength) if bragg
@@ -126,7 +126,7 @@ def _dispatches(material, theta, wavelength_nm, weights):
     weight = np.zeros((wavelength.size, 4), np.float32)
     weight[:, :3] = weights
     # A film's kernel also binds the base index at the float32 nodes it sees.
-    base = None if bragg else kernels.base_index_buffer(
+    base = None if bragg else thin_film_gpu.base_index_buffer(
         material.base_index(wavelength.astype(np.float32).astype(np.float64))
         if material.dispersive else None)
     angle = np.asarray(theta)

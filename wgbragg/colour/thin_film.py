@@ -427,7 +427,7 @@ def _exact_share(tail, opd_nm):
     return by_tail * np.clip((long - opd_nm) / (long - short), 0.0, 1.0)
 
 
-def _fourier_xyz_flat(film, theta: np.ndarray, sigma: np.ndarray, method: str,
+def fourier_xyz_flat(film, theta: np.ndarray, sigma: np.ndarray, method: str,
                       order: int) -> np.ndarray:
     """The body of :func:`fourier_xyz` on checked 1-D angles (radians) with one thickness
     spread per angle (``sigma``, nm, >= 0, same shape): also wgbragg.lighting.ibl's, whose spread
@@ -505,5 +505,5 @@ def fourier_xyz(film, theta, method="fourier-table", order=DEFAULT_ORDER,
     sigma = check_thickness_std(thickness_std_nm)
     angle = check_angle(theta)
     flat = angle.ravel()
-    xyz = _fourier_xyz_flat(film, flat, np.full(flat.shape, sigma), method, order)
+    xyz = fourier_xyz_flat(film, flat, np.full(flat.shape, sigma), method, order)
     return xyz.reshape((*angle.shape, 3))

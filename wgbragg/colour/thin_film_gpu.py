@@ -47,7 +47,7 @@ PARAMS_DTYPE = gpu.struct_dtype(PARAMS_FIELDS)
 
 
 @functools.cache
-def _table_texture(dispersive: bool, prefiltered: bool) -> gpu.DeviceArray:
+def fourier_table_texture(dispersive: bool, prefiltered: bool) -> gpu.DeviceArray:
     envelope = fourier_windows("fourier-table", dispersive, prefiltered).envelope
     levels, windows, samples, _ = envelope.shape
     texels = np.zeros((levels, windows, 2, samples, 4), np.float32)
@@ -59,11 +59,11 @@ def _table_texture(dispersive: bool, prefiltered: bool) -> gpu.DeviceArray:
 
 
 @functools.cache
-def _placeholder_texture() -> gpu.DeviceArray:
+def placeholder_texture() -> gpu.DeviceArray:
     return gpu.DeviceArray.upload(np.zeros((1, 1, 4), np.float32), texture=True)
 
 
-def _windows_buffer(film, windows) -> np.ndarray:
+def windows_buffer(film, windows) -> np.ndarray:
     index = film.base_index(windows.wavelength_nm)
     out = np.zeros((windows.count, 12), np.float32)
     out[:, 0], out[:, 1], out[:, 2] = windows.wavelength_nm, index.real, index.imag
@@ -76,7 +76,7 @@ def _windows_buffer(film, windows) -> np.ndarray:
     return out
 
 
-def _evanescent_buffer(film, method) -> np.ndarray:
+def evanescent_buffer(film, method) -> np.ndarray:
     nodes, weights = evanescent_nodes(method)
     index = film.base_index(nodes)
     out = np.zeros((nodes.size, 8), np.float32)
@@ -101,11 +101,11 @@ def _bound(film, theta, method, order, thickness_std_nm):
     params["nodes"] = evanescent_nodes(method)[0].size
     params["step_nm"], params["level_step_nm"] = TABLE_STEP_NM, PREFILTER_STEP_NM
     if gaussian:
-        table = _placeholder_texture()
+        table = placeholder_texture()
         params["samples"], params["levels"] = 2, 1
         adapt = E_TO_D65_BRADFORD
     else:
-        table = _table_texture(film.dispersive, prefiltered)
+        table = fourier_table_texture(film.dispersive, prefiltered)
         params["levels"], _, params["samples"], _ = windows.envelope.shape
         adapt = np.eye(3)
     for row in range(3):
@@ -114,7 +114,7 @@ def _bound(film, theta, method, order, thickness_std_nm):
                  "WORKGROUP_SIZE": WORKGROUP_SIZE}
     kernel = gpu.compute_pipeline("colour/thin_film_eval.wgsl", constants=constants)
     flat = np.ascontiguousarray(angle, np.float32).ravel()
-    inputs = [flat, _windows_buffer(film, windows), _evanescent_buffer(film, method), table]
+    inputs = [flat, windows_buffer(film, windows), evanescent_buffer(film, method), table]
     return kernel, inputs, [((flat.size, 4), np.float32)], params, angle.shape
 
 

@@ -43,9 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from wgbragg._version import __version__
 from wgbragg.common.atomic import atomic_path, check_output_folder
-from wgbragg.common.validation import check_backend, check_count, check_real
 
 __all__ = [
     "COLOUR_TABLES",
@@ -57,12 +55,9 @@ __all__ = [
     "LutWarning",
     "cache_dir",
     "cached",
-    "colour_tables",
     "load_lut",
     "lut_path",
     "save_lut",
-    "transmission_filter",
-    "transmission_filter_parameters",
 ]
 
 FORMAT = "wgbragg-lut"
@@ -72,7 +67,10 @@ FORMAT_VERSION = 1
 """Layout version of the file; a file of another version is refused (and re-baked)."""
 
 TRANSMISSION_FILTER = "transmission-filter"
+"""Kind of the transmission filter tables (:mod:`wgbragg.bsdf.filter_cache`)."""
+
 COLOUR_TABLES = "colour-tables"
+"""Kind of the colorimetry tables (:mod:`wgbragg.colour.tables`)."""
 
 _META = "meta"
 _MAGIC = b"PK\x03\x04"  # every zip archive, hence every .npz, starts with a local file header
@@ -565,180 +563,3 @@ def cached(kind: str, parameters: dict, bake: Callable[[], dict], *, cache=None,
     if progress is not None:
         progress(CacheEvent(kind, dict(parameters), path, action, reason))
     return arrays
-
-
-# --------------------------------------------------------------------------- the kinds
-
-
-_FILTER_ARRAYS = ("theta_i", "theta_d", "values", "weights")
-
-
-def transmission_filter_parameters(alpha, resolution_deg=0.25, psi_samples=1000) -> dict:
-    """The cache key of a transmission filter, its values checked.
-
-    Parameters
-    ----------
-    alpha, resolution_deg, psi_samples
-        As for :func:`transmission_filter`.
-
-    Returns
-    -------
-    dict
-        ``alpha`` and ``resolution_deg`` as float, ``psi_samples`` as int, and ``wgbragg``,
-        the package version (a new release re-bakes rather than trust its predecessor's
-        tables).
-
-    Raises
-    ------
-    ValueError
-        Naming the parameter out of range: ``alpha`` must be in
-        [:data:`~wgbragg.bsdf.transmission_filter.FILTER_ALPHA_MIN`,
-        :data:`~wgbragg.bsdf.microfacet.ALPHA_MAX`] (0.01 to 1), ``resolution_deg`` in
-        [:data:`~wgbragg.bsdf.transmission_filter.MIN_RESOLUTION_DEG`, 90] (0.05 to 90),
-        ``psi_samples`` an integer >= 1.
-    """
-    # The filter's own bounds, checked here too so that ``wgbragg bake`` refuses a bad alpha
-    # before baking the others.
-    from wgbragg.bsdf.microfacet import ALPHA_MAX
-    from wgbragg.bsdf.transmission_filter import FILTER_ALPHA_MIN, MIN_RESOLUTION_DEG
-
-    return {
-        "alpha": check_real("alpha", alpha, FILTER_ALPHA_MIN, ALPHA_MAX),
-        "resolution_deg": check_real("resolution_deg", resolution_deg, MIN_RESOLUTION_DEG, 90.0),
-        "psi_samples": check_count("psi_samples", psi_samples),
-        "wgbragg": __version__,
-    }
-
-
-def transmission_filter(alpha, resolution_deg=0.25, psi_samples=1000, backend="gpu",
-                        cache=None, *, force: bool = False, shared: bool = True,
-                        progress: Callable[[CacheEvent], None] | None = None):
-    """The transmission filter of a rough interface, from the cache or baked.
-
-    Parameters
-    ----------
-    alpha : float
-        GGX roughness, in [0.01, 1].
-    resolution_deg : float
-        Angular step of the table in degrees, in [0.05, 90].
-    psi_samples : int
-        Azimuth samples per table entry, >= 1.
-    backend : {"gpu", "numpy"}
-        Where a bake runs. Not part of the cache key: both compute the same filter, to
-        their precision.
-    cache : path-like, optional
-        Cache folder; default :func:`cache_dir`.
-    force, progress
-        As for :func:`cached`.
-    shared : bool
-        Return the filter this process already read from the same, unchanged file (the same
-        object, so layers share its GPU copy) instead of reading and verifying the file again.
-
-    Returns
-    -------
-    wgbragg.bsdf.transmission_filter.TransmissionFilter
-
-    Raises
-    ------
-    ValueError
-        If a parameter is out of range (naming it); see also :func:`cached`.
-
-    Notes
-    -----
-    The cache key is :func:`transmission_filter_parameters`.
-    """
-    parameters = transmission_filter_parameters(alpha, resolution_deg, psi_samples)
-    backend = check_backend(backend)
-    # Imported on use (here and above): the file format, the cache and the colour tables
-    # need none of the filter's code.
-    from wgbragg.bsdf.transmission_filter import TransmissionFilter
-
-    settings = {key: parameters[key] for key in ("alpha", "resolution_deg", "psi_samples")}
-
-    def bake() -> dict[str, np.ndarray]:
-        baked = TransmissionFilter.bake(**settings, backend=backend)
-        return {name: getattr(baked, name) for name in _FILTER_ARRAYS}
-
-    path = lut_path(TRANSMISSION_FILTER, parameters, cache)
-    if shared and not force:
-        known = _loaded_filters.get(path)
-        if known is not None and known[0] == _file_stamp(path):
-            return known[1]
-    arrays = cached(TRANSMISSION_FILTER, parameters, bake, cache=cache, force=force,
-                    progress=progress)
-    result = TransmissionFilter.from_arrays(**settings, **arrays)
-    _loaded_filters[path] = (_file_stamp(path), result)
-    return result
-
-
-# Filters read in this process, by file, with the file's stamp when read: layers that ask for
-# the same roughness share one filter object (and so its GPU weights) as long as the file is
-# the one that was verified. A changed, replaced or removed file is read (and checked) again.
-_loaded_filters: dict[Path, tuple[tuple[int, int, int] | None, object]] = {}
-
-
-def _file_stamp(path: Path) -> tuple[int, int, int] | None:
-    try:
-        status = path.stat()
-    except OSError:
-        return None
-    return status.st_ino, status.st_size, status.st_mtime_ns
-
-
-def _bake_colour_tables() -> dict[str, np.ndarray]:
-    from wgbragg.colour import colorimetry
-
-    wavelength, weights = colorimetry.xyz_weights()
-    _, cumulative = colorimetry.cumulative_table()
-    return {
-        "wavelength_nm": wavelength,
-        "weights": weights,
-        "density": colorimetry.xyz_density(wavelength),
-        "cumulative": cumulative,
-    }
-
-
-def colour_tables(cache=None, *, force: bool = False,
-                  progress: Callable[[CacheEvent], None] | None = None) -> dict[str, np.ndarray]:
-    """The colorimetry tables of the colour methods and GPU kernels, from the cache or baked.
-
-    Parameters
-    ----------
-    cache : path-like, optional
-        Cache folder; default :func:`cache_dir`.
-    force, progress
-        As for :func:`cached`.
-
-    Returns
-    -------
-    dict of str to numpy.ndarray
-        float64, on the 1 nm nodes 360..830 nm: ``wavelength_nm`` (471,); ``weights``
-        (471, 3), the reference quadrature (:func:`wgbragg.colour.colorimetry.xyz_weights`);
-        ``density`` (471, 3), the XYZ density per nm
-        (:func:`wgbragg.colour.colorimetry.xyz_density`);
-        ``cumulative`` (471, 3), its integral from 360 nm
-        (:func:`wgbragg.colour.colorimetry.cumulative_table`). The GPU kernels upload these (the
-        landmark kernel packs ``density`` and ``cumulative`` as float32 vec4 rows).
-
-    Notes
-    -----
-    The cache key holds the wavelength grid, the observer and illuminant names and the
-    colour-science and wgbragg versions: a new colour-science, whose data could change,
-    re-bakes the tables.
-    """
-    import colour
-
-    from wgbragg.colour import colorimetry
-
-    start, end = colorimetry.WAVELENGTH_RANGE_NM
-    parameters = {
-        "wavelength_start_nm": start,
-        "wavelength_end_nm": end,
-        "wavelength_step_nm": colorimetry.WAVELENGTH_STEP_NM,
-        "cmfs": colorimetry.CMFS_NAME,
-        "illuminant": colorimetry.ILLUMINANT_NAME,
-        "colour_science": colour.__version__,
-        "wgbragg": __version__,
-    }
-    return cached(COLOUR_TABLES, parameters, _bake_colour_tables, cache=cache, force=force,
-                  progress=progress)

@@ -40,7 +40,7 @@ POLARIZATIONS = ("s", "p", "unpolarized")
 BACKENDS = ("numpy", "gpu")
 
 
-def _as_float_array(name: str, value, keep_float32: bool = False) -> np.ndarray:
+def as_float_array(name: str, value, keep_float32: bool = False) -> np.ndarray:
     """``value`` as float64, or as it is if ``keep_float32`` and it is float32 already (for a
     float32 kernel's input: no copy there and back)."""
     message = f"{name} must be a real number or array of real numbers"
@@ -58,7 +58,7 @@ def _as_float_array(name: str, value, keep_float32: bool = False) -> np.ndarray:
     return array
 
 
-def _as_float(name: str, value) -> float:
+def as_float(name: str, value) -> float:
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise ValueError(f"{name} must be a real number, got {value!r}")
     value = float(value)
@@ -86,7 +86,7 @@ WAVELENGTH_RANGE_NM = (1.0, 1e6)
 
 def check_index(name: str, value) -> float:
     """A real refractive index in [:data:`MIN_INDEX`, :data:`MAX_INDEX`]."""
-    value = _as_float(name, value)
+    value = as_float(name, value)
     if not (MIN_INDEX <= value <= MAX_INDEX):
         raise ValueError(f"{name} must be a refractive index in [{MIN_INDEX:g}, {MAX_INDEX:g}], "
                          f"got {value}")
@@ -95,7 +95,7 @@ def check_index(name: str, value) -> float:
 
 def check_extinction(name: str, value) -> float:
     """An extinction coefficient (imaginary part of an index) in [0, :data:`MAX_EXTINCTION`]."""
-    value = _as_float(name, value)
+    value = as_float(name, value)
     if not (0.0 <= value <= MAX_EXTINCTION):
         raise ValueError(f"{name} must be an extinction coefficient in [0, {MAX_EXTINCTION:g}], "
                          f"got {value}")
@@ -104,7 +104,7 @@ def check_extinction(name: str, value) -> float:
 
 def check_thickness(name: str, value) -> float:
     """A layer thickness in nm, in [0, :data:`MAX_THICKNESS_NM`]."""
-    value = _as_float(name, value)
+    value = as_float(name, value)
     if not (0.0 <= value <= MAX_THICKNESS_NM):
         raise ValueError(f"{name} must be a thickness in [0, {MAX_THICKNESS_NM:g}] nm, "
                          f"got {value}")
@@ -143,7 +143,7 @@ def check_real(name: str, value, low: float, high: float) -> float:
 
 def check_wavelength(value, name: str = "wavelength_nm") -> np.ndarray:
     """Wavelengths in nm, in :data:`WAVELENGTH_RANGE_NM`."""
-    array = _as_float_array(name, value)
+    array = as_float_array(name, value)
     low, high = WAVELENGTH_RANGE_NM
     if not np.all((array >= low) & (array <= high)):
         raise ValueError(f"{name} must be in [{low:g}, {high:g}] nm")
@@ -157,7 +157,7 @@ _HALF_PI_FLOAT32 = float(np.float32(np.pi / 2))
 def check_angle(value, name: str = "theta") -> np.ndarray:
     """Angles of incidence in radians, in [0, pi/2]; float32's pi/2 is accepted and clipped to
     pi/2."""
-    array = _as_float_array(name, value)
+    array = as_float_array(name, value)
     if not np.all((array >= 0.0) & (array <= _HALF_PI_FLOAT32)):
         raise ValueError(f"{name} must be in [0, pi/2] radians")
     return np.minimum(array, np.pi / 2, out=array)  # array is a fresh copy
@@ -170,7 +170,7 @@ UNIT_TOLERANCE = 1e-5
 def check_directions(value, name: str, upper: bool = False) -> np.ndarray:
     """Unit vectors with a trailing axis of 3 (norm within :data:`UNIT_TOLERANCE` of 1);
     with ``upper``, also z >= 0."""
-    array = _as_float_array(name, value)
+    array = as_float_array(name, value)
     if array.ndim == 0 or array.shape[-1] != 3:
         raise ValueError(f"{name} must have a trailing axis of length 3, got shape {array.shape}")
     if not np.all(np.abs(np.linalg.norm(array, axis=-1) - 1.0) <= UNIT_TOLERANCE):

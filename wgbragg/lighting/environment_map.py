@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wgbragg.common.validation import _as_float, _as_float_array, check_directions
+from wgbragg.common.validation import as_float, as_float_array, check_directions
 
 __all__ = ["FLOOR_FRACTION", "LUMINANCE_WEIGHTS", "EnvironmentMap"]
 
@@ -82,14 +82,14 @@ class EnvironmentMap:
     """
 
     def __init__(self, radiance, intensity: float = 1.0):
-        radiance = _as_float_array("radiance", radiance)
+        radiance = as_float_array("radiance", radiance)
         if radiance.ndim != 3 or radiance.shape[2] != 3:
             raise ValueError(f"radiance must have shape (H, W, 3), got {radiance.shape}")
         if radiance.shape[0] < 1 or radiance.shape[1] < 2:
             raise ValueError(f"radiance needs H >= 1 rows and W >= 2 columns, got {radiance.shape}")
         if not np.all(np.isfinite(radiance) & (radiance >= 0.0)):
             raise ValueError("radiance must be finite and >= 0")
-        intensity = _as_float("intensity", intensity)
+        intensity = as_float("intensity", intensity)
         peak_radiance = float(radiance.max())
         # Python floats overflow to inf without a warning: radiance_at stays finite.
         if not (0.0 <= intensity < np.inf and intensity * peak_radiance < np.inf):
@@ -204,7 +204,7 @@ class EnvironmentMap:
         ValueError
             If ``u`` lacks a trailing axis of 2 or lies outside [0, 1].
         """
-        u = _as_float_array("u", u)
+        u = as_float_array("u", u)
         if u.ndim == 0 or u.shape[-1] != 2:
             raise ValueError(f"u must have a trailing axis of length 2, got shape {u.shape}")
         if not np.all((u >= 0.0) & (u <= 1.0)):

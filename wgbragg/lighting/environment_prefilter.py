@@ -88,7 +88,7 @@ import numpy as np
 from tqdm import tqdm
 
 from wgbragg import gpu
-from wgbragg.common.validation import _as_float_array, check_backend, check_integer
+from wgbragg.common.validation import as_float_array, check_backend, check_integer
 from wgbragg.lighting.environment_map import LUMINANCE_WEIGHTS, EnvironmentMap
 from wgbragg.bsdf.microfacet import ggx_D, ggx_G1
 from wgbragg.lighting.procedural_environment import ProceduralEnvironment
@@ -677,7 +677,7 @@ class PrefilteredEnvironment:
                 raise ValueError(f"{name} must hold one array per level ({n}), got {len(value)}")
             checked = []
             for k, array in enumerate(value):
-                array = _as_float_array(f"{name}[{k}]", array).copy()
+                array = as_float_array(f"{name}[{k}]", array).copy()
                 if array.ndim != 3 or array.shape[2] != channels or array.shape[0] < 1 or (
                         array.shape[1] < 2):
                     raise ValueError(f"{name}[{k}] must have shape (H >= 1, W >= 2, "
@@ -724,7 +724,7 @@ class PrefilteredEnvironment:
                 0 <= level < len(self.levels)):
             raise ValueError(f"level must be an integer in [0, {len(self.levels)}), got "
                              f"{level!r}")
-        d = _as_float_array("directions", directions)
+        d = as_float_array("directions", directions)
         if d.ndim == 0 or d.shape[-1] != 3:
             raise ValueError(f"directions must have a trailing axis of length 3, got shape "
                              f"{d.shape}")

@@ -61,13 +61,13 @@ from collections.abc import Callable
 import numpy as np
 
 from wgbragg.colour import colorimetry
-from wgbragg.common.validation import _as_float_array, check_broadcast, check_directions
+from wgbragg.common.validation import as_float_array, check_broadcast, check_directions
 from wgbragg.bsdf.materials import ThinFilm
 from wgbragg.bsdf.microfacet import check_alpha
 from wgbragg.bsdf.rough_thin_film import QUADRATURE_NODES, reflection_quadrature
 from wgbragg.colour.thin_film import (
     DEFAULT_ORDER,
-    _fourier_xyz_flat,
+    fourier_xyz_flat,
     FOURIER_METHODS,
     PREFILTER_RANGE_NM,
     check_order,
@@ -105,7 +105,7 @@ HERMITE_NODES = 5
 
 
 def _check_cosine(value, name: str, low: float) -> np.ndarray:
-    array = _as_float_array(name, value)
+    array = as_float_array(name, value)
     if not np.all((array >= low) & (array <= 1.0)):
         raise ValueError(f"{name} must be in [{low:g}, 1]")
     return array
@@ -113,7 +113,7 @@ def _check_cosine(value, name: str, low: float) -> np.ndarray:
 
 def _check_spread(mu_x, sigma_x) -> tuple[np.ndarray, np.ndarray]:
     mu = _check_cosine(mu_x, "mu_x", -1.0)
-    sigma = _as_float_array("sigma_x", sigma_x)
+    sigma = as_float_array("sigma_x", sigma_x)
     if not np.all((sigma >= 0.0) & np.isfinite(sigma)):
         raise ValueError("sigma_x must be finite and >= 0")
     check_broadcast(mu_x=mu.shape, sigma_x=sigma.shape)
@@ -248,8 +248,8 @@ def moment_statistics(v, m1, m2) -> tuple[np.ndarray, np.ndarray]:
         For arrays of the wrong trailing shape or with NaN, or a ``v`` that is not unit.
     """
     v = check_directions(v, "v")
-    m1 = _as_float_array("m1", m1)
-    m2 = _as_float_array("m2", m2)
+    m1 = as_float_array("m1", m1)
+    m2 = as_float_array("m2", m2)
     if m1.ndim == 0 or m1.shape[-1] != 3:
         raise ValueError(f"m1 must have a trailing axis of length 3, got shape {m1.shape}")
     if m2.ndim >= 2 and m2.shape[-2:] == (3, 3):
@@ -415,7 +415,7 @@ def _film_rgb(film: ThinFilm, theta: np.ndarray, sigma: np.ndarray, method: str,
     tests/test_ibl.py.
     """
     theta, sigma = np.broadcast_arrays(theta, sigma)
-    xyz = _fourier_xyz_flat(film, theta.ravel(), sigma.ravel(), method, order)
+    xyz = fourier_xyz_flat(film, theta.ravel(), sigma.ravel(), method, order)
     return colorimetry.xyz_to_linear_srgb(xyz).reshape((*theta.shape, 3))
 
 

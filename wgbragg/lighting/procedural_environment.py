@@ -24,7 +24,6 @@ import math
 
 import numpy as np
 
-from wgbragg.scene.model import Environment
 
 __all__ = ["PALETTES", "PROCEDURAL_TYPES", "ProceduralEnvironment", "environment_radiance"]
 
@@ -66,7 +65,7 @@ class ProceduralEnvironment:
     disc_direction: np.ndarray
 
     @classmethod
-    def from_scene(cls, environment: Environment) -> ProceduralEnvironment:
+    def from_scene(cls, environment) -> ProceduralEnvironment:
         """The parameters of a scene's procedural environment, as the renderer uploads them.
 
         Parameters
@@ -146,7 +145,7 @@ class ProceduralEnvironment:
         return sky
 
 
-def environment_radiance(environment: Environment, directions) -> np.ndarray:
+def environment_radiance(environment, directions) -> np.ndarray:
     """Radiance of a procedural environment arriving from unit ``directions``, in float64.
 
     The twin of ``environment_radiance`` in ``wgsl/render/renderer_scene.wgsl``, with the parameters

@@ -88,7 +88,7 @@ def _bisect(function, lo, hi, lo_negative):
     return 0.5 * (lo + hi)
 
 
-def _ranges(first, last):
+def integer_ranges(first, last):
     """(owner, value) of every integer in ``[first[i], last[i])`` for each i, in order."""
     counts = np.maximum(last - first, 0)
     owner = np.repeat(np.arange(first.size), counts)
@@ -135,9 +135,9 @@ def _evanescent_landmarks(mirror, s, polarization, omega_range):
     scale = q1 * mirror.d1 / np.pi  # tau per omega
     first = np.floor(lo_omega * scale).astype(np.int64)
     last = np.ceil(hi_omega * scale).astype(np.int64)
-    mode_owner, mode = _ranges(first, last + 1)
+    mode_owner, mode = integer_ranges(first, last + 1)
     modes = mode / scale[mode_owner]
-    index, k = _ranges(first, last)
+    index, k = integer_ranges(first, last)
     a, b, rho, scale = a[index], b[index], rho[index], scale[index]
     parity = np.where(k % 2 == 0, 1.0, -1.0)
 
@@ -247,9 +247,9 @@ def find_landmarks_many(mirror, thetas, polarization: str, omega_range=VISIBLE_O
         # Modes bracketing the range; each pair (m, m + 1) holds one Airy point and two edges.
         first = np.floor(lo_omega * plus / np.pi).astype(np.int64)
         last = np.ceil(hi_omega * plus / np.pi).astype(np.int64)
-        index, mode = _ranges(first, last + 1)
+        index, mode = integer_ranges(first, last + 1)
         found(propagating[index], mode * np.pi / plus[index], KINDS.index("mode"))
-        index, m = _ranges(first, last)
+        index, m = integer_ranges(first, last)
         owner = propagating[index]
         lower, upper = m * np.pi / plus[index], (m + 1) * np.pi / plus[index]
 
@@ -271,7 +271,7 @@ def find_landmarks_many(mirror, thetas, polarization: str, omega_range=VISIBLE_O
         found(owner, rising, KINDS.index("edge"))
         found(owner, falling, KINDS.index("edge"))
         period = np.pi / (q2[propagating] * mirror.d2)
-        index, z = _ranges(np.maximum(1, np.floor(lo_omega / period)).astype(np.int64),
+        index, z = integer_ranges(np.maximum(1, np.floor(lo_omega / period)).astype(np.int64),
                            np.ceil(hi_omega / period).astype(np.int64) + 1)
         owner = propagating[index]
         zeros = z * period[index]

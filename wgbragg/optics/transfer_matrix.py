@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wgbragg.common.validation import MAX_THICKNESS_NM, _as_float_array
+from wgbragg.common.validation import MAX_THICKNESS_NM, as_float_array
 from wgbragg.optics.checks import check_complex_index, check_light
 from wgbragg.optics.series import sinc
 from wgbragg.optics.fresnel import normal_component
@@ -49,7 +49,7 @@ def transfer_matrix_reflectance(indices, thicknesses_nm, wavelength_nm, theta,
     """
     wavelength, angle = check_light(wavelength_nm, theta, polarization)
     indices = check_complex_index("indices", indices).ravel()
-    thicknesses = _as_float_array("thicknesses_nm", thicknesses_nm).ravel()
+    thicknesses = as_float_array("thicknesses_nm", thicknesses_nm).ravel()
     if indices.size < 2:
         raise ValueError("indices must name at least the incident medium and the substrate")
     if indices[0].imag != 0:

@@ -100,13 +100,13 @@ from wgbragg.common.atomic import atomic_path, check_output_path
 from wgbragg.render.bvh import build_bvh
 from wgbragg.lighting.environment_map import EnvironmentMap
 from wgbragg.common.exr import read_exr
-from wgbragg.colour.landmark_methods import COLOUR_METHODS
-from wgbragg.bsdf.layered.model import _mallett_basis
+from wgbragg.colour.methods import COLOUR_METHODS
+from wgbragg.bsdf.layered.model import mallett_basis
 from wgbragg.bsdf.layered.model_gpu import (
-    _VISIBLE_NODES,
+    VISIBLE_NODES,
     FACTORED_COLOUR_METHODS,
     LAYER_DTYPE,
-    _variant,
+    gpu_variant,
 )
 from wgbragg.scene.meshes import load_mesh, plane_mesh, sphere_mesh, utah_teapot
 from wgbragg.scene.parameter_maps import pack_maps
@@ -135,11 +135,13 @@ from wgbragg.colour.thin_film import (
 )
 from wgbragg.colour.thin_film_gpu import PARAMS_FIELDS as _FILM_COLOUR_FIELDS
 from wgbragg.colour.thin_film_gpu import (
-    _evanescent_buffer,
-    _placeholder_texture,
-    _table_texture,
-    _windows_buffer,
+    evanescent_buffer,
+    placeholder_texture,
+    fourier_table_texture,
+    windows_buffer,
 )
+from wgbragg.lighting.environment_prefilter import prefilter_environment
+from wgbragg.lighting.ibl import microfacet_albedo_table
 
 __all__ = ["MAX_BOUNCES", "PARAMS_DTYPE", "PATHS_PER_DISPATCH", "Renderer",
            "display_transform", "max_lights", "save_png"]
@@ -291,7 +293,7 @@ def _layered_buffers(structures: list, spectral: bool, colour_method: str, lut: 
     structures, and the shared specialisation (see the module docstring). Without ``lut``,
     mirror reflectances are computed in the kernel (Yeh's formula, or the "averaged" colour)."""
     kind = "spectral" if spectral else "factored"
-    variants = [_variant(s, kind, lut, colour_method) for s in structures]
+    variants = [gpu_variant(s, kind, lut, colour_method) for s in structures]
     most = max(len(s.layers) for s in structures)
     records, tables, heads = [], [], np.zeros(len(structures), _STRUCTURE_DTYPE)
     size = layer_count = 0
@@ -306,7 +308,7 @@ def _layered_buffers(structures: list, spectral: bool, colour_method: str, lut: 
         if len(padding):
             # A transparent layer: transmissivity 1 on a 2-row grid, reflectance 0.
             start = size + variant.tables.size
-            columns = _VISIBLE_NODES if spectral else 3
+            columns = VISIBLE_NODES if spectral else 3
             table.append(np.ones(2 + 2 * columns, np.float32))
             table.append(np.zeros(columns * lut_rows, np.float32))
             padding["alpha"] = 0.5
@@ -328,7 +330,7 @@ def _layered_buffers(structures: list, spectral: bool, colour_method: str, lut: 
         if spectral and structures[k].absorbing_base:
             # A black Lambertian base, for a pipeline that has Lambertian bases.
             heads[k]["base_spectrum"] = size + sum(t.size for t in table)
-            table.append(np.zeros(_VISIBLE_NODES, np.float32))
+            table.append(np.zeros(VISIBLE_NODES, np.float32))
         elif spectral:
             heads[k]["base_spectrum"] += size
         layer_count += most
@@ -372,25 +374,25 @@ def _film_buffers(films: list, prefiltered: bool):
         record["alpha"] = material.alpha
         record["thickness_map"] = thickness_map
         record["first_base"] = k * _FILM_BASE_NM.size
-        window_rows.append(_windows_buffer(film, windows))
-        node_rows.append(_evanescent_buffer(film, "fourier-table"))
+        window_rows.append(windows_buffer(film, windows))
+        node_rows.append(evanescent_buffer(film, "fourier-table"))
         index = film.base_index(_FILM_BASE_NM)
         base_rows.append(_vec4(np.column_stack([index.real, index.imag, 0.0 * index.real])))
     return [records, np.concatenate(window_rows), np.concatenate(node_rows),
-            _table_texture(dispersive, prefiltered), np.concatenate(base_rows)]
+            fourier_table_texture(dispersive, prefiltered), np.concatenate(base_rows)]
 
 
 def _no_films() -> list:
     """Placeholders for the film bindings of a scene without thin films."""
     return [np.zeros(1, _FILM_DTYPE), np.zeros((1, 12), np.float32),
-            np.zeros((1, 8), np.float32), _placeholder_texture(), np.zeros((1, 4), np.float32)]
+            np.zeros((1, 8), np.float32), placeholder_texture(), np.zeros((1, 4), np.float32)]
 
 
 _IBL_CODES = {"monte-carlo": 0, "split-sum": 1, "kneiphof": 2}
 _IBL_ALBEDO_NODES = 64  # IBL_ALBEDO_NODES of render/renderer.wgsl
 
 
-def _ibl_levels(scene: Scene, ibl: str, mode: str) -> tuple[list, list]:
+def ibl_levels(scene: Scene, ibl: str, mode: str) -> tuple[list, list]:
     """The prefiltered levels a filtered IBL mode needs, and each material's (first level,
     layer count), in the scene's order. A material's levels are consecutive: its roughness,
     or one per layer then "cosine" for a Lambertian base; "cosine" for a Lambertian material.
@@ -431,7 +433,7 @@ def _spectra() -> np.ndarray:
     360..830 nm: Mallett and Yuksel's basis spectra (r, g, b, 0); then the linear sRGB
     response per nm (D65-weighted CMFs, so a spectrum of 1 is white (1, 1, 1)); then the
     wavelengths at equal steps of the summed CMFs' cumulative, in x (hero wavelengths)."""
-    _, basis = _mallett_basis()
+    _, basis = mallett_basis()
     _, weights = colorimetry.xyz_weights()
     response = colorimetry.xyz_to_linear_srgb(weights / colorimetry.WAVELENGTH_STEP_NM)
     inverse_cdf = np.zeros((colorimetry.hero_inverse_cdf().size, 4))
@@ -524,7 +526,7 @@ class Renderer:
         Light transport; the scene's ``settings.mode`` by default.
     colour_method : str
         RGB mode: how a layer's reflectance colour is tabulated over theta_d, one of
-        :data:`wgbragg.colour.landmark_methods.COLOUR_METHODS` ("reference", "spectral", "approx",
+        :data:`wgbragg.colour.methods.COLOUR_METHODS` ("reference", "spectral", "approx",
         "subdivided", "averaged"); with period/delta maps (no table) one of "reference",
         "approx", "subdivided", "averaged", computed per shading point.
     max_bounces : int
@@ -687,7 +689,7 @@ class Renderer:
         layered materials' structures by id, and the time their tables took."""
         spectral = mode == "spectral"
         filtered = ibl != "monte-carlo"
-        levels, material_levels = _ibl_levels(scene, ibl, mode) if filtered else ([], [])
+        levels, material_levels = ibl_levels(scene, ibl, mode) if filtered else ([], [])
         names = list(scene.materials)
         materials = np.zeros(len(names), _MATERIAL_DTYPE)
         if filtered:
@@ -789,9 +791,6 @@ class Renderer:
         key = (scene.environment, tuple(levels))
         known, buffers = self._prefiltered
         if known != key:
-            from wgbragg.lighting.environment_prefilter import prefilter_environment
-            from wgbragg.lighting.ibl import microfacet_albedo_table
-
             distinct = list(dict.fromkeys(levels))
             kept = {level: texels for (environment, level), texels in self._level_texels.items()
                     if environment == scene.environment and level in distinct}

@@ -1,4 +1,4 @@
-// The demo window's picture (wgbragg/viewer_window.py): one triangle that covers the viewport
+// The demo window's picture (wgbragg/app/viewer_window.py): one triangle that covers the viewport
 // and samples the rendered image over it, before the controls are drawn on top.
 // The image holds display-ready sRGB bytes in an rgba8unorm-srgb texture: sampling decodes
 // them and an sRGB target encodes them again, so pixels drawn at 1:1 keep their bytes, and

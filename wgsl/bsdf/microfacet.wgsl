@@ -1,4 +1,4 @@
-// Isotropic GGX (Trowbridge-Reitz) microfacets: the float32 twins of wgbragg/microfacet.py.
+// Isotropic GGX (Trowbridge-Reitz) microfacets: the float32 twins of wgbragg/bsdf/microfacet.py.
 // The macro-normal is +z, alpha is in [1e-4, 1]. Needs gpu/numerics.wgsl (PI, TWO_PI). No bindings.
 
 // 1 - c^2 as a product: 1 - c is exact near c = 1, where the narrow lobes live.

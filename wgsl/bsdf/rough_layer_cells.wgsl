@@ -1,5 +1,5 @@
 // Cell means of the transmittance T = 1 - R of a matched mirror (host == n1): the twin of
-// wgbragg.rough_layer._cell_transmittance (see its docstring). Requires numerics, complex,
+// wgbragg.bsdf.rough_layer._cell_transmittance (see its docstring). Requires numerics, complex,
 // layer and optics/yeh.wgsl. The phase window widens with the cell's span of T's features between
 // these (rough_layer._RESOLVED, _UNRESOLVED).
 const RESOLVED: f32 = 0.1;

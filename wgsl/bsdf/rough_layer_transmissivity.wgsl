@@ -1,6 +1,6 @@
 // Entry point: integrated transmissivity of a rough Bragg layer (Fourneau, Pacanowski & Barla
 // 2024, eq 28), f_t(theta_i) cos(theta_i) = sum_d weights[i, d] T[d, l], for every row i of a
-// transmission filter (wgbragg/transmission_filter.py) and every wavelength l, given the
+// transmission filter (wgbragg/bsdf/transmission_filter.py) and every wavelength l, given the
 // transmittances T = 1 - R at the filter's difference angles (bsdf/rough_layer_transmittance.wgsl).
 // On lavapipe this product is bound by loads whose address differs between invocations (each
 // is a loop over the SIMD lanes) rather than by arithmetic, so each invocation computes a
@@ -12,8 +12,8 @@
 // arrays indexed by loop counters, lavapipe keeps the sums in memory (2.5x slower).
 //! include "gpu/harness.wgsl"
 
-const ROWS: u32 = 16u;  // wgbragg.rough_layer._ROWS_PER_GROUP
-const SPAN: u32 = 12u;  // wavelengths per invocation (wgbragg.rough_layer._WAVELENGTHS_PER_LANE)
+const ROWS: u32 = 16u;  // wgbragg.bsdf.rough_layer._ROWS_PER_GROUP
+const SPAN: u32 = 12u;  // wavelengths per invocation (wgbragg.bsdf.rough_layer._WAVELENGTHS_PER_LANE)
 
 struct TransmissivityParams {
     rows: u32,          // theta_i entries

@@ -1,5 +1,5 @@
 // Transmission filter F_alpha(theta_i, theta_d) of a rough Bragg layer (Fourneau et al. 2024,
-// eqs 24-29): the float32 twin of wgbragg.transmission_filter.F_alpha. Needs gpu/numerics.wgsl and
+// eqs 24-29): the float32 twin of wgbragg.bsdf.transmission_filter.F_alpha. Needs gpu/numerics.wgsl and
 // bsdf/microfacet.wgsl. No bindings.
 
 // Angles arrive as (cos t, sin t, cos t/2, sin t/2), computed by the host in float64: f32(pi/2)

@@ -1,6 +1,6 @@
 // Hero wavelengths (Wilkie et al. 2014): four wavelengths stratified in the inverse CDF of the
 // summed CIE XYZ density, from one uniform offset. The float32 twin of
-// wgbragg.colorimetry.hero_wavelengths.
+// wgbragg.colour.colorimetry.hero_wavelengths.
 //
 // No bindings here: the includer provides
 //   fn hero_cdf_node(j: u32) -> f32   node j of colorimetry.hero_inverse_cdf (nm), j <= HERO_SEGMENTS.

@@ -1,4 +1,4 @@
-// Entry point: "averaged" with quadrature "grid" (wgbragg/colour_grid.py), one invocation per
+// Entry point: "averaged" with quadrature "grid" (wgbragg/colour/grid.py), one invocation per
 // angle: xyz[i] = sum_k R(omega_k, theta_i) weights[k].xyz over the GRID_NODES wavelengths of
 // the grid, R unpolarized: phase-averaged in pass bands and exact in gaps where the angle
 // averages, else the exact spectrum. host == n1 <= n2 (the host checks): no Appendix D, n2
@@ -34,7 +34,7 @@ const MODE_EXACT: f32 = 0.0;
 const MODE_AVERAGED: f32 = 1.0;
 const MODE_TOTAL: f32 = 2.0;
 
-// Per angle, formed on the host in float64 (wgbragg/colour_grid_gpu.py, grid_angle_inputs).
+// Per angle, formed on the host in float64 (wgbragg/colour/grid_gpu.py, grid_angle_inputs).
 struct GridAngle {
     geometry: vec4<f32>,  // s, cos theta, q1, q2^2
     paths: vec4<f32>,     // q1 d1 and q2 d2 (nm), split as split_cycles reads them

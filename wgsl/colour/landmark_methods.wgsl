@@ -1,5 +1,5 @@
 // Colour of a Bragg mirror from its spectral landmarks in float32: the twin of
-// wgbragg/colour_methods.py ("approx", "subdivided", "averaged"). Requires numerics, complex,
+// wgbragg/colour/landmark_methods.py ("approx", "subdivided", "averaged"). Requires numerics, complex,
 // layer, yeh and optics/landmarks.wgsl. No bindings: the entry point provides the tables through
 //   cmf_density(j)        XYZ density (per nm) at the 1 nm node 360 + j nm, j = 0..470,
 //   cmf_cumulative(j)     colorimetry.cumulative_xyz at that node,

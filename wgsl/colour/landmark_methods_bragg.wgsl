@@ -1,7 +1,7 @@
 // Entry point: D65-weighted XYZ of a Bragg mirror from its spectral landmarks, one invocation
 // per angle theta[i], both polarisations averaged: the "approx", "subdivided" and "averaged"
-// colour methods (wgbragg/colour_methods.py; physics in colour/landmark_methods.wgsl). Tables
-// (wgbragg/colour_landmarks_gpu.py, built once in float64):
+// colour methods (wgbragg/colour/landmark_methods.py; physics in colour/landmark_methods.wgsl). Tables
+// (wgbragg/colour/landmark_methods_gpu.py, built once in float64):
 //   cmf[j] = density at node 360 + j nm (per nm, float32 bits) with w the slope of the cell
 //   [j, j + 1] (colour/landmark_methods.wgsl, density_slope_from_bits), cmf[471 + j] = the cumulative
 //   integral (float32 bits).

@@ -1,7 +1,7 @@
 // Entry point: D65-weighted XYZ of a Bragg mirror, one invocation per angle theta_i:
 //   xyz[i] = sum_k R(lambda_k, theta_i) weights[k].xyz,  R unpolarized (mean of s, p).
 // The host passes the quadrature: 1 nm nodes for the reference, K strata for "spectral"
-// (wgbragg/colour_reference.py), at most gpu.SAFE_LOOP_ITERATIONS per dispatch: llvmpipe would end
+// (wgbragg/colour/reference.py), at most gpu.SAFE_LOOP_ITERATIONS per dispatch: llvmpipe would end
 // a longer loop early (wgbragg/gpu.py, "Loop budget"), so colour_gpu.py sums chunks of nodes.
 // The angle's fields come from the host in float64 (optics/yeh.wgsl, angle_geometry_given), the layer
 // phases from optical paths and 1 / lambda split on the host (split_cycles), so their fractions
@@ -22,7 +22,7 @@ override HOST_MATCHED: bool = true;
 
 @group(0) @binding(0) var<storage, read> inv_wavelength: array<vec2<f32>>;  // 1 / lambda, split
 @group(0) @binding(1) var<storage, read> weights: array<vec4<f32>>;  // xyz weight, w unused
-// Per angle, formed on the host in float64 (wgbragg/colour_gpu.py, angle_inputs).
+// Per angle, formed on the host in float64 (wgbragg/colour/reference_gpu.py, angle_inputs).
 struct AngleInputs {
     geometry: vec4<f32>,  // s, cos theta, q1, q2^2
     paths: vec4<f32>,     // q1 d1 and q2 d2 (nm), split as split_cycles reads them

@@ -1,5 +1,5 @@
 // Colour of a thin film by spectral integration in Fourier space (Belcour & Barla 2017), float32:
-// the twin of wgbragg/thin_film_colour.py (the derivation is in its docstring). Requires
+// the twin of wgbragg/colour/thin_film.py (the derivation is in its docstring). Requires
 // numerics, complex, layer and optics/thin_film.wgsl. No bindings: the including entry point declares
 //   fourier_windows: array<FourierWindow>, evanescent_nodes: array<EvanescentNode> (storage)
 //   film_table: texture_2d<f32> (the table method's envelope; any 1 x 1 texture otherwise).

@@ -1,4 +1,4 @@
-// Entry point: XYZ of a thin film by a Fourier method (wgbragg.thin_film_colour), one
+// Entry point: XYZ of a thin film by a Fourier method (wgbragg.colour.thin_film), one
 // invocation per angle theta[i]. GAUSSIAN selects the paper's Gaussian fits (closed form)
 // over the table; PREFILTERED compiles the table's prefiltering axis in.
 //! include "gpu/harness.wgsl"

@@ -1,5 +1,5 @@
 // Equirectangular environment map in float32: the twin of EnvironmentMap.radiance_at, .pdf and
-// .sample (wgbragg/environment_map.py, which states the convention: +y up, the image centre
+// .sample (wgbragg/lighting/environment_map.py, which states the convention: +y up, the image centre
 // along +z, row 0 at +y, phi from +z towards +x, the seam phi = +-pi in column 0).
 //   environment_map_radiance(d) -> vec3<f32>   radiance of d's texel times the intensity
 //   environment_map_pdf(d) -> f32              density of environment_map_sample (1/sr)

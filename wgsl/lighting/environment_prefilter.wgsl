@@ -1,4 +1,4 @@
-// Entry point: bake one level of a prefiltered environment (wgbragg/environment_prefilter.py,
+// Entry point: bake one level of a prefiltered environment (wgbragg/lighting/environment_prefilter.py,
 // whose docstring defines the sums), one invocation per output texel, in float32.
 //
 // A dispatch sums the input rows [row_begin, row_end) that lie in the texel's window into

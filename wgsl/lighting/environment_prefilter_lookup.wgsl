@@ -1,6 +1,6 @@
 // Prefiltered environment lookups in float32: the twin of PrefilteredEnvironment.lookup
-// (wgbragg/environment_prefilter.py, which defines the prefiltered quantities and states the
-// equirectangular convention of wgbragg/environment_map.py: +y up, the image centre along +z,
+// (wgbragg/lighting/environment_prefilter.py, which defines the prefiltered quantities and states the
+// equirectangular convention of wgbragg/lighting/environment_map.py: +y up, the image centre along +z,
 // row 0 at +y, phi from +z towards +x, the seam phi = +-pi at the left edge of column 0).
 //   prefiltered_lookup(level, d) -> Prefiltered   bilinear between texel centres, wrapping
 //                                                 in phi, clamped in theta

@@ -1,4 +1,4 @@
-// Spectral landmarks of a Bragg mirror in float32: the twin of wgbragg/landmarks.py (Fourneau,
+// Spectral landmarks of a Bragg mirror in float32: the twin of wgbragg/optics/landmarks.py (Fourneau,
 // Pacanowski & Barla 2024, sec. 3.2.1 and Appendix A). Requires numerics, layer and optics/yeh.wgsl.
 // No bindings.
 //

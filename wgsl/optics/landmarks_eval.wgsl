@@ -1,5 +1,5 @@
 // Test kernel: the spectral landmarks found by optics/landmarks.wgsl, one invocation per angle, for
-// comparison with wgbragg.landmarks.find_landmarks. Row i holds up to CAPACITY landmarks
+// comparison with wgbragg.optics.landmarks.find_landmarks. Row i holds up to CAPACITY landmarks
 // (omega in rad/nm, kind as landmarks.KINDS index, mode number, 0) in increasing omega.
 //! include "gpu/harness.wgsl"
 //! include "gpu/numerics.wgsl"

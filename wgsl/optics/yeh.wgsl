@@ -78,7 +78,7 @@ fn geometry_at(m: BraggMirror, angle: CellGeometry, wavelength_nm: f32) -> CellG
 
 // The layer phases q d / lambda (cycles) from optical paths q d split on the host into a head
 // of 12 significant bits and the rest (paths = (head1, rest1, head2, rest2), nm; those of n2
-// 0 where it is evanescent), and 1 / lambda split alike (wgbragg/colour_gpu.py, split_float32):
+// 0 where it is evanescent), and 1 / lambda split alike (wgbragg/colour/reference_gpu.py, split_float32):
 // head x head is exact in float32, so its fraction is, and the other three products are below
 // 2^-10 of the phase, so their rounding is too. The fraction then carries float32's rounding of
 // a number below 1 + 2^-10 phase instead of that of the phase: at N = 100 one ulp of a 2-cycle

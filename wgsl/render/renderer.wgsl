@@ -1,4 +1,4 @@
-// Entry points of the progressive path tracer, run by wgbragg/render.py:
+// Entry points of the progressive path tracer, run by wgbragg/render/renderer.py:
 //   render:        `samples` paths per pixel, their linear sRGB radiance written to paths
 //   accumulate:    each pixel's paths added to accum (rgb, and their number in w)
 //   primary_hits:  the closest hit of each pixel-centre camera ray, accum = (t, face, 0, 0),
@@ -21,7 +21,7 @@
 //! include "optics/landmarks.wgsl"
 //! include "colour/landmark_methods.wgsl"
 //! include "bsdf/microfacet.wgsl"
-//! include "bsdf/layered/model_directions.wgsl"
+//! include "bsdf/layered/coating.wgsl"
 //! include "bsdf/layered/model.wgsl"
 //! include "optics/thin_film.wgsl"
 //! include "colour/thin_film.wgsl"
@@ -97,15 +97,15 @@ struct Params {
 @group(0) @binding(7) var<storage, read> tables: array<f32>;
 // Point lights (position, intensity), then area lights (corner, edge_u, edge_v, radiance).
 @group(0) @binding(8) var<storage, read> lights: array<vec4<f32>>;
-// Spectral mode (wgbragg/render.py _spectra): 471 rows of basis spectra, 471 rows of the
+// Spectral mode (wgbragg/render/renderer.py _spectra): 471 rows of basis spectra, 471 rows of the
 // linear sRGB response per nm (360..830 nm), then the hero wavelengths' inverse CDF in x.
 @group(0) @binding(9) var<storage, read> spectra: array<vec4<f32>>;
 // EnvironmentMap.packed() (wgsl/lighting/environment_map.wgsl) when ENVIRONMENT_MAP.
 @group(0) @binding(10) var<storage, read> environment_texels: array<vec4<f32>>;
-// pack_maps (wgbragg/parameter_maps.py) when VARYING_LAYERS: record 0 is unused.
+// pack_maps (wgbragg/scene/parameter_maps.py) when VARYING_LAYERS: record 0 is unused.
 @group(0) @binding(11) var<storage, read> map_records: array<ParameterMapRecord>;
 @group(0) @binding(12) var<storage, read> map_texels: array<f32>;
-// Thin films (THIN_FILMS, wgbragg/render.py _film_buffers): their records, the Fourier
+// Thin films (THIN_FILMS, wgbragg/render/renderer.py _film_buffers): their records, the Fourier
 // colour's windows and evanescent nodes (film_colour, colour/thin_film.wgsl) and table, and
 // each film's base index (n, k) every FILM_BASE_STEP_NM from 360 nm (spectral mode).
 @group(0) @binding(13) var<storage, read> films: array<FilmMaterial>;
@@ -114,8 +114,8 @@ struct Params {
 @group(0) @binding(16) var film_table: texture_2d<f32>;
 @group(0) @binding(17) var<storage, read> film_base: array<vec4<f32>>;
 // Filtered image-based lighting (IBL != IBL_MONTE_CARLO): the prefiltered environment
-// (wgbragg.environment_prefilter, read by lighting/environment_prefilter_lookup.wgsl) and, per level, the
-// microfacet albedo E(cos_v) at IBL_ALBEDO_NODES cosines (wgbragg.ibl.microfacet_albedo_table).
+// (wgbragg.lighting.environment_prefilter, read by lighting/environment_prefilter_lookup.wgsl) and, per level, the
+// microfacet albedo E(cos_v) at IBL_ALBEDO_NODES cosines (wgbragg.lighting.ibl.microfacet_albedo_table).
 @group(0) @binding(18) var<storage, read> prefiltered_levels: array<PrefilteredLevel>;
 @group(0) @binding(19) var<storage, read> prefiltered_texels: array<vec4<f32>>;
 @group(0) @binding(20) var<storage, read> ibl_albedo: array<f32>;
@@ -212,7 +212,7 @@ fn sky_sample(e: Environment, u: vec3<f32>) -> vec3<f32> {
 // ----------------------------------------------------------------------------- materials
 
 // GGX microfacets coated by a thin film (Belcour & Barla 2017), in air: the float32 twin of
-// wgbragg.rough_thin_film.RoughThinFilm. The film's reflectance at the microfacet is its
+// wgbragg.bsdf.rough_thin_film.RoughThinFilm. The film's reflectance at the microfacet is its
 // Fourier-series colour (linear sRGB: the XYZ matrix is folded into colour.adapt) in RGB mode,
 // and its Airy reflectance at the hero wavelengths in spectral mode.
 struct FilmMaterial {

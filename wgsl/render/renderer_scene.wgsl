@@ -1,4 +1,4 @@
-// Scene queries of the path tracer (wgbragg/render.py): random numbers, camera rays, the BVH
+// Scene queries of the path tracer (wgbragg/render/renderer.py): random numbers, camera rays, the BVH
 // traversal and ray-triangle tests, the procedural environments and the surface frame.
 // Needs gpu/numerics.wgsl (PI, TWO_PI).
 //

@@ -1,6 +1,6 @@
 // Spatially varying parameters over texture coordinates (period and delta of Bragg layers,
-// Bragg paper supplemental Fig. 7): the float32 twin of map_values (wgbragg/parameter_maps.py,
-// which states the definitions; the ParameterMap docstring of wgbragg/scene.py says what they
+// Bragg paper supplemental Fig. 7): the float32 twin of map_values (wgbragg/scene/parameter_maps.py,
+// which states the definitions; the ParameterMap docstring of wgbragg/scene/model.py says what they
 // mean). Self-contained: needs no other file.
 //
 //   parameter_map_value(index, uv)   lo + (hi - lo) m(uv) of map `index`, in its unit
@@ -20,7 +20,7 @@ const MAP_RADIAL: u32 = 2u;
 const MAP_NOISE: u32 = 3u;
 const MAP_TEXTURE: u32 = 4u;
 
-// MAP_RECORD_DTYPE of wgbragg/parameter_maps.py: 32 bytes.
+// MAP_RECORD_DTYPE of wgbragg/scene/parameter_maps.py: 32 bytes.
 struct ParameterMapRecord {
     kind: u32,
     lo: f32,

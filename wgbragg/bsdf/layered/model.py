@@ -38,16 +38,28 @@ import numpy as np
 
 from wgbragg.colour import colorimetry
 from wgbragg.common.validation import (
-    _as_float_array,
+    as_float_array,
     check_backend,
     check_broadcast,
     check_directions,
     check_wavelength,
 )
-from wgbragg.bsdf.microfacet import _D, _G1_over_cos, ggx_sample_visible_normal, half_vector
+from wgbragg.bsdf.microfacet import ggx_D_unchecked, ggx_G1_over_cos, ggx_sample_visible_normal, half_vector
 from wgbragg.optics.yeh import yeh_reflectance
+from wgbragg.bsdf.layered.coating import (
+    HERO,
+    INTEGRATED,
+    coating_reflectance,
+    polar_angle,
+    refract_in,
+    refract_out,
+)
 from wgbragg.bsdf.rough_layer import RoughBraggLayer
 from wgbragg.common.sampling import ShiftedPoints
+from wgbragg.bsdf.layered import model_gpu as layered_gpu
+from wgbragg.colour.methods import COLOUR_METHODS
+from wgbragg.common.validation import check_angle, check_seed
+from wgbragg.bsdf.layered.simulation import simulate
 
 __all__ = ["BRDF_METHODS", "HERO", "INTEGRATED", "LayeredBragg", "coating_reflectance"]
 
@@ -58,73 +70,8 @@ exactly (Yeh), or read from a table over (theta_d, wavelength) per layer."""
 LUT_RESOLUTION_DEG = 0.25
 """Step in theta_d of the reflectance tables of ``"single-reflection-lut"`` (the filter's step)."""
 
-INTEGRATED = "integrated"
-"""``colour_method`` of an RGB result computed as the colour of the whole spectral BRDF
-(1 nm nodes, 360-830 nm): the exact colour of eq 34."""
-
-HERO = "hero"
-"""``colour_method`` of :meth:`LayeredBragg.sample` only: the colour of the spectral BRDF
-estimated, per sample, from four hero wavelengths
-(:func:`wgbragg.colour.colorimetry.hero_wavelengths`)
-offset by the sample's fourth random number, as :meth:`LayeredBragg.simulate` colours a path.
-Unbiased for the colour integral (which ``"integrated"`` sums on 1 nm nodes), at the cost of
-four spectral evaluations instead of 471: a renderer's spectral path without its own wavelength
-bookkeeping."""
-
 _INTEGRATION_CHUNK = 1024
 _TABLE_CACHE_SIZE = 8
-
-
-def coating_reflectance(cos_theta, n) -> np.ndarray:
-    """Unpolarized Fresnel reflectance of the smooth air / ``n`` interface seen from air.
-
-    Parameters
-    ----------
-    cos_theta : array_like
-        Cosine of the angle of incidence in air, in [0, 1].
-    n : float
-        Index of the coating (>= 1).
-
-    Returns
-    -------
-    numpy.ndarray
-        ``(R_s + R_p) / 2`` in [0, 1]: 0 for ``n = 1``, 1 at grazing incidence otherwise.
-    """
-    c = np.clip(np.asarray(cos_theta, dtype=np.float64), 0.0, 1.0)
-    if n == 1.0:
-        return np.zeros(c.shape)
-    # n cos' = sqrt(n^2 - sin^2): real for n >= 1, so no total internal reflection from air.
-    q = np.sqrt(n * n - (1.0 - c) * (1.0 + c))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rs = (c - q) / (c + q)
-        rp = (n * n * c - q) / (n * n * c + q)
-    matched = (c + q) == 0.0
-    return np.where(matched, 0.0, 0.5 * (rs * rs + rp * rp))
-
-
-def _refract_in(w: np.ndarray, n: float) -> np.ndarray:
-    """Directions in air (z >= 0) refracted into ``n >= 1`` (reversed through the interface)."""
-    if n == 1.0:
-        return w
-    sin2 = (w[..., 0] ** 2 + w[..., 1] ** 2) / (n * n)
-    z = np.sqrt(np.maximum(0.0, 1.0 - sin2))
-    return np.stack([w[..., 0] / n, w[..., 1] / n, z], axis=-1)
-
-
-def _refract_out(w: np.ndarray, n: float) -> tuple[np.ndarray, np.ndarray]:
-    """Directions in ``n`` (z >= 0) refracted out into air; the mask is False where totally
-    internally reflected."""
-    if n == 1.0:
-        return w, np.ones(w.shape[:-1], bool)
-    sin2 = n * n * (w[..., 0] ** 2 + w[..., 1] ** 2)
-    ok = sin2 < 1.0
-    z = np.sqrt(np.maximum(0.0, 1.0 - sin2))
-    out = np.stack([n * w[..., 0], n * w[..., 1], z], axis=-1)
-    return np.where(ok[..., None], out, np.array([0.0, 0.0, 1.0])), ok
-
-
-def _theta(cos: np.ndarray) -> np.ndarray:
-    return np.arccos(np.clip(cos, 0.0, 1.0))
 
 
 class _BaseAlbedo:
@@ -143,7 +90,7 @@ class _BaseAlbedo:
             return
         if isinstance(value, tuple) and len(value) == 2 and all(np.ndim(v) == 1 for v in value):
             wavelength = check_wavelength(value[0], "base_albedo wavelengths")
-            albedo = _check_unit_interval(_as_float_array("base_albedo", value[1]), "base_albedo")
+            albedo = _check_unit_interval(as_float_array("base_albedo", value[1]), "base_albedo")
             if wavelength.ndim != 1 or albedo.shape != wavelength.shape or wavelength.size < 2:
                 raise ValueError("a spectral base_albedo is (wavelength_nm, albedo): two 1-D "
                                  "arrays of the same length >= 2")
@@ -153,12 +100,12 @@ class _BaseAlbedo:
             grid, weights = colorimetry.xyz_weights()
             self.rgb = colorimetry.xyz_to_linear_srgb(self._spectrum(grid) @ weights)
             return
-        rgb = _check_unit_interval(_as_float_array("base_albedo", value), "base_albedo")
+        rgb = _check_unit_interval(as_float_array("base_albedo", value), "base_albedo")
         if rgb.shape != (3,):
             raise ValueError("base_albedo must be None, a number in [0, 1], a linear sRGB triple "
                              f"in [0, 1] or a (wavelength_nm, albedo) pair, got shape {rgb.shape}")
         self.rgb = rgb
-        basis = _mallett_basis()
+        basis = mallett_basis()
         self._spectrum = lambda wl: np.stack(
             [np.interp(wl, basis[0], basis[1][:, c]) for c in range(3)], axis=-1) @ rgb
 
@@ -208,7 +155,7 @@ def _check_unit_interval(array: np.ndarray, name: str) -> np.ndarray:
 
 
 @functools.cache
-def _mallett_basis() -> tuple[np.ndarray, np.ndarray]:
+def mallett_basis() -> tuple[np.ndarray, np.ndarray]:
     """Mallett & Yuksel's sRGB basis spectra on 360-830 nm: reflectances in [0, 1] that add up to
     1 and whose linear sRGB are the unit primaries, so an RGB albedo maps to a bounded spectrum."""
     import colour
@@ -345,7 +292,7 @@ class LayeredBragg:
         through = np.ones(rows.shape)
         cosine = np.cos(theta)[:, None]
         for index in reversed(range(len(self.layers))):
-            visible = _G1_over_cos(cosine, self.layers[index].alpha) * cosine
+            visible = ggx_G1_over_cos(cosine, self.layers[index].alpha) * cosine
             t = np.clip(self._transmissivity(index, rows, columns, "numpy"), 0.0, visible)
             up = up + (visible - t) * through
             through = through * t * t
@@ -430,7 +377,7 @@ class LayeredBragg:
                            colour_method):
         """R of layer ``l`` at the difference angle: spectral (``wavelength``) or RGB."""
         mirror = self.layers[layer_index].mirror
-        theta_d = _theta(cos_d)
+        theta_d = polar_angle(cos_d)
         if method == "single-reflection":
             if wavelength is None:
                 return mirror.rgb(theta_d, method=colour_method, backend=backend)
@@ -457,12 +404,12 @@ class LayeredBragg:
         ci, co = i[..., 2], o[..., 2]
         h = half_vector(i, o)
         cos_h, cos_d = h[..., 2], np.clip(np.sum(i * h, axis=-1), 0.0, 1.0)
-        theta_i, theta_o = _theta(ci), _theta(co)
+        theta_i, theta_o = polar_angle(ci), polar_angle(co)
         total = 0.0
         through = 1.0  # prod_{k<l} t_k(i') t_k(o')
         for index, layer in enumerate(self.layers):
             a = layer.alpha
-            shape = 0.25 * _D(cos_h, a) * _G1_over_cos(ci, a) * _G1_over_cos(co, a)
+            shape = 0.25 * ggx_D_unchecked(cos_h, a) * ggx_G1_over_cos(ci, a) * ggx_G1_over_cos(co, a)
             r = self._layer_reflectance(index, cos_d, wavelength, method, backend,
                                         colour_method)
             lobe = shape * r if spectral else shape[..., None] * r
@@ -495,7 +442,7 @@ class LayeredBragg:
         safe = np.array([0.0, 0.0, 1.0])
         wi_ok = np.where(up[..., None], wi, safe)
         wo_ok = np.where(up[..., None], wo, safe)
-        i, o = _refract_in(wi_ok, n), _refract_in(wo_ok, n)
+        i, o = refract_in(wi_ok, n), refract_in(wo_ok, n)
         wl = None if wavelength is None else np.broadcast_to(wavelength, shape)
         inner = self._inner_brdf(i, o, wl, method, backend, colour_method)
         scale = ((1.0 - coating_reflectance(wi_ok[..., 2], n))
@@ -576,8 +523,6 @@ class LayeredBragg:
             raise ValueError("colour_method='hero' draws its wavelengths from a sample's random "
                              "numbers: it is a colour_method of sample() only")
         if backend == "gpu":
-            from wgbragg.bsdf.layered import model_gpu as layered_gpu
-
             return layered_gpu.brdf(self, wi, wo, wavelength, method, colour_method)
         return self._evaluate(wi, wo, wavelength, method, backend, colour_method)
 
@@ -585,7 +530,6 @@ class LayeredBragg:
     def _colour_method(colour_method, backend):
         if colour_method is None:
             return INTEGRATED
-        from wgbragg.colour.landmark_methods import COLOUR_METHODS
 
         accepted = (INTEGRATED, HERO, *COLOUR_METHODS)
         if colour_method not in accepted:
@@ -597,7 +541,7 @@ class LayeredBragg:
     def _component_probabilities(self, cos_i_inner: np.ndarray, backend: str) -> np.ndarray:
         """Probability of each continuous component (layers, then the base if Lambertian),
         eq 35 with the wavelength-averaged eq 31, normalised over the components present."""
-        theta = _theta(cos_i_inner)
+        theta = polar_angle(cos_i_inner)
         remaining = np.ones(theta.shape)
         probabilities = []
         for layer in self.layers:
@@ -621,7 +565,7 @@ class LayeredBragg:
         for index, layer in enumerate(self.layers):
             a = layer.alpha
             # VNDF(m = h) / (4 i.h) = G1(i)/cos_i (i.h) D(h) / (4 i.h).
-            visible = 0.25 * _G1_over_cos(ci, a) * _D(h[..., 2], a)
+            visible = 0.25 * ggx_G1_over_cos(ci, a) * ggx_D_unchecked(h[..., 2], a)
             density = density + probabilities[..., index] * np.where(cos_d > 0.0, visible, 0.0)
         if not self._base.absorbing:
             density = density + probabilities[..., -1] * np.maximum(o[..., 2], 0.0) / np.pi
@@ -635,7 +579,7 @@ class LayeredBragg:
         safe = np.array([0.0, 0.0, 1.0])
         wi_ok = np.where(up[..., None], wi, safe)
         wo_ok = np.where(up[..., None], wo, safe)
-        i, o = _refract_in(wi_ok, n), _refract_in(wo_ok, n)
+        i, o = refract_in(wi_ok, n), refract_in(wo_ok, n)
         probabilities = self._component_probabilities(i[..., 2], backend)
         inner = self._inner_pdf(i, o, probabilities)
         # d omega' / d omega = cos_o / (n^2 cos_o'): Snell's etendue.
@@ -654,8 +598,6 @@ class LayeredBragg:
         wo = check_directions(wo, "wo")
         check_broadcast(wi=wi.shape[:-1], wo=wo.shape[:-1])
         if check_backend(backend) == "gpu":
-            from wgbragg.bsdf.layered import model_gpu as layered_gpu
-
             return layered_gpu.pdf(self, wi, wo)
         return self._pdf(wi, wo, backend)
 
@@ -710,7 +652,7 @@ class LayeredBragg:
         # A shifted point set goes to the kernel as it is; numpy reads its numbers (__array__).
         shifted = isinstance(u, ShiftedPoints) and backend == "gpu"
         if not shifted:
-            u = _as_float_array("u", u, keep_float32=backend == "gpu")
+            u = as_float_array("u", u, keep_float32=backend == "gpu")
         if method not in BRDF_METHODS:
             raise ValueError(f"method must be one of {BRDF_METHODS}, got {method!r}")
         wavelength = _check_wavelength(wavelength_nm, method)
@@ -731,8 +673,6 @@ class LayeredBragg:
         check_broadcast(**{"wi": wi.shape[:-1], "u": u.shape[:-1],
                            "wavelength_nm": () if wavelength is None else wavelength.shape})
         if backend == "gpu":
-            from wgbragg.bsdf.layered import model_gpu as layered_gpu
-
             return layered_gpu.sample(self, wi, u, wavelength, method, colour_method)
         shape = np.broadcast_shapes(wi.shape[:-1], u.shape[:-1])
         wi, u = np.broadcast_to(wi, (*shape, 3)), np.broadcast_to(u, (*shape, width))
@@ -742,7 +682,7 @@ class LayeredBragg:
         dirac = u[..., 0] < fresnel
         with np.errstate(invalid="ignore", divide="ignore"):
             pick = np.where(dirac, 0.0, (u[..., 0] - fresnel) / (1.0 - fresnel))
-        i = _refract_in(wi, n)
+        i = refract_in(wi, n)
         probabilities = self._component_probabilities(i[..., 2], backend)
         component = np.sum(pick[..., None] >= np.cumsum(probabilities, axis=-1)[..., :-1],
                            axis=-1)
@@ -760,7 +700,7 @@ class LayeredBragg:
         above = o[..., 2] > 0.0
         o = np.where(above[..., None], o, np.array([0.0, 0.0, 1.0]))
         o = o / np.linalg.norm(o, axis=-1, keepdims=True)
-        wo, escapes = _refract_out(o, n)
+        wo, escapes = refract_out(o, n)
         valid = above & escapes & ~dirac
         wo = np.where(dirac[..., None], wi * np.array([-1.0, -1.0, 1.0]), wo)
 
@@ -807,7 +747,6 @@ class LayeredBragg:
         """
         from scipy.stats import qmc
 
-        from wgbragg.common.validation import check_angle, check_seed
 
         theta = check_angle(theta_i, "theta_i")
         if np.any(theta >= np.pi / 2):
@@ -835,7 +774,5 @@ class LayeredBragg:
         or with ``wo=None`` the exit directions and weights of the paths. Parameters and
         results: :func:`wgbragg.bsdf.layered.simulation.simulate`.
         """
-        from wgbragg.bsdf.layered.simulation import simulate
-
         return simulate(self, wi, wo, wavelength_nm, paths, mode, transmission, seed,
                         return_error, max_bounces)

@@ -62,9 +62,9 @@ import numpy as np
 
 from wgbragg.colour import colorimetry
 from wgbragg import gpu
-from wgbragg.optics import kernels
-from wgbragg.colour.landmark_methods_gpu import GPU_LANDMARK_METHODS, _check_mirror, _cmf_table
-from wgbragg.bsdf.layered.model import HERO, INTEGRATED
+from wgbragg.optics import yeh_gpu
+from wgbragg.colour.landmark_methods_gpu import GPU_LANDMARK_METHODS, check_mirror, cmf_table
+from wgbragg.bsdf.layered.coating import HERO, INTEGRATED
 from wgbragg.common.sampling import ShiftedPoints
 
 __all__ = [
@@ -112,10 +112,10 @@ PARAMS_DTYPE = gpu.struct_dtype([
 ])
 """``Params`` of bsdf/layered/model_eval.wgsl: a ``LayeredStructure`` (48 bytes), then the batch."""
 
-_VISIBLE_NODES = 471
+VISIBLE_NODES = 471
 _HERO_SEGMENTS = 512  # HERO_SEGMENTS of wgsl/colour/colorimetry_hero.wgsl
 
-MAX_INTEGRATED_LAYERS = gpu.SAFE_LOOP_ITERATIONS // _VISIBLE_NODES - 2
+MAX_INTEGRATED_LAYERS = gpu.SAFE_LOOP_ITERATIONS // VISIBLE_NODES - 2
 """Most layers of a structure whose RGB the kernel integrates over the 471 nodes in one
 invocation (``colour_method="integrated"``, or ``"reference"`` without LUT): each node costs
 the loop budget ``layers + 2`` iterations (:func:`wavelengths_per_invocation`)."""
@@ -165,8 +165,8 @@ class _Variant:
         if self.constants["TRANSMISSIVITY_QUADS"]:
             for record in self.layers:
                 start, rows = int(record["transmissivity"]), int(record["rows"])
-                table = self.tables[start:start + rows * _VISIBLE_NODES]
-                quads.append(gpu.bilinear_quads(table.reshape(rows, _VISIBLE_NODES)))
+                table = self.tables[start:start + rows * VISIBLE_NODES]
+                quads.append(gpu.bilinear_quads(table.reshape(rows, VISIBLE_NODES)))
         return np.concatenate(quads)
 
     def device_tables(self) -> tuple[gpu.DeviceArray, ...]:
@@ -189,7 +189,7 @@ def _kind(operation: str, wavelength, colour_method: str) -> str:
     return _SPECTRAL if spectral else _FACTORED
 
 
-def _variant(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
+def gpu_variant(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
     lut = lut and kind != _DENSITY
     key = ("gpu", kind, lut, colour_method if kind == _FACTORED and lut else None)
     return structure._cached(key, lambda: _build(structure, kind, lut, colour_method))
@@ -198,7 +198,7 @@ def _variant(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
 def _rgb_weights() -> np.ndarray:
     """The D65-weighted XYZ weights of the 1 nm nodes in linear sRGB, shape (471, 3)."""
     grid, weights = colorimetry.xyz_weights()
-    if grid.size != _VISIBLE_NODES or grid[0] != WAVELENGTH_RANGE_NM[0]:
+    if grid.size != VISIBLE_NODES or grid[0] != WAVELENGTH_RANGE_NM[0]:
         raise RuntimeError("bsdf/layered/model.wgsl assumes the 1 nm grid 360..830 nm")
     return weights @ colorimetry.XYZ_TO_LINEAR_SRGB.T
 
@@ -211,7 +211,7 @@ def _header() -> list[np.ndarray]:
             f"wgsl/colour/colorimetry_hero.wgsl assumes {_HERO_SEGMENTS} inverse-CDF segments")
     matrix = np.zeros((3, 4), np.float32)
     matrix[:, :3] = colorimetry.XYZ_TO_LINEAR_SRGB
-    return [_cmf_table().ravel(), matrix.ravel(), _rgb_weights().astype(np.float32).ravel(),
+    return [cmf_table().ravel(), matrix.ravel(), _rgb_weights().astype(np.float32).ravel(),
             colorimetry.hero_inverse_cdf()]
 
 
@@ -230,7 +230,7 @@ def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
     for index, layer in enumerate(structure.layers):
         record = records[index]  # a view: structured scalars write through
         m = layer.mirror
-        mirror = kernels.bragg_params(m.n1, m.n2, m.d1, m.d2, m.N, m.host)
+        mirror = yeh_gpu.bragg_params(m.n1, m.n2, m.d1, m.d2, m.N, m.host)
         for name in ("n1", "n2", "d1_nm", "d2_nm", "host", "periods", "bulk"):
             record[name] = mirror[name]
         visible = layer._visible_table("gpu")
@@ -259,7 +259,7 @@ def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
     params["lut_rows_per_radian"] = 1.0 / (lut_grid[1] - lut_grid[0])
     # Per 1 nm node, the rgb weights and the base's albedo in one vec4 (the hero colour reads
     # both at each of a sample's wavelengths: two vec4 loads for eight scalar ones).
-    node_colours = np.zeros((_VISIBLE_NODES, 4), np.float32)
+    node_colours = np.zeros((VISIBLE_NODES, 4), np.float32)
     node_colours[:, :3] = _rgb_weights()
     if kind == _SPECTRAL and not structure.absorbing_base:
         albedo = base.spectrum(colorimetry.xyz_weights()[0])
@@ -268,7 +268,7 @@ def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
     # bsdf/layered/model_eval.wgsl reads the transmissivity tables as cell corners (one load per
     # lookup, not four) where they fit the budget: at 4x a table's size they need 2.7 MB per
     # layer at the filters' default resolution.
-    cells = (records["rows"].astype(np.int64) - 1) * (_VISIBLE_NODES - 1)
+    cells = (records["rows"].astype(np.int64) - 1) * (VISIBLE_NODES - 1)
     quads = kind == _SPECTRAL and gpu.bilinear_quads_fit(1 + int(cells.sum()))
     if quads:
         records["transmissivity_elsewhere"] = 1 + np.concatenate([[0], np.cumsum(cells)[:-1]])
@@ -318,7 +318,7 @@ def _check_request(structure, wavelength, method: str, colour_method: str) -> No
     if nodes_in_kernel and layers > MAX_INTEGRATED_LAYERS:
         raise ValueError(
             f"layers: backend='gpu' sums colour_method={colour_method!r} over "
-            f"{_VISIBLE_NODES} wavelengths in one invocation for 1 to {MAX_INTEGRATED_LAYERS} "
+            f"{VISIBLE_NODES} wavelengths in one invocation for 1 to {MAX_INTEGRATED_LAYERS} "
             f"layers (llvmpipe's loop budget), got {layers}: pass wavelength_nm and integrate, "
             "or use backend='numpy'")
     if wavelength is not None:
@@ -337,7 +337,7 @@ def _check_request(structure, wavelength, method: str, colour_method: str) -> No
             "method='single-reflection-lut', which tabulates any colour method")
     if colour_method in GPU_LANDMARK_METHODS:
         for layer in structure.layers:
-            _check_mirror(layer.mirror, colour_method)
+            check_mirror(layer.mirror, colour_method)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -441,7 +441,7 @@ def _setup(structure, operation: str, first, second, wavelength, batch: _Batch, 
            colour_method: str):
     kind = _kind(operation, wavelength, colour_method)
     lut = method == "single-reflection-lut" and kind != _DENSITY
-    variant = _variant(structure, kind, lut, colour_method)
+    variant = gpu_variant(structure, kind, lut, colour_method)
     params = variant.params.copy()
     params["count"], params["wavelength_stride"] = batch.count, batch.stride
     channels = 1 if operation == "pdf" else (batch.wavelengths or 3)

@@ -96,14 +96,14 @@ import numpy as np
 
 from wgbragg.colour import colorimetry
 from wgbragg import gpu
-from wgbragg.optics import kernels
+from wgbragg.optics import yeh_gpu
 from wgbragg.common.validation import (
     check_broadcast,
     check_directions,
     check_integer,
     check_wavelength,
 )
-from wgbragg.bsdf.layered.model import LayeredBragg, _refract_in, coating_reflectance
+from wgbragg.bsdf.layered.coating import coating_reflectance, refract_in
 
 __all__ = ["MAX_WAVELENGTHS", "MODES", "PATH_WAVELENGTHS", "TRANSMISSIONS", "bounce_limit",
            "simulate", "walk_iterations"]
@@ -131,7 +131,7 @@ _MAX_INVOCATIONS = 2**22
 
 _LAYER_DTYPE = gpu.struct_dtype([
     *((name, "u32" if name in ("periods", "bulk", "_pad") else "f32")
-      for name in kernels.BRAGG_MIRROR_DTYPE.names),
+      for name in yeh_gpu.BRAGG_MIRROR_DTYPE.names),
     ("alpha", "f32"), ("table", "u32"), ("rows", "u32"), ("row_step", "f32"),
 ])
 _PARAMS_DTYPE = gpu.struct_dtype([
@@ -200,7 +200,7 @@ def _check_wavelengths(wavelength_nm) -> np.ndarray | None:
     return wavelength
 
 
-def _spectrum_rows(structure: LayeredBragg, wavelength: np.ndarray | None) -> np.ndarray:
+def _spectrum_rows(structure, wavelength: np.ndarray | None) -> np.ndarray:
     """The ``spectrum`` buffer: sRGB density and albedo on the 1 nm grid, or the padded
     wavelengths and their albedo."""
     if wavelength is None:
@@ -219,15 +219,15 @@ def _padded(wavelength: np.ndarray) -> np.ndarray:
     return np.concatenate([wavelength, np.full(lanes - wavelength.size, wavelength[-1])])
 
 
-def _layers(structure: LayeredBragg, wavelength, ballistic: bool):
+def _layers(structure, wavelength, ballistic: bool):
     """Per-layer parameters, their transmissivity tables for ballistic transmission
     (concatenated, kept in the structure's table cache) and whether the tables are cell
     corners (RGB, where they fit :func:`gpu.bilinear_quads_fit`)."""
     records = np.zeros(len(structure.layers), _LAYER_DTYPE)
     for index, layer in enumerate(structure.layers):
         m = layer.mirror
-        mirror = kernels.bragg_params(m.n1, m.n2, m.d1, m.d2, m.N, m.host)
-        for name in kernels.BRAGG_MIRROR_DTYPE.names:
+        mirror = yeh_gpu.bragg_params(m.n1, m.n2, m.d1, m.d2, m.N, m.host)
+        for name in yeh_gpu.BRAGG_MIRROR_DTYPE.names:
             records[index][name] = mirror[name]
         records[index]["alpha"] = layer.alpha
     if not ballistic:
@@ -344,7 +344,7 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
     ...                       return_error=True)  # doctest: +SKIP
     >>> directions, weights = s.simulate(wi, paths=4096)  # doctest: +SKIP
     """
-    if not isinstance(structure, LayeredBragg):
+    if not all(hasattr(structure, name) for name in ("layers", "base_return", "host_index")):
         raise ValueError(f"structure must be a LayeredBragg, got {type(structure).__name__}")
     wi = check_directions(wi, "wi")
     if np.any(wi[..., 2] <= 0.0):
@@ -418,7 +418,7 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
     # Refracted here in float64: in float32, 1 - sin^2 rounds a grazing cosine to 0.
     queries = np.zeros((wi_flat.shape[0], 3, 4), np.float32)
     queries[:, 0, :3] = wi_flat
-    queries[:, 1, :3], queries[:, 2, :3] = _refract_in(wi_flat, n), _refract_in(wo_flat, n)
+    queries[:, 1, :3], queries[:, 2, :3] = refract_in(wi_flat, n), refract_in(wo_flat, n)
 
     params = np.zeros((), _PARAMS_DTYPE)
     params["groups"], params["paths"] = groups, paths

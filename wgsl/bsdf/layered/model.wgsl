@@ -1,5 +1,5 @@
 // The single-reflection model of a layered Bragg structure in float32 (Fourneau, Pacanowski &
-// Barla 2024, sec. 4.3): the twin of LayeredBragg.brdf, .sample and .pdf (wgbragg/layered.py).
+// Barla 2024, sec. 4.3): the twin of LayeredBragg.brdf, .sample and .pdf (wgbragg/bsdf/layered/model.py).
 // An integrator sees the material only through
 //   layered_pair(s, wi, wo) -> LayeredPair          what eq 34 needs of (wi, wo), per pair
 //   layered_eval_spectral(s, pair, wavelength_nm)   f (1/sr) at one wavelength (eq 34)
@@ -14,7 +14,7 @@
 // vectors in air, +z the normal, pointing away from the surface; s is the structure's
 // LayeredStructure, read by the caller from wherever it keeps its materials.
 //
-// Requires numerics, complex, layer, yeh, landmarks, colour_landmark, ggx and bsdf/layered/model_directions.wgsl.
+// Requires numerics, complex, layer, yeh, landmarks, colour_landmark, ggx and bsdf/layered/coating.wgsl.
 // Provides colour_landmark's cmf_density, cmf_cumulative and cmf_cell (from `tables`, in
 // float32: two loads a cell). The includer provides
 //   fn layer_transmissivity(layer: RoughLayer, row: Lerp, column: Lerp) -> f32

@@ -1,5 +1,5 @@
 // Entry points of the single-reflection model (bsdf/layered/model.wgsl), one invocation per pair
-// (wi, wo) or sample (wi, u), run by wgbragg/layered_gpu.py:
+// (wi, wo) or sample (wi, u), run by wgbragg/bsdf/layered/model_gpu.py:
 //   evaluate:  f(wi, wo) at WAVELENGTHS wavelengths, or as linear sRGB  -> value
 //   sample:    eq 35 from (wi, u = operand.xyz) -> directions = (wo, pdf), value = weights
 //              (HERO: the colour from hero wavelengths offset by operand.w)
@@ -17,7 +17,7 @@
 //! include "optics/landmarks.wgsl"
 //! include "colour/landmark_methods.wgsl"
 //! include "bsdf/microfacet.wgsl"
-//! include "bsdf/layered/model_directions.wgsl"
+//! include "bsdf/layered/coating.wgsl"
 //! include "bsdf/layered/model.wgsl"
 //! include "colour/colorimetry_hero.wgsl"
 
@@ -26,7 +26,7 @@ override WAVELENGTHS: u32 = 0u;
 // sample in RGB: the colour from four hero wavelengths offset by u.w, not the 471 nodes.
 override HERO: bool = false;
 // sample: u comes as a point set digitally shifted per group of operand_repeat consecutive
-// invocations (wgbragg.sampling.ShiftedPoints): operand rows 0 .. operand_repeat - 1 hold the
+// invocations (wgbragg.common.sampling.ShiftedPoints): operand rows 0 .. operand_repeat - 1 hold the
 // points' digits, the rows after them one shift per group, as u32 bits.
 override SHIFTED_OPERAND: bool = false;
 // Spectral: the layers' transmissivity tables read as cell corners (transmissivity_quads),

@@ -1,5 +1,5 @@
 // Entry point: position-free Monte Carlo simulation of a layered Bragg structure (Fourneau,
-// Pacanowski & Barla 2024, sec. 4.2; Guo, Hasan & Zhao 2018). wgbragg/layered_simulation.py
+// Pacanowski & Barla 2024, sec. 4.2; Guo, Hasan & Zhao 2018). wgbragg/bsdf/layered/simulation.py
 // states the estimator; this file holds the walk. One invocation runs params.per_invocation
 // paths of one query (wi, wo) and one group of four wavelengths and, with NEXT_EVENT, writes
 // the paths' mean and sum of squared deviations (Welford) per wavelength or channel; without
@@ -18,7 +18,7 @@
 //! include "optics/layer.wgsl"
 //! include "optics/yeh.wgsl"
 //! include "bsdf/microfacet.wgsl"
-//! include "bsdf/layered/model_directions.wgsl"
+//! include "bsdf/layered/coating.wgsl"
 //! include "bsdf/layered/simulation_walk.wgsl"
 //! include "colour/colorimetry_hero.wgsl"
 

@@ -2,7 +2,7 @@
 // 2018; Fourneau, Pacanowski & Barla 2024, sec. 4.2): random numbers, accurate angles, the
 // frame of a layer met from either side, the base's Lambertian directions, a layer's
 // reflectance for a path's four wavelengths and its transmission probability.
-// wgbragg/layered_simulation.py states the estimator. Needs gpu/numerics.wgsl and optics/yeh.wgsl (with
+// wgbragg/bsdf/layered/simulation.py states the estimator. Needs gpu/numerics.wgsl and optics/yeh.wgsl (with
 // gpu/complex.wgsl and optics/layer.wgsl). No bindings.
 
 // PCG32 (O'Neill 2014: an LCG with the RXS-M-XS output permutation), one stream for all

@@ -1,4 +1,4 @@
-// Layered Bragg structures: the float32 twins of the direction algebra of wgbragg/layered.py
+// Layered Bragg structures: the float32 twin of wgbragg/bsdf/layered/coating.py
 // (coating, refraction, a rough layer's reflection lobe). Directions are unit vectors in the
 // surface frame, +z the normal, pointing away from the surface. Needs gpu/numerics.wgsl and
 // bsdf/microfacet.wgsl. No bindings: entry points bring the tables (transmissivity, reflectance LUTs).

@@ -1,0 +1,186 @@
+"""Optical stacks: a Bragg mirror's and a thin film's layers, and their reflectance on either
+backend. :mod:`wgbragg.bsdf.materials` builds the public :class:`~wgbragg.BraggMirror` and
+:class:`~wgbragg.ThinFilm` on these, adding colour.
+
+Units, stated once: thicknesses and wavelengths in nanometres, angles in radians measured in the
+host (incident) medium, ``theta`` in ``[0, pi/2]``. Inputs broadcast numpy-style. ``backend``
+selects the float64 numpy reference (``"numpy"``) or the float32 WGSL kernel (``"gpu"``), with
+the same semantics.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from wgbragg.common.validation import (
+    check_angle,
+    check_backend,
+    check_broadcast,
+    check_count,
+    check_extinction,
+    check_index,
+    check_polarization,
+    check_thickness,
+    check_wavelength,
+)
+from wgbragg.optics import thin_film_gpu, yeh_gpu
+from wgbragg.optics.landmarks import find_landmarks_many
+from wgbragg.optics.metals import METALS, SpectralIndex, metal
+from wgbragg.optics.thin_film import thin_film_reflectance
+from wgbragg.optics.yeh import yeh_reflectance
+
+__all__ = ["BraggStack", "ThinFilmStack"]
+
+
+def _checked_inputs(wavelength_nm, theta, polarization, backend):
+    check_polarization(polarization)
+    check_backend(backend)
+    wavelength = check_wavelength(wavelength_nm)
+    angle = check_angle(theta)
+    check_broadcast(wavelength_nm=wavelength.shape, theta=angle.shape)
+    return wavelength, angle
+
+
+@dataclass(frozen=True)
+class BraggStack:
+    """The layers of a Bragg mirror, ``host | (n1 d1, n2 d2) x N | n1``, and its reflectance.
+
+    Fields, ranges and units as :class:`wgbragg.BraggMirror`, which adds colour.
+    """
+
+    n1: float
+    n2: float
+    d1: float
+    d2: float
+    N: int
+    host: float | None = None
+
+    def __post_init__(self):
+        set_field = object.__setattr__
+        set_field(self, "n1", check_index("n1", self.n1))
+        set_field(self, "n2", check_index("n2", self.n2))
+        set_field(self, "d1", check_thickness("d1", self.d1))
+        set_field(self, "d2", check_thickness("d2", self.d2))
+        set_field(self, "N", check_count("N", self.N))
+        host = self.n1 if self.host is None else check_index("host", self.host)
+        set_field(self, "host", host)
+
+    @property
+    def period(self) -> float:
+        """Cell thickness ``Lambda = d1 + d2`` in nm."""
+        return self.d1 + self.d2
+
+    def reflectance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy"):
+        """Specular reflectance ``R(lambda, theta)`` in [0, 1], O(1) in N.
+
+        Parameters
+        ----------
+        wavelength_nm : array_like
+            Vacuum wavelength in nm, in [1, 1e6].
+        theta : array_like
+            Angle of incidence in the host, radians in ``[0, pi/2]``.
+        polarization : {"unpolarized", "s", "p"}
+        backend : {"numpy", "gpu"}
+            float64 reference or float32 WGSL kernel.
+
+        Returns
+        -------
+        numpy.ndarray
+            float64 array of shape ``broadcast(wavelength_nm, theta)``.
+        """
+        wavelength, angle = _checked_inputs(wavelength_nm, theta, polarization, backend)
+        args = (self.n1, self.n2, self.d1, self.d2, self.N, wavelength, angle, polarization)
+        if backend == "gpu":
+            return yeh_gpu.bragg_reflectance(*args, self.host)
+        return yeh_reflectance(*args, host=self.host)
+
+    def landmarks(self, theta, polarization="s"):
+        """Ordered spectral landmarks (modes, Airy points, band edges, zero points).
+
+        Parameters
+        ----------
+        theta : float or array_like
+            Angle(s) of incidence in the host, radians.
+        polarization : {"s", "p"}
+
+        Returns
+        -------
+        Landmarks or numpy.ndarray of Landmarks
+            One :class:`~wgbragg.optics.landmarks.Landmarks` for a scalar angle, an object array of
+            them shaped like ``theta`` otherwise.
+        """
+        if polarization not in ("s", "p"):
+            raise ValueError(f"polarization must be 's' or 'p', got {polarization!r}")
+        angle = check_angle(theta)
+        found = find_landmarks_many(self, angle.reshape(-1), polarization)
+        if angle.ndim == 0:
+            return found[0]
+        out = np.empty(len(found), dtype=object)
+        out[:] = found
+        return out.reshape(angle.shape)
+
+
+@dataclass(frozen=True)
+class ThinFilmStack:
+    """A film ``(n_film, d)`` over a constant or dispersive base below a host, and its
+    reflectance.
+
+    Fields, ranges and units as :class:`wgbragg.ThinFilm`, which adds colour.
+    """
+
+    n_film: float
+    d: float
+    n_base: float = 1.0
+    k_base: float = 0.0
+    host: float = 1.0
+    base: str | SpectralIndex | None = None
+
+    def __post_init__(self):
+        set_field = object.__setattr__
+        set_field(self, "n_film", check_index("n_film", self.n_film))
+        set_field(self, "d", check_thickness("d", self.d))
+        set_field(self, "n_base", check_index("n_base", self.n_base))
+        set_field(self, "k_base", check_extinction("k_base", self.k_base))
+        set_field(self, "host", check_index("host", self.host))
+        if self.base is not None:
+            if isinstance(self.base, str):
+                set_field(self, "base", metal(self.base))
+            elif not isinstance(self.base, SpectralIndex):
+                raise ValueError(
+                    f"base must be one of {tuple(METALS)} or a SpectralIndex, got {self.base!r}")
+            if (self.n_base, self.k_base) != (1.0, 0.0):
+                raise ValueError("base replaces n_base and k_base: leave those at 1.0 and 0.0")
+
+    @property
+    def dispersive(self) -> bool:
+        """True for a tabulated (wavelength-dependent) base."""
+        return self.base is not None
+
+    def base_index(self, wavelength_nm) -> np.ndarray:
+        """Complex base index ``n + i k`` at ``wavelength_nm`` (nm), shaped like it.
+
+        Raises
+        ------
+        ValueError
+            For a wavelength outside a dispersive base's tabulated range.
+        """
+        if self.base is not None:
+            return self.base(wavelength_nm)
+        shape = np.shape(wavelength_nm)
+        return np.full(shape, complex(self.n_base, self.k_base))
+
+    def reflectance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy"):
+        """Specular reflectance in [0, 1]; arguments as :meth:`BraggMirror.reflectance`."""
+        wavelength, angle = _checked_inputs(wavelength_nm, theta, polarization, backend)
+        if backend == "gpu":
+            base = None if self.base is None else self.base_index(wavelength)
+            return thin_film_gpu.thin_film_reflectance(
+                self.host, self.n_film, self.d, self.n_base, self.k_base, wavelength, angle,
+                polarization, base,
+            )
+        return thin_film_reflectance(
+            self.host, self.n_film, self.d, self.base_index(wavelength), wavelength, angle,
+            polarization,
+        )
