@@ -31,21 +31,24 @@ demo: setup
 	@if [ -n "$$DISPLAY$$WAYLAND_DISPLAY" ]; then $(PY) demo.py; \
 	else $(PY) demo.py --offscreen --spp 64 -o out/demo.png; fi
 
+# ruff, then the architecture: layers import only downward (import-linter contracts in
+# pyproject.toml); tests/test_architecture.py checks the rules import-linter cannot see.
 lint: setup
-	$(VENV)/bin/ruff check wgbragg tests tools demo.py
+	$(VENV)/bin/ruff check wgbragg tests benchmarks tools demo.py
+	$(VENV)/bin/lint-imports --no-cache
 
 # The peers' column (tmm_fast on a pinned CPU torch) is optional: without it the table says
 # "not installed" and every other column is still measured.
 bench: setup
 	$(PY) -m pip install -q -e '.[test,bench]' || echo "wgbragg: tmm_fast not installed, continuing"
-	$(PY) tools/bench_reflectance.py
-	$(PY) tools/bench_rgb.py
-	$(PY) tools/bench_film.py
-	$(PY) tools/bench_rough.py
-	$(PY) tools/bench_layered.py
-	$(PY) tools/bench_render.py
-	$(PY) tools/bench_ibl.py
-	$(PY) tools/bench_viewer.py
+	$(PY) -m benchmarks.reflectance
+	$(PY) -m benchmarks.rgb
+	$(PY) -m benchmarks.film
+	$(PY) -m benchmarks.rough
+	$(PY) -m benchmarks.layered
+	$(PY) -m benchmarks.render
+	$(PY) -m benchmarks.ibl
+	$(PY) -m benchmarks.viewer
 
 clean:
 	rm -rf $(VENV) out build dist .pytest_cache .ruff_cache .hypothesis

@@ -230,7 +230,8 @@ def coating_internal_reflectance(theta: float, n: float) -> float:
 
 
 def bench_section(bench, text: str) -> str:
-    """The part of ``text`` a benchmark tool wrote, its markers included."""
+    """The part of ``text`` a benchmark (a module of ``benchmarks/``) wrote, its markers
+    included."""
     start, stop = text.index(bench.BEGIN_MARKER), text.index(bench.END_MARKER)
     return text[start:stop + len(bench.END_MARKER)]
 

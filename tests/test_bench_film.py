@@ -1,4 +1,4 @@
-"""Structure and sanity of ``tools/bench_film.py`` in its quick mode.
+"""Structure and sanity of ``benchmarks.film`` in its quick mode.
 
 No speed or accuracy is asserted (the full run reports the targets): a quick run must cover
 every Fourier method and order of its grid, the tables must parse, and the section must
@@ -12,7 +12,10 @@ import io
 
 import numpy as np
 import pytest
-from conftest import bench_section, load_tool, markdown_table
+from conftest import bench_section, markdown_table
+
+from benchmarks import film as bench
+from benchmarks import report
 
 pytestmark = pytest.mark.gpu
 
@@ -20,13 +23,7 @@ LATER_SECTION = "## A later benchmark\n\n<!-- other:begin -->\nkeep me\n<!-- oth
 
 
 @pytest.fixture(scope="module")
-def bench():
-    with load_tool("bench_film") as module:
-        yield module
-
-
-@pytest.fixture(scope="module")
-def runs(bench, tmp_path_factory):
+def runs(tmp_path_factory):
     """Two quick runs into a document with an intro, a stale section and a later section."""
     path = tmp_path_factory.mktemp("docs") / "benchmarks.md"
     stale = f"{bench.BEGIN_MARKER}\nstale numbers\n{bench.END_MARKER}"
@@ -41,7 +38,7 @@ def runs(bench, tmp_path_factory):
     return texts, printed[0]
 
 
-def test_section_replaced_not_duplicated(bench, runs):
+def test_section_replaced_not_duplicated(runs):
     (first, second), printed = runs
     for text in (first, second):
         assert text.count(bench.BEGIN_MARKER) == text.count(bench.END_MARKER) == 1
@@ -52,7 +49,7 @@ def test_section_replaced_not_duplicated(bench, runs):
     assert "Quick mode" in bench_section(bench, first)
 
 
-def test_delta_e_table_has_every_method_and_order(bench, runs):
+def test_delta_e_table_has_every_method_and_order(runs):
     (text, _), _ = runs
     rows = markdown_table(bench_section(bench, text), '### dE2000 against "reference"')
     header, body = rows[0], rows[1:]
@@ -60,11 +57,11 @@ def test_delta_e_table_has_every_method_and_order(bench, runs):
     assert [row[0] for row in body] == [bench.label(*key) for key in bench.rows(bench.QUICK)]
     for row in body:
         for cell in row[1:]:
-            mean, p95, top = bench.parse_stats(cell)
+            mean, p95, top = report.parse_stats(cell)
             assert 0.0 <= mean <= top and 0.0 <= p95 <= top, row
 
 
-def test_white_point_table(bench, runs):
+def test_white_point_table(runs):
     (text, _), _ = runs
     body = markdown_table(bench_section(bench, text), "### Perfect reflector")[1:]
     verdict = {row[0]: row[2] for row in body}
@@ -72,7 +69,7 @@ def test_white_point_table(bench, runs):
                        bench.UNCORRECTED: "no"}
 
 
-def test_gpu_and_timing_tables(bench, runs):
+def test_gpu_and_timing_tables(runs):
     (text, _), _ = runs
     section = bench_section(bench, text)
     body = markdown_table(section, "### numpy against GPU")[1:]
@@ -81,10 +78,10 @@ def test_gpu_and_timing_tables(bench, runs):
     body = markdown_table(section, "### Time per colour")[1:]
     assert len(body) == 2 * (1 + 2 * len(bench.QUICK.orders))
     for row in body:
-        assert all(bench.parse_time(cell) > 0 for cell in row[2:]), row
+        assert all(report.parse_time(cell) > 0 for cell in row[2:]), row
 
 
-def test_prefilter_and_targets(bench, runs):
+def test_prefilter_and_targets(runs):
     (text, _), _ = runs
     section = bench_section(bench, text)
     body = markdown_table(section, "### Thickness prefiltering")[1:]
@@ -95,7 +92,7 @@ def test_prefilter_and_targets(bench, runs):
     assert all(row[2] in ("yes", "no", "not checked") for row in targets)
 
 
-def test_brute_force_average_of_a_uniform_film(bench):
+def test_brute_force_average_of_a_uniform_film():
     """With no thickness spread the average is the film's own colour."""
     from wgbragg import ThinFilm
 
@@ -105,8 +102,7 @@ def test_brute_force_average_of_a_uniform_film(bench):
                                rtol=1e-12)
 
 
-def test_default_output(bench, tmp_path):
+def test_default_output(tmp_path):
     args = bench.parse_args(["--quick"])
-    assert bench._docs.section_output(args, bench.DEFAULT_OUTPUT) is None
-    assert bench._docs.section_output(bench.parse_args([]), bench.DEFAULT_OUTPUT) == (
-        bench.DEFAULT_OUTPUT)
+    assert report.section_output(args) is None
+    assert report.section_output(bench.parse_args([])) == report.DEFAULT_OUTPUT

@@ -1,4 +1,4 @@
-"""Structure and sanity of ``tools/bench_ibl.py`` in its quick mode (numpy only, a few seconds).
+"""Structure and sanity of ``benchmarks.ibl`` in its quick mode (numpy only, a few seconds).
 
 A quick run must report every material, roughness and mode with finite errors, replace (never
 duplicate) its section between its markers, draw its three figures, and show Kneiphof's filter
@@ -13,20 +13,17 @@ import io
 import math
 
 import pytest
-from conftest import bench_section, load_tool, markdown_table
+from conftest import bench_section, markdown_table
 from PIL import Image
+
+from benchmarks import ibl as bench
+from benchmarks import report
 
 LATER_SECTION = "## A later benchmark\n\n<!-- other:begin -->\nkeep me\n<!-- other:end -->\n"
 
 
 @pytest.fixture(scope="module")
-def bench():
-    with load_tool("bench_ibl") as module:
-        yield module
-
-
-@pytest.fixture(scope="module")
-def run(bench, tmp_path_factory):
+def run(tmp_path_factory):
     """One quick run into a document with an intro, a stale section and a later section."""
     folder = tmp_path_factory.mktemp("bench_ibl")
     path = folder / "benchmarks.md"
@@ -51,7 +48,7 @@ def _errors(bench, text):
     return out
 
 
-def test_section_replaced_and_headed(bench, run):
+def test_section_replaced_and_headed(run):
     text, printed, _ = run
     assert text.count(bench.BEGIN_MARKER) == text.count(bench.END_MARKER) == 1
     assert "stale numbers" not in text
@@ -65,7 +62,7 @@ def test_section_replaced_and_headed(bench, run):
     assert "Quick mode" in section
 
 
-def test_every_case_is_reported_with_finite_errors(bench, run):
+def test_every_case_is_reported_with_finite_errors(run):
     errors = _errors(bench, run[0])
     materials = [*bench.QUICK.bases, bench.BRAGG]
     assert set(errors) == {(m, a, mode) for m in materials for a in bench.QUICK.alphas
@@ -75,7 +72,7 @@ def test_every_case_is_reported_with_finite_errors(bench, run):
         assert 0.0 <= mean <= top and 0.0 <= smape <= 1.0, key
 
 
-def test_kneiphof_beats_the_split_sum_on_films_when_rough(bench, run):
+def test_kneiphof_beats_the_split_sum_on_films_when_rough(run):
     """Issue 9's target, on the films: lower mean dE2000 and lower SMAPE at alpha >= 0.25."""
     errors = _errors(bench, run[0])
     for base in bench.QUICK.bases:
@@ -87,7 +84,7 @@ def test_kneiphof_beats_the_split_sum_on_films_when_rough(bench, run):
     assert all(row[2] == "yes" for row in verdicts if row[0] in bench.QUICK.bases)
 
 
-def test_floor_and_table_error_are_reported(bench, run):
+def test_floor_and_table_error_are_reported(run):
     section = bench_section(bench, run[0])
     rows = markdown_table(section, "### Floor")[1:]
     assert [row[0] for row in rows] == [*bench.QUICK.bases, bench.BRAGG]
@@ -95,7 +92,7 @@ def test_floor_and_table_error_are_reported(bench, run):
     assert "max dE2000 = " in section
 
 
-def test_figures_are_written(bench, run):
+def test_figures_are_written(run):
     folder = run[2]
     names = sorted(p.name for p in folder.glob("*.png"))
     assert names == ["ibl_bragg_alpha.png", "ibl_film_alpha.png", "ibl_film_thickness.png"]
@@ -104,7 +101,7 @@ def test_figures_are_written(bench, run):
             assert image.size[0] > 100 and image.size[1] > 100
 
 
-def test_colour_table_and_lobe(bench):
+def test_colour_table_and_lobe():
     """The spline table reproduces its nodes; a grey material reflects E times its grey."""
     import numpy as np
 
@@ -123,16 +120,16 @@ def test_colour_table_and_lobe(bench):
                                rtol=1e-12)
 
 
-def test_default_outputs(bench):
+def test_default_outputs():
     quick = bench.parse_args(["--quick"])
-    assert bench._docs.section_output(quick, bench.DEFAULT_OUTPUT) is None
+    assert report.section_output(quick) is None
     assert bench.figures_folder(quick) is None
     full = bench.parse_args([])
-    assert bench._docs.section_output(full, bench.DEFAULT_OUTPUT) == bench.DEFAULT_OUTPUT
+    assert report.section_output(full) == report.DEFAULT_OUTPUT
     assert bench.figures_folder(full) == bench.DEFAULT_FIGURES
 
 
-def test_rendered_spheres_section(bench, run):
+def test_rendered_spheres_section(run):
     """The renderer's modes against its path tracer: every case with finite errors and frame
     times, under its own markers."""
     text, printed, _ = run
@@ -151,5 +148,5 @@ def test_rendered_spheres_section(bench, run):
     times = markdown_table(section, "### Time per 1-spp frame")[1:]
     assert len(times) == len(cases)
     for row in times:
-        assert all(bench._docs.parse_time(cell) > 0 for cell in (*row[3:6], *row[7:9])), row
+        assert all(report.parse_time(cell) > 0 for cell in (*row[3:6], *row[7:9])), row
     assert markdown_table(section, "### Target")[1][1] in ("yes", "no")

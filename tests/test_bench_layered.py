@@ -1,4 +1,4 @@
-"""``tools/bench_layered.py`` in its quick mode: it runs, writes its section between its markers
+"""``benchmarks.layered`` in its quick mode: it runs, writes its section between its markers
 and every table holds finite numbers (no speed is asserted: the full run reports the targets)."""
 
 from __future__ import annotations
@@ -8,19 +8,14 @@ import io
 
 import numpy as np
 import pytest
-from conftest import load_tool, markdown_rows
+from conftest import markdown_rows
 
+from benchmarks import layered as bench
 from wgbragg import ShiftedPoints
 
 
 @pytest.fixture(scope="module")
-def bench():
-    with load_tool("bench_layered") as module:
-        yield module
-
-
-@pytest.fixture(scope="module")
-def run(bench, tmp_path_factory):
+def run(tmp_path_factory):
     path = tmp_path_factory.mktemp("docs") / "benchmarks.md"
     path.write_text(f"# Benchmarks\n\n{bench.BEGIN_MARKER}\nstale\n{bench.END_MARKER}\n",
                     encoding="utf-8")
@@ -34,14 +29,14 @@ def _rows(text: str, heading: str) -> list[list[str]]:
 
 
 @pytest.mark.gpu
-def test_section_written_once(bench, run):
+def test_section_written_once(run):
     text, printed = run
     assert text.count(bench.BEGIN_MARKER) == 1 and "stale" not in text
     assert "Quick mode" in text and bench.BEGIN_MARKER in printed
 
 
 @pytest.mark.gpu
-def test_every_estimator_is_timed_and_scored(bench, run):
+def test_every_estimator_is_timed_and_scored(run):
     text, _ = run
     rows = _rows(text, "### Time, SMAPE")
     cfg = bench.QUICK
@@ -66,7 +61,7 @@ def test_every_estimator_is_timed_and_scored(bench, run):
     assert all(r[3] in ("yes", "no") and r[5] in ("yes", "no") for r in targets)
 
 
-def test_environment_is_its_formula(bench):
+def test_environment_is_its_formula():
     """The float32 environment against its formula in float64: each lamp a von Mises-Fisher
     glow exp(kappa (d . axis - 1)) times its colour, plus the sky (0.4 + 0.6 z) above the
     horizon and the ground below; on lamp axes, near the horizon and everywhere."""
@@ -88,7 +83,7 @@ def test_environment_is_its_formula(bench):
     assert radiance[0, 0].sum() > 25.0  # looking into the first lamp
 
 
-def test_environment_sampling_matches_its_density(bench):
+def test_environment_sampling_matches_its_density():
     """The environment sampler's density integrates to 1 and its samples follow it (mean of
     1 / pdf estimates the sphere's area)."""
     rng = np.random.default_rng(0)
@@ -99,7 +94,7 @@ def test_environment_sampling_matches_its_density(bench):
 
 
 
-def test_gt_noise_is_half_the_halves_smape(bench):
+def test_gt_noise_is_half_the_halves_smape():
     """GT's own noise: 0 for identical halves, half their SMAPE otherwise; and statistically,
     GT's SMAPE against the truth it estimates."""
     half = np.array([[1.0, 2.0, 3.0]])
@@ -113,12 +108,12 @@ def test_gt_noise_is_half_the_halves_smape(bench):
 
 
 @pytest.mark.parametrize("sobol", [False, True])
-def test_uniforms_lie_in_the_unit_cube(bench, sobol):
+def test_uniforms_lie_in_the_unit_cube(sobol):
     u = np.asarray(bench.uniforms(np.random.default_rng(1), 50, 64, 4, sobol))
     assert u.shape == (50, 64, 4) and u.min() >= 0.0 and u.max() < 1.0
 
 
-def test_sobol_uniforms_are_a_set_shifted_per_pixel(bench):
+def test_sobol_uniforms_are_a_set_shifted_per_pixel():
     """The Sobol' numbers go to the kernel as one set and one shift per pixel (their
     stratification is tested in tests/test_sampling.py)."""
     u = bench.uniforms(np.random.default_rng(2), 40, 64, 4, sobol=True)
@@ -148,7 +143,7 @@ def _results(bench, fast, sr_gpu_seconds=0.5):
     return results
 
 
-def test_targets_as_published_leave_out_sobol_and_base_interreflection(bench):
+def test_targets_as_published_leave_out_sobol_and_base_interreflection():
     """The "as published" targets see neither Sobol' sampling nor the base's
     interreflection; the best-variant targets see both."""
     section = bench.render_section(_results(bench, (bench.SOBOL, bench.BASE_IR)), "-")
@@ -162,7 +157,7 @@ def test_targets_as_published_leave_out_sobol_and_base_interreflection(bench):
             assert verdict == ("no" if published else "yes")
 
 
-def test_gpu_time_targets_read_the_gpu_clock(bench):
+def test_gpu_time_targets_read_the_gpu_clock():
     """An SR simulation four times slower on the GPU clock only: every GPU-time ratio is four
     times its wall-clock twin, in the targets and in the table."""
     section = bench.render_section(_results(bench, (), sr_gpu_seconds=2.0), "-")

@@ -1,4 +1,4 @@
-"""Structure and sanity of ``tools/bench_reflectance.py`` in its quick mode.
+"""Structure and sanity of ``benchmarks.reflectance`` in its quick mode.
 
 No speed is asserted here: timings on shared CI machines are noise. The tests check that a quick
 run measures every method, that the markdown section parses, lands between its markers and
@@ -14,7 +14,10 @@ import re
 
 import numpy as np
 import pytest
-from conftest import bench_section, load_tool, markdown_table
+from conftest import bench_section, markdown_table
+
+from benchmarks import reflectance as bench
+from benchmarks import report
 
 pytestmark = pytest.mark.gpu
 
@@ -22,13 +25,7 @@ LATER_SECTION = "## A later benchmark\n\n<!-- other:begin -->\nkeep me\n<!-- oth
 
 
 @pytest.fixture(scope="module")
-def bench():
-    with load_tool("bench_reflectance") as module:
-        yield module
-
-
-@pytest.fixture(scope="module")
-def runs(bench, tmp_path_factory):
+def runs(tmp_path_factory):
     """Two quick runs into one document that already holds an intro and a later section.
 
     Returns the document after each run and what the first run printed.
@@ -58,7 +55,7 @@ def _is_placeholder(bench, cell: str) -> bool:
 # --------------------------------------------------------------------------- the quick run
 
 
-def test_section_written_once_between_markers(bench, runs):
+def test_section_written_once_between_markers(runs):
     (first, second), _ = runs
     for text in (first, second):
         assert text.count(bench.BEGIN_MARKER) == 1
@@ -70,18 +67,18 @@ def test_section_written_once_between_markers(bench, runs):
         assert text.count("## Reflectance throughput") == 1
 
 
-def test_rerun_replaces_section(bench, runs):
+def test_rerun_replaces_section(runs):
     (first, second), _ = runs
     outside = [t.replace(bench_section(bench, t), "") for t in (first, second)]
     assert outside[0] == outside[1]
 
 
-def test_section_printed(bench, runs):
+def test_section_printed(runs):
     (first, _), (printed, _) = runs
     assert bench_section(bench, first) in printed
 
 
-def test_every_method_has_a_rate_row(bench, runs):
+def test_every_method_has_a_rate_row(runs):
     (text, _), _ = runs
     rows = _table_after(bench_section(bench, text), "### Evaluations per second")
     assert [row for row in rows if row != "method"] == [m.label for m in bench.METHODS]
@@ -93,13 +90,13 @@ def test_every_method_has_a_rate_row(bench, runs):
             assert installed, method.key
         for N, cell in zip(bench.N_VALUES, cells, strict=True):
             if installed and bench.applicable(method, N):
-                rate = bench.parse_rate(cell)
+                rate = report.parse_rate(cell)
                 assert math.isfinite(rate) and rate > 0, (method.key, N, cell)
             else:
                 assert _is_placeholder(bench, cell), (method.key, N, cell)
 
 
-def test_flatness_column_parses(bench, runs):
+def test_flatness_column_parses(runs):
     (text, _), _ = runs
     rows = _table_after(bench_section(bench, text), "### Evaluations per second")
     for method in bench.METHODS:
@@ -110,7 +107,7 @@ def test_flatness_column_parses(bench, runs):
             assert re.fullmatch(r"\d+(\.\d+)?%", cell), cell
 
 
-def test_ratio_rows_parse(bench, runs):
+def test_ratio_rows_parse(runs):
     (text, _), _ = runs
     rows = _table_after(bench_section(bench, text), "### Speed-up")
     labels = [f"÷ {bench.METHOD_BY_KEY[k].label}" for k in bench.RATIO_KEYS]
@@ -121,17 +118,17 @@ def test_ratio_rows_parse(bench, runs):
             if _is_placeholder(bench, cell):
                 assert cell == bench.NOT_INSTALLED or not bench.applicable(method, N)
                 continue
-            ratio = bench.parse_ratio(cell)
+            ratio = report.parse_ratio(cell)
             assert math.isfinite(ratio) and ratio > 0, (key, N, cell)
 
 
-def test_header_facts(bench, runs):
+def test_header_facts(runs):
     (text, _), _ = runs
     section = bench_section(bench, text)
     from wgbragg import gpu
 
     assert gpu.adapter_info()["name"] in section
-    assert "Command: `python tools/bench_reflectance.py --quick --no-progress --output" in section
+    assert "Command: `python -m benchmarks.reflectance --quick --no-progress --output" in section
     assert "Quick mode" in section
     assert "### Targets" in section
     assert re.search(r"WORKGROUP_SIZE = \d+", section)
@@ -140,7 +137,7 @@ def test_header_facts(bench, runs):
 # --------------------------------------------------------------------------- what is timed
 
 
-def test_evaluators_compute_the_mirror(bench):
+def test_evaluators_compute_the_mirror():
     """Every timed method returns Yeh's reflectance of the same mirror (so the rates compare
     like with like): float64 methods to 1e-9, the float32 kernel to a loose 1e-2."""
     from wgbragg import optics
@@ -155,7 +152,7 @@ def test_evaluators_compute_the_mirror(bench):
                                          theta.astype(np.float64), "unpolarized")
     for key, evaluate in bench.EVALUATORS.items():
         package = bench.METHOD_BY_KEY[key].package
-        if package is not None and bench._import_optional(package)[0] is None:
+        if package is not None and bench.optional_import(package)[0] is None:
             continue
         got = np.asarray(evaluate(N, wavelength, theta), np.float64)
         want = unpolarized if key == "gpu_unpolarized" else reference
@@ -163,14 +160,14 @@ def test_evaluators_compute_the_mirror(bench):
         np.testing.assert_allclose(got, want, atol=tolerance, err_msg=key)
 
 
-def test_tmm_fast_reported_when_missing(bench, monkeypatch):
+def test_tmm_fast_reported_when_missing(monkeypatch):
     """A package that cannot be imported becomes "not installed" cells, not a crash."""
-    real = bench._import_optional
+    real = bench.optional_import
 
     def fake(name):
         return (None, "ModuleNotFoundError: no tmm_fast") if name == "tmm_fast" else real(name)
 
-    monkeypatch.setattr(bench, "_import_optional", fake)
+    monkeypatch.setattr(bench, "optional_import", fake)
     cfg = bench.dataclasses.replace(bench.QUICK, gpu_side=8, yeh_side=8, max_points_linear=16,
                                     max_calls_tmm=2, max_cells_tmm_fast=64, target_s=0.001)
     # Only the missing package matters here: keep the run to the cheapest cells.
@@ -178,7 +175,7 @@ def test_tmm_fast_reported_when_missing(bench, monkeypatch):
     results = bench.run_benchmarks(cfg, progress=False)
     assert "tmm_fast" in results.missing
     assert not any(key == "tmm_fast" for key, _ in results.measurements)
-    section = bench.render_section(results, "python tools/bench_reflectance.py")
+    section = bench.render_section(results, "python -m benchmarks.reflectance")
     rows = _table_after(section, "### Evaluations per second")
     assert rows[bench.METHOD_BY_KEY["tmm_fast"].label][:2] == [bench.NOT_INSTALLED] * 2
     assert "not installed (ModuleNotFoundError" in section
@@ -188,37 +185,41 @@ def test_tmm_fast_reported_when_missing(bench, monkeypatch):
 
 
 @pytest.mark.parametrize("rate", [0.5, 7.0, 999.7, 1234.0, 99_950.0, 3.2e6, 1.5e8, 2e9])
-def test_rate_format_round_trip(bench, rate):
-    text = bench.human_rate(rate)
+def test_rate_format_round_trip(rate):
+    text = report.human_rate(rate)
     assert re.fullmatch(r"\d+(\.\d+)? [kMGT]?/s", text), text
-    assert bench.parse_rate(text) == pytest.approx(rate, rel=5e-3)
+    assert report.parse_rate(text) == pytest.approx(rate, rel=5e-3)
 
 
 @pytest.mark.parametrize("ratio", [0.83, 1.0, 12.46, 431.0, 4312.0, 1_590_479.0])
-def test_ratio_format_round_trip(bench, ratio):
-    assert bench.parse_ratio(bench.human_ratio(ratio)) == pytest.approx(ratio, rel=5e-3)
+def test_ratio_format_round_trip(ratio):
+    assert report.parse_ratio(report.human_ratio(ratio)) == pytest.approx(ratio, rel=5e-3)
 
 
-def test_update_document(bench):
+def test_update_document():
     section = f"{bench.BEGIN_MARKER}\nnew\n{bench.END_MARKER}"
-    created = bench.update_document(None, section)
-    assert created.startswith(bench.DOC_INTRO) and created.endswith(section + "\n")
-    appended = bench.update_document("# Benchmarks\n\nintro\n", section)
+
+    def update(text):
+        return report.update_document(text, section, bench.BEGIN_MARKER, bench.END_MARKER)
+
+    created = update(None)
+    assert created.startswith(report.DOC_INTRO) and created.endswith(section + "\n")
+    appended = update("# Benchmarks\n\nintro\n")
     assert appended == f"# Benchmarks\n\nintro\n\n{section}\n"
     old = f"head\n{bench.BEGIN_MARKER}\nold\n{bench.END_MARKER}\ntail\n"
-    assert bench.update_document(old, section) == f"head\n{section}\ntail\n"
+    assert update(old) == f"head\n{section}\ntail\n"
     for broken in (f"{bench.BEGIN_MARKER}\nno end\n", f"{bench.END_MARKER}\n{bench.BEGIN_MARKER}",
                    f"{section}\n{section}\n"):
         with pytest.raises(ValueError, match="expected one"):
-            bench.update_document(broken, section)
+            update(broken)
 
 
-def test_output_path(bench, tmp_path):
+def test_output_path(tmp_path):
     def where(*argv):
         return bench.output_path(bench.parse_args(list(argv)))
 
     assert where("--quick") is None
-    assert where() == bench.DEFAULT_OUTPUT
+    assert where() == report.DEFAULT_OUTPUT
     assert where("--no-write") is None
     assert where("--quick", "--no-write") is None
     assert where("--quick", "--output", str(tmp_path / "b.md")) == tmp_path / "b.md"

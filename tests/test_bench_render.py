@@ -1,4 +1,4 @@
-"""``tools/bench_render.py`` in its quick mode: it runs every part, writes its section between its
+"""``benchmarks.render`` in its quick mode: it runs every part, writes its section between its
 markers and every table holds positive numbers (no speed is asserted)."""
 
 from __future__ import annotations
@@ -7,20 +7,22 @@ import contextlib
 import io
 
 import pytest
-from conftest import load_tool, markdown_rows
+from conftest import markdown_rows
+
+from benchmarks import render as bench
 
 pytestmark = pytest.mark.gpu
 
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
-    with load_tool("bench_render") as bench:
-        path = tmp_path_factory.mktemp("docs") / "benchmarks.md"
-        path.write_text(f"# Benchmarks\n\n{bench.BEGIN_MARKER}\nstale\n{bench.END_MARKER}\n",
-                        encoding="utf-8")
-        with contextlib.redirect_stdout(io.StringIO()):
-            assert bench.main(["--quick", "--no-progress", "--output", str(path)]) == 0
-        yield bench, path.read_text(encoding="utf-8")
+    """The document after one quick run over a stale section."""
+    path = tmp_path_factory.mktemp("docs") / "benchmarks.md"
+    path.write_text(f"# Benchmarks\n\n{bench.BEGIN_MARKER}\nstale\n{bench.END_MARKER}\n",
+                    encoding="utf-8")
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert bench.main(["--quick", "--no-progress", "--output", str(path)]) == 0
+    return path.read_text(encoding="utf-8")
 
 
 def _rows(text: str, heading: str) -> list[list[str]]:
@@ -28,7 +30,7 @@ def _rows(text: str, heading: str) -> list[list[str]]:
 
 
 def test_section_written_once(run):
-    bench, text = run
+    text = run
     assert text.count(bench.BEGIN_MARKER) == 1 and "stale" not in text
     assert "Quick mode" in text
 
@@ -36,7 +38,7 @@ def test_section_written_once(run):
 def test_every_preset_and_configuration_measured(run):
     from wgbragg.scene.model import PRESETS
 
-    _, text = run
+    text = run
     presets = _rows(text, "### Presets")
     assert [row[0] for row in presets] == list(PRESETS)
     for row in presets:

@@ -1,4 +1,4 @@
-"""Structure and sanity of ``tools/bench_rough.py`` in its quick mode.
+"""Structure and sanity of ``benchmarks.rough`` in its quick mode.
 
 No speed is asserted (timings on shared CI machines are noise; the targets are what the full
 run reports). The tests check that one quick run writes its section between its markers,
@@ -14,19 +14,16 @@ import io
 import math
 
 import pytest
-from conftest import bench_section, load_tool, markdown_rows
+from conftest import bench_section, markdown_rows
+
+from benchmarks import report
+from benchmarks import rough as bench
 
 LATER_SECTION = "## A later benchmark\n\n<!-- other:begin -->\nkeep me\n<!-- other:end -->\n"
 
 
 @pytest.fixture(scope="module")
-def bench():
-    with load_tool("bench_rough") as module:
-        yield module
-
-
-@pytest.fixture(scope="module")
-def run(bench, tmp_path_factory):
+def run(tmp_path_factory):
     """One quick run into a document holding an intro, a stale bench_rough section and a later
     section. Returns (path, document after the run, what the run printed)."""
     path = tmp_path_factory.mktemp("docs") / "benchmarks.md"
@@ -49,7 +46,7 @@ def _table(section: str, heading: str) -> list[dict[str, str]]:
 
 
 def _positive_time(bench, text: str) -> float:
-    seconds = bench.parse_time(text)
+    seconds = report.parse_time(text)
     assert math.isfinite(seconds) and seconds > 0.0, text
     return seconds
 
@@ -58,7 +55,7 @@ def _positive_time(bench, text: str) -> float:
 
 
 @pytest.mark.gpu
-def test_section_replaces_the_stale_one(bench, run):
+def test_section_replaces_the_stale_one(run):
     path, text, _ = run
     assert text.count(bench.BEGIN_MARKER) == 1
     assert text.count(bench.END_MARKER) == 1
@@ -68,13 +65,13 @@ def test_section_replaces_the_stale_one(bench, run):
     assert text.count("## Rough Bragg layers") == 1
     # Writing the same section again changes nothing: replaced, never appended.
     section = bench_section(bench, text)
-    bench._docs.write_section(path, section, bench.BEGIN_MARKER, bench.END_MARKER)
+    report.write_section(path, section, bench.BEGIN_MARKER, bench.END_MARKER)
     assert path.read_text(encoding="utf-8") == text
     assert [p.name for p in path.parent.iterdir()] == [path.name]  # no temporary files left
 
 
 @pytest.mark.gpu
-def test_section_printed_and_headed(bench, run):
+def test_section_printed_and_headed(run):
     _, text, printed = run
     section = bench_section(bench, text)
     assert section in printed
@@ -82,7 +79,7 @@ def test_section_printed_and_headed(bench, run):
 
     assert gpu.adapter_info()["name"] in section
     assert "Quick mode" in section
-    assert "- Command: `python tools/bench_rough.py --quick --no-progress --output" in section
+    assert "- Command: `python -m benchmarks.rough --quick --no-progress --output" in section
     assert "- Other processes on the machine during the run: " in section
     assert "- CPU: " in section and "cores available" in section
 
@@ -91,22 +88,22 @@ def test_section_printed_and_headed(bench, run):
 
 
 @pytest.mark.gpu
-def test_bake_table(bench, run):
+def test_bake_table(run):
     _, text, _ = run
     rows = _table(bench_section(bench, text), "### F_")
     cfg = bench.QUICK
     assert [float(row[bench.ALPHA]) for row in rows] == list(cfg.alphas)
     for row in rows:
-        n_i, n_d = (int(v) for v in row[f"n_i {bench.TIMES} n_d"].split(bench.TIMES))
+        n_i, n_d = (int(v) for v in row[f"n_i {report.TIMES} n_d"].split(report.TIMES))
         assert n_i == round(90 / cfg.resolution_deg) + 1 and n_d > 0
         times = [_positive_time(bench, cell) for header, cell in row.items()
                  if "wall clock" in header]
         assert len(times) == 3  # GPU, numpy, LUT load
-        assert bench.parse_ratio(row["numpy / GPU"]) > 0
+        assert report.parse_ratio(row["numpy / GPU"]) > 0
 
 
 @pytest.mark.gpu
-def test_transmissivity_table(bench, run):
+def test_transmissivity_table(run):
     _, text, _ = run
     rows = _table(bench_section(bench, text), "### Integrated transmissivity")
     cfg = bench.QUICK
@@ -116,7 +113,7 @@ def test_transmissivity_table(bench, run):
     assert len(rows) == len(cfg.layer_alphas) * len(cfg.counts) * len(cfg.steps_nm)
     for row, step in zip(rows, [s for _ in bench.layers(cfg) for s in cfg.steps_nm],
                          strict=True):
-        shape = row[f"n_i {bench.TIMES} n_λ"].split(bench.TIMES)
+        shape = row[f"n_i {report.TIMES} n_λ"].split(report.TIMES)
         assert int(shape[1]) == bench.wavelength_count(step)
         kernels = [_positive_time(bench, row[h]) for h in
                    ("GPU kernel: T = 1 - R pass", "GPU kernel: product pass")]
@@ -131,7 +128,7 @@ def test_transmissivity_table(bench, run):
 
 
 @pytest.mark.gpu
-def test_rgb_table(bench, run):
+def test_rgb_table(run):
     _, text, _ = run
     rows = _table(bench_section(bench, text), "### `transmissivity_rgb`")
     assert [row["layer"] for row in rows] == [layer.label for layer in bench.layers(bench.QUICK)]
@@ -141,24 +138,24 @@ def test_rgb_table(bench, run):
 
 
 @pytest.mark.gpu
-def test_size_tables(bench, run):
+def test_size_tables(run):
     _, text, _ = run
     section = bench_section(bench, text)
     rows = _table(section, "### Table sizes")
     for row in rows:
-        n_i, n_cols = (int(v) for v in row["shape"].split(bench.TIMES))
+        n_i, n_cols = (int(v) for v in row["shape"].split(report.TIMES))
         # 3 significant digits of 4 bytes per float32 entry.
-        assert bench.parse_bytes(row["float32"]) == pytest.approx(4 * n_i * n_cols, rel=5e-3)
+        assert report.parse_bytes(row["float32"]) == pytest.approx(4 * n_i * n_cols, rel=5e-3)
     papers = {row["paper (sec. 4.2.2)"] for row in rows}
-    assert {bench.parse_bytes(p) for p in papers} == {1.4e6, 620e3}
+    assert {report.parse_bytes(p) for p in papers} == {1.4e6, 620e3}
     files = _table(section, "### LUT files")
     assert [float(row[bench.ALPHA]) for row in files] == list(bench.QUICK.alphas)
     for row in files:
-        assert bench.parse_bytes(row["file"]) > 0
+        assert report.parse_bytes(row["file"]) > 0
 
 
 @pytest.mark.gpu
-def test_targets_listed(bench, run):
+def test_targets_listed(run):
     _, text, _ = run
     rows = _table(bench_section(bench, text), "### Targets")
     targets = [row["target"] for row in rows]
@@ -176,25 +173,25 @@ def test_targets_listed(bench, run):
 
 
 @pytest.mark.parametrize("size", [3.0, 999.7, 10_900.0, 519_840.0, 1.4e6, 2_086_939.0])
-def test_bytes_round_trip(bench, size):
-    assert bench.parse_bytes(bench.human_bytes(size)) == pytest.approx(size, rel=5e-3)
+def test_bytes_round_trip(size):
+    assert report.parse_bytes(report.human_bytes(size)) == pytest.approx(size, rel=5e-3)
 
 
-def test_bytes_format(bench):
-    assert bench.human_bytes(519_840) == "520 KB"
-    assert bench.human_bytes(1.4e6) == "1.40 MB"
-    assert bench.human_bytes(999_700) == "1.00 MB"
-    assert bench.parse_bytes("≈ 620 KB") == 620e3
+def test_bytes_format():
+    assert report.human_bytes(519_840) == "520 KB"
+    assert report.human_bytes(1.4e6) == "1.40 MB"
+    assert report.human_bytes(999_700) == "1.00 MB"
+    assert report.parse_bytes("≈ 620 KB") == 620e3
 
 
-def test_wavelength_grids(bench):
+def test_wavelength_grids():
     assert bench.wavelengths(1.0) is None  # the library's default 1 nm grid
     grid = bench.wavelengths(5.0)
     assert grid.size == 95 and grid[0] == 360.0 and grid[-1] == 830.0
     assert bench.wavelength_count(1.0) == 471
 
 
-def test_configs_match_the_issue(bench):
+def test_configs_match_the_issue():
     full, quick = bench.FULL, bench.QUICK
     assert full.alphas == (0.01, 0.05, 0.1, 0.4, 1.0)
     assert (full.resolution_deg, full.psi_samples) == (0.25, 1000)
@@ -203,13 +200,13 @@ def test_configs_match_the_issue(bench):
     assert (quick.resolution_deg, quick.psi_samples) == (5.0, 32)
 
 
-def test_output_path(bench, tmp_path):
+def test_output_path(tmp_path):
     def where(*argv):
         return bench.output_path(bench.parse_args(list(argv)))
 
     assert where("--quick") is None  # quick mode never writes docs/ by default
-    assert where() == bench.DEFAULT_OUTPUT
-    assert bench.DEFAULT_OUTPUT.parts[-2:] == ("docs", "benchmarks.md")
+    assert where() == report.DEFAULT_OUTPUT
+    assert report.DEFAULT_OUTPUT.parts[-2:] == ("docs", "benchmarks.md")
     assert where("--no-write") is None
     assert where("--quick", "--output", str(tmp_path / "b.md")) == tmp_path / "b.md"
     with pytest.raises(SystemExit):

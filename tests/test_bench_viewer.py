@@ -1,4 +1,4 @@
-"""``tools/bench_viewer.py`` in its quick mode: every budget is measured through the viewer,
+"""``benchmarks.viewer`` in its quick mode: every budget is measured through the viewer,
 its section is written once between its markers, and the tables hold what they say (no speed
 is asserted)."""
 
@@ -8,66 +8,69 @@ import contextlib
 import io
 
 import pytest
-from conftest import load_tool, markdown_rows
+from conftest import markdown_rows
+
+from benchmarks import report
+from benchmarks import viewer as bench
 
 pytestmark = pytest.mark.gpu
 
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
-    with load_tool("bench_viewer") as bench:
-        path = tmp_path_factory.mktemp("docs") / "benchmarks.md"
-        path.write_text(f"# Benchmarks\n\n{bench.BEGIN_MARKER}\nstale\n{bench.END_MARKER}\n",
-                        encoding="utf-8")
-        with contextlib.redirect_stdout(io.StringIO()):
-            assert bench.main(["--quick", "--no-progress", "--output", str(path)]) == 0
-        yield bench, path.read_text(encoding="utf-8")
+    """The document after one quick run over a stale section."""
+    path = tmp_path_factory.mktemp("docs") / "benchmarks.md"
+    path.write_text(f"# Benchmarks\n\n{bench.BEGIN_MARKER}\nstale\n{bench.END_MARKER}\n",
+                    encoding="utf-8")
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert bench.main(["--quick", "--no-progress", "--output", str(path)]) == 0
+    return path.read_text(encoding="utf-8")
 
 
 def _rows(text: str, heading: str) -> list[list[str]]:
     return markdown_rows(text, heading)[2:]
 
 
-def _seconds(bench, cell: str) -> float:
-    return bench._docs.parse_time(cell)
+def _seconds(cell: str) -> float:
+    return report.parse_time(cell)
 
 
 def test_section_written_once(run):
-    bench, text = run
+    text = run
     assert text.count(bench.BEGIN_MARKER) == 1 and "stale" not in text
     assert "Quick mode" in text
 
 
 def test_bragg_edits_rebake_tables_in_both_modes(run):
-    bench, text = run
+    text = run
     rows = _rows(text, "### Tables re-baked")
     assert [row[0] for row in rows] == list(bench.MODES)
     for _, edits, *times in rows:
         assert int(edits) == bench.QUICK.edits
-        table_median, table_max, update_median, update_max = (_seconds(bench, t) for t in times)
+        table_median, table_max, update_median, update_max = (_seconds(t) for t in times)
         assert 0.0 < table_median <= table_max
         assert table_median <= update_median <= update_max
 
 
 def test_roughness_edit_bakes_then_finds_its_filter(run):
-    bench, text = run
+    text = run
     rows = _rows(text, "### Transmission filter")
     assert [row[:2] for row in rows] == [[f"{bench.FRESH_ALPHA:g}", "baked"],
                                          [f"{bench.FRESH_ALPHA:g}", "in memory"]]
-    assert all(_seconds(bench, row[2]) > 0 for row in rows)
+    assert all(_seconds(row[2]) > 0 for row in rows)
 
 
 def test_edits_that_change_the_kernel_are_timed(run):
-    bench, text = run
+    text = run
     rows = _rows(text, "### Edits that change the kernel")
     assert [row[0] for row in rows] == [
         "first frame of the session", "first filtered-lighting preview frame",
         "3 Bragg layers instead of 2", "spectral mode", "a thin film instead of the Bragg layers"]
-    assert all(_seconds(bench, row[1]) > 0 for row in rows)
+    assert all(_seconds(row[1]) > 0 for row in rows)
 
 
 def test_previews_and_targets(run):
-    _, text = run
+    text = run
     previews = _rows(text, "### Preview frames")
     assert [row[0] for row in previews] == ["filtered image-based lighting", "path-traced"]
     for _, *cells in previews:

@@ -5,7 +5,7 @@ grid n1 = 1, n2 = 1.5, Lambda in {244, 500, 988} nm, d1 / Lambda in {0.25, 0.5, 
 N in {3, 5, 10, 20, 100}, theta = 0, 7, ..., 84 degrees; plus an Appendix D mirror (host != n1,
 "averaged" only) and an evanescent-n2 mirror past its critical angle. Measured (lavapipe):
 mean dE 4e-5 (approx, subdivided), max 3e-4; "averaged" uses the numpy twin's zones, Gauss
-nodes and weights, and agrees within 3e-3 (0.013 on tools/bench_rgb.py's 1-degree grid).
+nodes and weights, and agrees within 3e-3 (0.013 on the 1-degree grid of benchmarks.rgb).
 
 The numpy colours are computed once and shared between the tests.
 """
@@ -18,8 +18,8 @@ import re
 
 import numpy as np
 import pytest
-from conftest import load_tool
 
+from benchmarks import rgb as bench_rgb
 from wgbragg import BraggMirror
 from wgbragg.colour import landmark_methods_gpu as colour_landmarks_gpu
 from wgbragg import gpu
@@ -231,8 +231,7 @@ def test_averaged_exact_spectrum_at_extreme_grazing_is_near_the_converged_integr
     twins 0.7 apart: here the GPU is the better of the two."""
     mirror = BraggMirror(1.0, 1.50001, 100.0, 100.0, 12)
     theta = np.array([float(np.float32(89.99 * DEG))])
-    with load_tool("bench_rgb") as bench_rgb:
-        converged = bench_rgb.fine_xyz(mirror, theta, 0.002)
+    converged = bench_rgb.fine_xyz(mirror, theta, 0.002)
     got = colour_landmarks_gpu.landmark_xyz(mirror, theta, "averaged")
     assert delta_e(got, converged).max() <= 0.2
 

@@ -483,12 +483,13 @@ def test_shared_filter_is_dropped_when_its_file_changes(cache, fake_filter):
     """A file rewritten (or removed) since it was read is read and verified again, so a
     corrupted file is never served from memory either."""
     first = filter_cache.transmission_filter(0.2, 10, 16, backend="numpy")
-    path = luts.lut_path(luts.TRANSMISSION_FILTER, filter_cache.transmission_filter_parameters(0.2, 10,
-                                                                                       16))
+    parameters = filter_cache.transmission_filter_parameters(0.2, 10, 16)
+    path = luts.lut_path(luts.TRANSMISSION_FILTER, parameters)
     path.write_bytes(path.read_bytes()[:-10])  # truncated
     events = []
     with pytest.warns(luts.LutWarning):
-        again = filter_cache.transmission_filter(0.2, 10, 16, backend="numpy", progress=events.append)
+        again = filter_cache.transmission_filter(0.2, 10, 16, backend="numpy",
+                                                 progress=events.append)
     assert again is not first and [e.action for e in events] == ["re-baked"]
     assert filter_cache.transmission_filter(0.2, 10, 16, backend="numpy") is again
     events.clear()

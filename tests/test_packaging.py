@@ -1,4 +1,5 @@
-"""The built wheel carries the WGSL sources and runs kernels from them, not from the tree."""
+"""The wheel built by ``python -m build`` carries every shipped WGSL source and none of the test
+suite's kernels or benchmarks, and runs kernels from its own sources, not from the tree."""
 
 import subprocess
 import sys
@@ -15,9 +16,9 @@ SHADERS = sorted(p.relative_to(ROOT / "wgsl").as_posix() for p in (ROOT / "wgsl"
 def wheel(tmp_path_factory):
     out = tmp_path_factory.mktemp("wheel")
     subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
-         "-w", str(out), str(ROOT)],
-        check=True,
+        [sys.executable, "-m", "build", "--wheel", "--no-isolation", "--outdir", str(out),
+         str(ROOT)],
+        check=True, capture_output=True,
     )
     (path,) = out.glob("wgbragg-*.whl")
     return path
@@ -27,6 +28,21 @@ def test_wheel_contains_every_shader(wheel):
     names = set(zipfile.ZipFile(wheel).namelist())
     missing = [s for s in SHADERS if f"wgbragg/wgsl/{s}" not in names]
     assert SHADERS and not missing
+
+
+def test_wheel_leaves_out_benchmarks_tests_and_tools(wheel):
+    tops = {name.split("/")[0] for name in zipfile.ZipFile(wheel).namelist()}
+    assert not tops & {"benchmarks", "tests", "tools"}, tops
+
+
+def test_wheel_holds_no_test_kernels_tests_or_benchmarks(wheel):
+    names = zipfile.ZipFile(wheel).namelist()
+    test_kernels = {p.name for p in (ROOT / "tests" / "kernels").glob("*.wgsl")}
+    assert test_kernels
+    shipped = {Path(n).name for n in names if n.endswith(".wgsl")}
+    assert not test_kernels & shipped
+    assert not [n for n in names if n.split("/")[0] in ("tests", "benchmarks", "tools")]
+    assert not [n for n in names if "test" in Path(n).name]
 
 
 @pytest.mark.gpu

@@ -173,7 +173,8 @@ def test_perfect_reflector_is_white(method, film):
 
 def test_uncorrected_gaussian_white_is_tinted():
     """Without the adaptation the fit's E white reads (1.205, 0.948, 0.909) in D65 sRGB
-    (physics notes, sec. 5): the correction is what makes it white."""
+    (``docs/physics.md``, "Thin-film colour in Fourier space"): the correction is what makes it
+    white."""
     xyz = ThinFilm(1.5, 300.0).xyz(np.pi / 2, "fourier-gaussian")
     raw = xyz @ np.linalg.inv(E_TO_D65_BRADFORD).T
     np.testing.assert_allclose(raw, 1.0, rtol=1e-12)

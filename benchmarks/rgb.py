@@ -1,10 +1,10 @@
 """Speed and accuracy of the colour methods of :meth:`wgbragg.BraggMirror.xyz`.
 
-For every method of :data:`wgbragg.colour.landmark_methods.COLOUR_METHODS` this measures, in one
+For every method of :data:`wgbragg.colour.methods.COLOUR_METHODS` this measures, in one
 run:
 
 - **time per colour**, float64 numpy for every method, and on the GPU for every method of
-  :data:`wgbragg.colour.landmark_methods.GPU_COLOUR_METHODS` (read when the run starts, so a new GPU
+  :data:`wgbragg.colour.methods.GPU_COLOUR_METHODS` (read when the run starts, so a new GPU
   kernel is picked up without touching this file): wall clock of
   ``mirror.xyz(theta, method, backend="gpu")`` on many angles (pipeline compilation
   excluded), and GPU timestamps of the kernel alone where a timing helper exists
@@ -33,10 +33,10 @@ left alone) and draws the trade-off (time per colour against mean dE) as a PNG u
 
 Usage::
 
-    python tools/bench_rgb.py                     # full run (minutes): docs + out/ plot
-    python tools/bench_rgb.py --no-write          # full run, print only (plot still drawn)
-    python tools/bench_rgb.py --quick             # tiny grid, print only
-    python tools/bench_rgb.py --quick --output /tmp/b.md --plot /tmp/tradeoff.png
+    python -m benchmarks.rgb                      # full run (minutes): docs + out/ plot
+    python -m benchmarks.rgb --no-write           # full run, print only (plot still drawn)
+    python -m benchmarks.rgb --quick              # tiny grid, print only
+    python -m benchmarks.rgb --quick --output /tmp/b.md --plot /tmp/tradeoff.png
 """
 
 from __future__ import annotations
@@ -45,37 +45,31 @@ import argparse
 import dataclasses
 import inspect
 import math
-import shlex
 import sys
-import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
-# tools/ is not a package: make the shared helpers importable however this file is loaded
-# (as a script, or by path from the tests).
-_TOOLS = str(Path(__file__).resolve().parent)
-if _TOOLS not in sys.path:
-    sys.path.insert(0, _TOOLS)
-
-import _docs  # noqa: E402
-# parse_* are re-exported: readers of the report (the tests) parse its cells with them.
-from _docs import (  # noqa: E402, F401
+from benchmarks import report
+from benchmarks.report import (
+    NOT_MEASURED,
     TIMES,
+    Stats,
+    delta_e_xyz,
     human_ratio,
     human_time,
-    parse_ratio,
-    parse_time,
+    optional_import,
+    progress_bar,
+    timed,
+    yes_no,
 )
-from _docs import markdown_table as _table  # noqa: E402
+from benchmarks.report import markdown_table as _table
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_OUTPUT = REPO_ROOT / "docs" / "benchmarks.md"
-DEFAULT_PLOT = REPO_ROOT / "out" / "rgb_tradeoff.png"
-BEGIN_MARKER, END_MARKER = _docs.markers("bench_rgb")
+MODULE = "benchmarks.rgb"
+DEFAULT_PLOT = report.REPO_ROOT / "out" / "rgb_tradeoff.png"
+BEGIN_MARKER, END_MARKER = report.markers("bench_rgb")
 
 N1, N2 = 1.0, 1.5
 BASELINE = "reference"
@@ -98,7 +92,6 @@ TARGET_GPU_AGREEMENT = 0.1  # max dE2000, numpy vs GPU of the same method
 FINE_NODES_PER_OSCILLATION = 40
 FINE_MAX_STEP_NM = 0.1
 
-NOT_MEASURED = "—"
 # Trade-off plot: the "averaged" settings curve of each quadrature.
 SETTINGS_LINESTYLES = {"landmarks": "--", "grid": "-."}
 
@@ -288,24 +281,6 @@ class Results:
 # --------------------------------------------------------------------------- measurement
 
 
-def _rgb(xyz: np.ndarray) -> np.ndarray:
-    from wgbragg.colour.colorimetry import xyz_to_linear_srgb
-
-    return xyz_to_linear_srgb(xyz)
-
-
-def _delta_e(xyz_a: np.ndarray, xyz_b: np.ndarray) -> np.ndarray:
-    from wgbragg.colour.colorimetry import delta_e_2000
-
-    return delta_e_2000(_rgb(xyz_a), _rgb(xyz_b))
-
-
-def _timed(fn: Callable[[], np.ndarray]) -> tuple[np.ndarray, float]:
-    start = time.perf_counter()
-    value = fn()
-    return value, time.perf_counter() - start
-
-
 def fine_step_nm(case) -> float:
     """Trapezoid step (nm) for :func:`fine_xyz`: :data:`FINE_NODES_PER_OSCILLATION` nodes per
     shortest spectral oscillation of the mirror (a :class:`Case` or a ``BraggMirror``), at
@@ -352,8 +327,6 @@ def kernel_timer(method: str, options: dict[str, Any]) -> Callable | None:
     that module exists. Arguments are passed by name, and a helper whose signature does not
     take them is not used, so a changed helper cannot silently time the wrong thing.
     """
-    import importlib
-
     from wgbragg.colour import colorimetry
     from wgbragg.colour import reference_gpu as colour_gpu
     from wgbragg.colour import reference as colour_reference
@@ -374,9 +347,8 @@ def kernel_timer(method: str, options: dict[str, Any]) -> Callable | None:
                           repeats=repeats)
 
         return nodes_timer
-    try:
-        landmarks = importlib.import_module("wgbragg.colour.landmark_methods_gpu")
-    except ImportError:
+    landmarks, _ = optional_import("wgbragg.colour.landmark_methods_gpu")
+    if landmarks is None:
         return None
     helper = getattr(landmarks, "benchmark_xyz", None)
     # "averaged"'s own options (the settings sweep), by name as the helper takes them.
@@ -394,16 +366,6 @@ def kernel_timer(method: str, options: dict[str, Any]) -> Callable | None:
     return landmark_timer
 
 
-def _gpu_available() -> tuple[bool, str | None]:
-    from wgbragg import gpu
-
-    try:
-        gpu.get_device()
-    except Exception as exc:  # no adapter: still measure numpy and say why GPU is missing
-        return False, f"{type(exc).__name__}: {exc}".splitlines()[0]
-    return True, None
-
-
 def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
     """Measure every method on the grid of ``cfg``.
 
@@ -418,12 +380,12 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
     -------
     Results
     """
-    from wgbragg.colour.landmark_methods import COLOUR_METHODS, GPU_COLOUR_METHODS
+    from wgbragg.colour.methods import COLOUR_METHODS, GPU_COLOUR_METHODS
 
     methods = list(COLOUR_METHODS)
-    have_gpu, gpu_error = _gpu_available()
+    have_gpu, gpu_error = report.gpu_available()
     gpu_methods = tuple(m for m in GPU_COLOUR_METHODS if m in methods) if have_gpu else ()
-    load = _docs.LoadMeter()
+    load = report.LoadMeter()
     grid = cases(cfg)
     angles = np.radians(np.asarray(cfg.angles_deg, dtype=np.float64))
     shape = (len(grid), angles.size)
@@ -444,12 +406,12 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
 
     # Accuracy on the grid, and numpy time per colour from the same calls (one pass over the
     # grid: the notes say so).
-    bar = tqdm(list(enumerate(grid)), desc="bench_rgb accuracy", unit="mirror",
-               disable=not progress, file=sys.stderr)
+    bar = progress_bar(list(enumerate(grid)), show=progress, desc="bench_rgb accuracy",
+                       unit="mirror")
     for i, case in bar:
         bar.set_postfix_str(f"L={case.period:g} r={case.ratio:g} N={case.N}")
         mirror = case.mirror
-        reference, elapsed = _timed(lambda m=mirror: m.xyz(angles, BASELINE, "numpy"))
+        reference, elapsed = timed(lambda m=mirror: m.xyz(angles, BASELINE, "numpy"))
         seconds[BASELINE, *NUMPY][i] = elapsed / angles.size
         fine = fine_xyz(mirror, angles, fine_step_nm(case))
         for method in methods:
@@ -457,36 +419,36 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
             if method == BASELINE:
                 xyz = reference
             else:
-                xyz, elapsed = _timed(
+                xyz, elapsed = timed(
                     lambda m=mirror, k=method, o=options: m.xyz(angles, k, "numpy", **o))
                 seconds[method, *NUMPY][i] = elapsed / angles.size
-            delta_e[method][i] = _delta_e(reference, xyz)
-            fine_delta_e[method][i] = _delta_e(fine, xyz)
+            delta_e[method][i] = delta_e_xyz(reference, xyz)
+            fine_delta_e[method][i] = delta_e_xyz(fine, xyz)
             if method in gpu_methods:
                 on_gpu = mirror.xyz(angles, method, "gpu", **options)
-                gpu_delta_e[method][i] = _delta_e(xyz, on_gpu)
+                gpu_delta_e[method][i] = delta_e_xyz(xyz, on_gpu)
         for k in cfg.samples:
-            xyz, elapsed = _timed(
+            xyz, elapsed = timed(
                 lambda m=mirror, k=k: m.xyz(angles, "spectral", "numpy", samples=k))
             sweep_seconds[k, *NUMPY][i] = elapsed / angles.size
-            sweep_delta_e[k][i] = _delta_e(reference, xyz)
+            sweep_delta_e[k][i] = delta_e_xyz(reference, xyz)
             if spectral_on_gpu:
-                sweep_gpu_delta_e[k][i] = _delta_e(
+                sweep_gpu_delta_e[k][i] = delta_e_xyz(
                     xyz, mirror.xyz(angles, "spectral", "gpu", samples=k))
         for setting in settings:
             options = averaged_options(setting)
             xyz = mirror.xyz(angles, "averaged", "numpy", **options)
-            settings_delta_e[setting][i] = _delta_e(reference, xyz)
-            settings_fine_delta_e[setting][i] = _delta_e(fine, xyz)
+            settings_delta_e[setting][i] = delta_e_xyz(reference, xyz)
+            settings_fine_delta_e[setting][i] = delta_e_xyz(fine, xyz)
             if averaged_on_gpu:
-                settings_gpu_delta_e[setting][i] = _delta_e(
+                settings_gpu_delta_e[setting][i] = delta_e_xyz(
                     xyz, mirror.xyz(angles, "averaged", "gpu", **options))
 
     short_fine_delta_e = _short_period_accuracy(cfg, methods, angles, progress)
     if have_gpu:
         _time_gpu(cfg, grid, gpu_methods, seconds, sweep_seconds, settings_seconds, progress)
     dense = _dense_hosts(cfg, methods, gpu_methods, progress)
-    environment = _docs.run_facts(gpu_error)
+    environment = report.run_facts(gpu_error)
     environment["background_cores"] = load.background_cores()
     return Results(cfg, methods, gpu_methods, delta_e, fine_delta_e, short_fine_delta_e,
                    gpu_delta_e, seconds, sweep_delta_e, sweep_gpu_delta_e, sweep_seconds,
@@ -526,8 +488,8 @@ def _dense_hosts(cfg: Config, methods: list[str], gpu_methods: tuple[str, ...],
     from wgbragg import BraggMirror
 
     out = []
-    bar = tqdm(cfg.dense_hosts, desc="bench_rgb dense hosts", unit="mirror",
-               disable=not progress, file=sys.stderr)
+    bar = progress_bar(cfg.dense_hosts, show=progress, desc="bench_rgb dense hosts",
+                       unit="mirror")
     for n1, n2, d1, d2, count, host in bar:
         mirror = BraggMirror(n1, n2, d1, d2, count, host=host)
         first, last = dense_host_range(mirror)
@@ -535,7 +497,7 @@ def _dense_hosts(cfg: Config, methods: list[str], gpu_methods: tuple[str, ...],
                  and (mirror.host == mirror.n1 or m not in ("approx", "subdivided"))]
         angles = np.radians(np.linspace(first, last, cfg.dense_angles))
         fine = fine_xyz(mirror, angles, fine_step_nm(mirror))
-        fine_delta_e = {m: _delta_e(fine, mirror.xyz(angles, m, "numpy",
+        fine_delta_e = {m: delta_e_xyz(fine, mirror.xyz(angles, m, "numpy",
                                                       **METHOD_OPTIONS.get(m, {})))
                         for m in taken}
         theta = np.radians(np.linspace(first, last, cfg.timing_angles))
@@ -555,14 +517,14 @@ def _short_period_accuracy(cfg: Config, methods: list[str], angles: np.ndarray,
     """method -> (short cases, angles) dE2000 of numpy against the converged integral."""
     grid = short_cases(cfg)
     out = {m: np.zeros((len(grid), angles.size)) for m in methods}
-    bar = tqdm(list(enumerate(grid)), desc="bench_rgb short periods", unit="mirror",
-               disable=not progress, file=sys.stderr)
+    bar = progress_bar(list(enumerate(grid)), show=progress, desc="bench_rgb short periods",
+                       unit="mirror")
     for i, case in bar:
         mirror = case.mirror
         fine = fine_xyz(mirror, angles, fine_step_nm(case))
         for method in methods:
             xyz = mirror.xyz(angles, method, "numpy", **METHOD_OPTIONS.get(method, {}))
-            out[method][i] = _delta_e(fine, xyz)
+            out[method][i] = delta_e_xyz(fine, xyz)
     return out
 
 
@@ -594,8 +556,7 @@ def _time_gpu(cfg: Config, grid: list[Case], gpu_methods: tuple[str, ...],
     tasks = [(i, r) for _ in range(cfg.gpu_passes) for i in range(len(grid))
              for r in range(len(rows))]
     warm: set[int] = set()
-    bar = tqdm(tasks, desc="bench_rgb GPU timing", unit="cell", disable=not progress,
-               file=sys.stderr)
+    bar = progress_bar(tasks, show=progress, desc="bench_rgb GPU timing", unit="cell")
     for i, r in bar:
         key, table, method, options, timer = rows[r]
         mirror = grid[i].mirror
@@ -606,7 +567,7 @@ def _time_gpu(cfg: Config, grid: list[Case], gpu_methods: tuple[str, ...],
         if r not in warm:
             call()  # the first call compiles the pipeline: paid once per process
             warm.add(r)
-        wall = _timed(call)[1] / theta.size
+        wall = timed(call)[1] / theta.size
         table[key, *GPU_WALL][i] = min(table[key, *GPU_WALL][i], wall)
         if timer is not None:
             kernel = timer(mirror, theta, cfg.kernel_repeats) / theta.size
@@ -614,31 +575,6 @@ def _time_gpu(cfg: Config, grid: list[Case], gpu_methods: tuple[str, ...],
 
 
 # --------------------------------------------------------------------------- statistics
-
-
-@dataclasses.dataclass(frozen=True)
-class Stats:
-    """mean, 95th percentile and maximum of a set of dE2000 values."""
-
-    mean: float
-    p95: float
-    max: float
-
-    @classmethod
-    def of(cls, values: np.ndarray) -> Stats:
-        """Statistics of ``values`` (any shape, non-empty)."""
-        flat = np.asarray(values, dtype=np.float64).ravel()
-        return cls(float(flat.mean()), float(np.percentile(flat, 95)), float(flat.max()))
-
-    def cell(self) -> str:
-        """``"mean / p95 / max"`` with two decimals."""
-        return f"{self.mean:.2f} / {self.p95:.2f} / {self.max:.2f}"
-
-
-def parse_stats(text: str) -> tuple[float, float, float]:
-    """Inverse of :meth:`Stats.cell`."""
-    mean, p95, top = (float(v) for v in text.split("/"))
-    return mean, p95, top
 
 
 def _select(results: Results, *, period: float | None = None,
@@ -698,10 +634,6 @@ def _timing_rows(results: Results) -> list[tuple[str, tuple[str, str]]]:
     return rows
 
 
-def _yes(flag: bool) -> str:
-    return "yes" if flag else "no"
-
-
 def _accuracy_targets(results: Results, name: str, against_reference: np.ndarray,
                       against_converged: np.ndarray) -> list[list[str]]:
     """The issue's dE2000 bounds for one variant of "averaged" (``name``), against the 1 nm
@@ -722,12 +654,12 @@ def _accuracy_targets(results: Results, name: str, against_reference: np.ndarray
                 f"N in {{{', '.join(map(str, counts_hi))}}}: mean {pooled.mean:.2f}, "
                 f"p95 {pooled.p95:.2f}; worst single N: mean "
                 f"{max(st.mean for st in per_n):.2f}, p95 {max(st.p95 for st in per_n):.2f}",
-                _yes(met)])
+                yes_no(met)])
         every = Stats.of(values)
         rows.append([f"{name}: mean dE2000 <= {TARGET_AVERAGED_MEAN_ALL} over all N, "
                      f"against {against}",
                      f"mean {every.mean:.2f} (N in {{{', '.join(map(str, cfg.counts))}}})",
-                     _yes(every.mean <= TARGET_AVERAGED_MEAN_ALL)])
+                     yes_no(every.mean <= TARGET_AVERAGED_MEAN_ALL)])
     return rows
 
 
@@ -776,7 +708,7 @@ def _targets(results: Results) -> list[list[str]]:
         if missing:
             measured += f" (no GPU kernel yet: {', '.join(missing)})"
         rows.append([label, f"max {measured}",
-                     _yes(max(worst.values()) <= TARGET_GPU_AGREEMENT)])
+                     yes_no(max(worst.values()) <= TARGET_GPU_AGREEMENT)])
     else:
         rows.append([label, "no GPU", "not checked"])
     return rows
@@ -794,7 +726,7 @@ def _speed_target(results: Results, method: str, target: float) -> list[str]:
     # Kernel timestamps where both have them (what the paper's shader timings compare).
     decisive = ratios.get(GPU_KERNEL, ratios.get(GPU_WALL))
     return [label, measured or NOT_MEASURED,
-            "not checked" if decisive is None else _yes(decisive >= target)]
+            "not checked" if decisive is None else yes_no(decisive >= target)]
 
 
 def _setting_speed_target(results: Results, setting: tuple, name: str,
@@ -810,7 +742,7 @@ def _setting_speed_target(results: Results, setting: tuple, name: str,
     # Kernel timestamps where both have them, as for the methods (_speed_target).
     decisive = ratios.get(GPU_KERNEL, ratios.get(GPU_WALL))
     return [label, measured or NOT_MEASURED,
-            "not checked" if decisive is None else _yes(decisive >= target)]
+            "not checked" if decisive is None else yes_no(decisive >= target)]
 
 
 def _table1_target(results: Results, method: str, paper: dict[float, float],
@@ -826,7 +758,7 @@ def _table1_target(results: Results, method: str, paper: dict[float, float],
     measured = ", ".join(f"Λ = {p:g}: {human_ratio(r)}" for p, r in ratios.items()
                          if r is not None)
     met = bool(ratios) and all(r is not None and r >= paper[p] for p, r in ratios.items())
-    return [label, f"{measured} ({kind[1]})", _yes(met)]
+    return [label, f"{measured} ({kind[1]})", yes_no(met)]
 
 
 def _delta_e_table(results: Results, table: dict[str, np.ndarray]) -> list[str]:
@@ -926,24 +858,12 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
     cfg, env = results.config, results.environment
     periods = cfg.periods_nm
     p_header = [f"Λ = {p:g} nm" for p in periods]
-    out = [BEGIN_MARKER, "## Colour methods: speed and accuracy (`tools/bench_rgb.py`)", ""]
-    out.append("_Generated by the command below; do not edit between the markers._")
-    if cfg.name == "quick":
-        out += ["", "**Quick mode: tiny grid, the numbers are not meaningful.**"]
-    versions = ", ".join(f"{k} {v}" for k, v in env["versions"].items())
-    cores_busy = env.get("background_cores")
-    background = ("unknown (no /proc/stat)" if cores_busy is None else
-                  f"{cores_busy:.2f} cores busy on average (from /proc/stat)")
+    out = report.section_head(
+        BEGIN_MARKER, f"Colour methods: speed and accuracy (`python -m {MODULE}`)", command, env,
+        "tiny grid" if cfg.name == "quick" else None)
     angles = (f"{cfg.angles_deg[0]:g} to {cfg.angles_deg[-1]:g}° ({len(cfg.angles_deg)} "
               "angles)")
     out += [
-        "",
-        f"- Command: `{command}`",
-        f"- Date: {env['date']}",
-        f"- Adapter: {env['adapter']}",
-        f"- CPU: {env['cpu']}, {env['cores']} cores available",
-        f"- Other processes on the machine during the run: {background}",
-        f"- Python {env['python']}; {versions}",
         f"- Methods (`COLOUR_METHODS`): {', '.join(results.methods)}; with a GPU kernel "
         f"(`GPU_COLOUR_METHODS` at run time): {', '.join(results.gpu_methods) or 'none'}.",
         f"- Grid: Bragg mirrors n1 = {N1:g}, n2 = {N2:g}, host = n1, Λ in "
@@ -1020,7 +940,7 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
             de = results.gpu_delta_e[method]
             per_n = [f"{de[_select(results, counts=[n])].max():.3f}" for n in cfg.counts]
             rows.append([method_label(method), *per_n, f"{de.max():.3f}", f"{de.mean():.4f}",
-                         _yes(de.max() <= TARGET_GPU_AGREEMENT)])
+                         yes_no(de.max() <= TARGET_GPU_AGREEMENT)])
         else:
             rows.append([method_label(method), "no GPU kernel yet",
                          *[NOT_MEASURED] * (len(cfg.counts) + 1), "not checked"])
@@ -1082,8 +1002,9 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
         f"mirrors (d1/Λ {TIMES} N) of that period. The paper's Table 1 rows are its own shader "
         "measurements, quoted for comparison.")
     out.append(
-        "3. dE2000 from linear sRGB (D65) through CIELAB (`wgbragg.colour.colorimetry.delta_e_2000`); "
-        "p95 is the 95th percentile over the angles and mirrors of the column.")
+        "3. dE2000 from linear sRGB (D65) through CIELAB "
+        "(`wgbragg.colour.colorimetry.delta_e_2000`); p95 is the 95th percentile over the "
+        "angles and mirrors of the column.")
     out.append(
         "4. numpy against GPU: at N = 100 next to sharp transmission resonances one float32 "
         "ulp of a phase moves R by up to ~3e-2 (README, 'Accuracy of the float32 kernel'), and "
@@ -1099,7 +1020,7 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
         "integral by about the bound (its row in the table against the converged integral).")
     if plot is not None:
         try:
-            shown = plot.resolve().relative_to(REPO_ROOT)
+            shown = plot.resolve().relative_to(report.REPO_ROOT)
         except ValueError:
             shown = plot
         out.append(f"6. Trade-off plot (time per colour against mean dE2000): `{shown}` "
@@ -1220,12 +1141,9 @@ def plot_tradeoff(results: Results, path: Path) -> Path:
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     """Parse the command line (``argv`` without the program name)."""
-    parser = argparse.ArgumentParser(
-        prog="bench_rgb.py",
-        description="Colour methods: time per colour, speed-up over reference and dE2000.",
-    )
-    _docs.add_section_arguments(
-        parser, DEFAULT_OUTPUT, "tiny grid; writes nothing unless --output / --plot")
+    parser = report.argument_parser(
+        MODULE, "Colour methods: time per colour, speed-up over reference and dE2000.",
+        "tiny grid; writes nothing unless --output / --plot")
     parser.add_argument("--plot", type=Path, default=None,
                         help=f"trade-off PNG (full mode default: {DEFAULT_PLOT})")
     return parser.parse_args(argv)
@@ -1233,7 +1151,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
 
 def output_path(args: argparse.Namespace) -> Path | None:
     """Where the section goes: ``--output``, else docs/benchmarks.md in full mode only."""
-    return _docs.section_output(args, DEFAULT_OUTPUT)
+    return report.section_output(args)
 
 
 def plot_path(args: argparse.Namespace) -> Path | None:
@@ -1262,9 +1180,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     plot = plot_path(args)
     if plot is not None:
         plot_tradeoff(results, plot)
-    section = render_section(results, shlex.join(["python", "tools/bench_rgb.py", *argv]),
-                             plot)
-    _docs.publish(section, output_path(args), BEGIN_MARKER, END_MARKER)
+    section = render_section(results, report.command_line(MODULE, argv), plot)
+    report.publish(section, output_path(args), BEGIN_MARKER, END_MARKER)
     if plot is not None:
         print(f"wrote {plot}", file=sys.stderr)
     return 0

@@ -7,8 +7,8 @@ Measures, side by side in one run:
   0.25 degrees x 1000 azimuth samples for alpha in {0.01, 0.05, 0.1, 0.4, 1}: GPU (float32)
   wall clock, pipeline warm (one small untimed bake first), median of the passes; numpy
   (float64) at the same settings, one run per alpha (seconds each); and loading the same
-  filter from a LUT file (:func:`wgbragg.common.luts.transmission_filter`, cache hit). The GPU bake
-  has no GPU-timestamp helper, so it is timed by the wall clock only;
+  filter from a LUT file (:func:`wgbragg.bsdf.filter_cache.transmission_filter`, cache hit).
+  The GPU bake has no GPU-timestamp helper, so it is timed by the wall clock only;
 - **the integrated transmissivity table of one layer**,
   :meth:`wgbragg.bsdf.rough_layer.RoughBraggLayer.transmissivity_table` (n_i x n_lambda, eq 28), for
   Bragg mirrors n1 = 1, n2 = 1.5, Lambda = 500 nm, d1 = d2, N in {5, 100} and alpha in
@@ -29,18 +29,16 @@ is left alone).
 
 Usage::
 
-    python tools/bench_rough.py                     # full run (about a minute): docs
-    python tools/bench_rough.py --no-write          # full run, print only
-    python tools/bench_rough.py --quick             # tiny sizes (seconds), print only
-    python tools/bench_rough.py --quick --output /tmp/b.md
+    python -m benchmarks.rough                      # full run (about a minute): docs
+    python -m benchmarks.rough --no-write           # full run, print only
+    python -m benchmarks.rough --quick              # tiny sizes (seconds), print only
+    python -m benchmarks.rough --quick --output /tmp/b.md
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
-import math
-import shlex
 import statistics
 import sys
 import tempfile
@@ -50,17 +48,20 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
-# tools/ is not a package: make the shared helpers importable however this file is loaded
-# (as a script, or by path from the tests).
-_TOOLS = str(Path(__file__).resolve().parent)
-if _TOOLS not in sys.path:
-    sys.path.insert(0, _TOOLS)
-
-import _docs  # noqa: E402
-from _docs import TIMES, human_ratio, human_time, parse_ratio, parse_time  # noqa: E402
-from _docs import markdown_table as _table  # noqa: E402
+from benchmarks import report
+from benchmarks.report import (
+    ALPHA,
+    NOT_MEASURED,
+    TIMES,
+    human_bytes,
+    human_ratio,
+    human_time,
+    progress_bar,
+    timed,
+    yes_no,
+)
+from benchmarks.report import markdown_table as _table
 
 __all__ = [
     "BEGIN_MARKER",
@@ -70,18 +71,13 @@ __all__ = [
     "Config",
     "Layer",
     "Results",
-    "human_bytes",
     "main",
-    "parse_bytes",
-    "parse_ratio",
-    "parse_time",
     "render_section",
     "run_benchmarks",
 ]
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_OUTPUT = REPO_ROOT / "docs" / "benchmarks.md"
-BEGIN_MARKER, END_MARKER = _docs.markers("bench_rough")
+MODULE = "benchmarks.rough"
+BEGIN_MARKER, END_MARKER = report.markers("bench_rough")
 
 # The layers: n1 = 1, n2 = 1.5, Lambda = 500 nm, d1 = d2, embedded in n1.
 N1, N2, PERIOD_NM = 1.0, 1.5, 500.0
@@ -103,9 +99,6 @@ PAPER_BAKE_S = 0.5
 # the next dispatch (the product pass by ~10-50 %).
 SETTLE_S = 0.1
 
-NOT_MEASURED = "—"
-# Escapes: ruff flags a literal Greek alpha and multiplication sign as confusable with a, x.
-ALPHA = "\u03b1"
 
 # Kinds of timing of a layer's table, keys of Results.samples (with the layer and grid).
 YEH_KERNEL = "yeh_kernel"
@@ -257,12 +250,6 @@ class Results:
 # --------------------------------------------------------------------------- measurement
 
 
-def _wall(fn: Callable[[], Any]) -> tuple[Any, float]:
-    start = time.perf_counter()
-    value = fn()
-    return value, time.perf_counter() - start
-
-
 def _bake(cfg: Config, alpha: float, backend: str):
     from wgbragg.bsdf.transmission_filter import TransmissionFilter
 
@@ -271,9 +258,10 @@ def _bake(cfg: Config, alpha: float, backend: str):
 
 
 def _load_lut(cfg: Config, alpha: float, cache: Path):
-    from wgbragg.common import luts
+    from wgbragg.bsdf import filter_cache
 
-    return luts.transmission_filter(alpha, cfg.resolution_deg, cfg.psi_samples, cache=cache)
+    return filter_cache.transmission_filter(alpha, cfg.resolution_deg, cfg.psi_samples,
+                                            cache=cache)
 
 
 def _layer(layer: Layer, filters: dict):
@@ -298,13 +286,13 @@ def _cells(cfg: Config, filters: dict, cache: Path, theta: np.ndarray) -> list[_
     cells: list[_Cell] = []
     for alpha in cfg.alphas:
         def bake_gpu(a=alpha):
-            return {("bake", "gpu", a): _wall(lambda: _bake(cfg, a, "gpu"))[1]}
+            return {("bake", "gpu", a): timed(lambda: _bake(cfg, a, "gpu"))[1]}
 
         def bake_numpy(a=alpha):
-            return {("bake", "numpy", a): _wall(lambda: _bake(cfg, a, "numpy"))[1]}
+            return {("bake", "numpy", a): timed(lambda: _bake(cfg, a, "numpy"))[1]}
 
         def load(a=alpha):
-            return {("lut_load", a): _wall(lambda: _load_lut(cfg, a, cache))[1]}
+            return {("lut_load", a): timed(lambda: _load_lut(cfg, a, cache))[1]}
 
         cells.append(_Cell(0, f"bake gpu {ALPHA}={alpha:g}", True, bake_gpu))
         # The last passes only: seconds each at the full settings.
@@ -319,18 +307,18 @@ def _cells(cfg: Config, filters: dict, cache: Path, theta: np.ndarray) -> list[_
 
             def gpu_wall(r=rough, w=wl, k=key):
                 return {("table", GPU_WALL, *k):
-                        _wall(lambda: r.transmissivity_table(w, backend="gpu"))[1]}
+                        timed(lambda: r.transmissivity_table(w, backend="gpu"))[1]}
 
             def numpy_wall(r=rough, w=wl, k=key):
                 return {("table", NUMPY_WALL, *k):
-                        _wall(lambda: r.transmissivity_table(w, backend="numpy"))[1]}
+                        timed(lambda: r.transmissivity_table(w, backend="numpy"))[1]}
 
             # The product pass alone in numpy (float64 BLAS), on the true transmittances.
             grid = np.linspace(*VISIBLE_NM, wavelength_count(step))
             T = 1.0 - rough.mirror.reflectance(grid[:, None], rough.filter.theta_d[None, :])
 
             def numpy_product(r=rough, t=T, k=key):
-                return {("table", NUMPY_PRODUCT, *k): _wall(lambda: r.filter.integrate(t))[1]}
+                return {("table", NUMPY_PRODUCT, *k): timed(lambda: r.filter.integrate(t))[1]}
 
             def kernels(r=rough, w=wl, k=key):
                 yeh, product = r.benchmark_table(w, repeats=cfg.kernel_repeats)
@@ -344,7 +332,7 @@ def _cells(cfg: Config, filters: dict, cache: Path, theta: np.ndarray) -> list[_
                       _Cell(0, f"table kernels {name}", True, kernels)]
         for backend in ("gpu", "numpy"):
             def rgb(r=rough, b=backend, a=layer.alpha, n=layer.N):
-                return {("rgb", b, a, n): _wall(lambda: r.transmissivity_rgb(theta, b))[1]}
+                return {("rgb", b, a, n): timed(lambda: r.transmissivity_rgb(theta, b))[1]}
 
             cells.append(_Cell(0, f"rgb {backend} {layer.label}", backend == "gpu", rgb))
     return cells
@@ -375,10 +363,11 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
     with a pause of :data:`SETTLE_S` before the next pass.
     """
     from wgbragg import gpu
+    from wgbragg.bsdf import filter_cache
     from wgbragg.common import luts
 
     gpu.get_device()  # fail early if there is no adapter
-    load = _docs.LoadMeter()
+    load = report.LoadMeter()
     theta = np.radians(np.linspace(0.0, 89.0, cfg.rgb_angles))
     samples: dict[tuple, list[float]] = {}
     agreement: dict[tuple[float, int, float], float] = {}
@@ -394,8 +383,9 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
             filters[alpha] = _bake(cfg, alpha, "gpu")
         for alpha in cfg.alphas:
             _load_lut(cfg, alpha, cache)  # a cache miss: bakes and writes the file
-            path = luts.lut_path(luts.TRANSMISSION_FILTER, luts.transmission_filter_parameters(
-                alpha, cfg.resolution_deg, cfg.psi_samples), cache=cache)
+            parameters = filter_cache.transmission_filter_parameters(
+                alpha, cfg.resolution_deg, cfg.psi_samples)
+            path = luts.lut_path(luts.TRANSMISSION_FILTER, parameters, cache=cache)
             lut_bytes[alpha] = path.stat().st_size
             with np.load(path, allow_pickle=False) as npz:
                 stored = sorted({str(npz[name].dtype) for name in npz.files if name != "meta"})
@@ -412,8 +402,7 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
         # GPU cells first in each pass; see SETTLE_S for the pause before them.
         ordered = sorted(cells, key=lambda c: not c.on_gpu)
         tasks = [c for p in range(cfg.passes) for c in ordered if p >= c.first_pass]
-        bar = tqdm(tasks, desc="bench_rough", unit="cell", disable=not progress,
-                   file=sys.stderr)
+        bar = progress_bar(tasks, show=progress, desc="bench_rough", unit="cell")
         previous_on_gpu = True
         for cell in bar:
             bar.set_postfix_str(cell.name)
@@ -422,7 +411,7 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
             previous_on_gpu = cell.on_gpu
             for key, value in cell.measure().items():
                 samples.setdefault(key, []).append(float(value))
-    environment = _docs.run_facts()
+    environment = report.run_facts()
     environment["background_cores"] = load.background_cores()
     shapes = {a: f.values.shape for a, f in filters.items() if a in cfg.alphas}
     rows = next(iter(filters.values())).theta_i.size
@@ -431,33 +420,8 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
 
 # --------------------------------------------------------------------------- formatting
 
-_BYTE_UNITS = ((1e9, "GB"), (1e6, "MB"), (1e3, "KB"), (1.0, "B"))
-
-
-def human_bytes(size: float) -> str:
-    """Size with 3 significant digits and a decimal unit: ``"520 KB"``, ``"1.40 MB"``."""
-    rounded = float(f"{size:.3g}")
-    for scale, unit in _BYTE_UNITS:
-        # Round first so that 999.7 KB becomes "1.00 MB", not "1e+03 KB".
-        if rounded >= scale or unit == "B":
-            value = rounded / scale
-            digits = max(0, 2 - math.floor(math.log10(value))) if value > 0 else 0
-            return f"{value:.{digits}f} {unit}"
-    raise AssertionError("unreachable")
-
-
-def parse_bytes(text: str) -> float:
-    """Inverse of :func:`human_bytes` (bytes); a leading ``"≈ "`` is ignored."""
-    number, unit = text.strip().removeprefix("≈").split()
-    return float(number) * dict((u, s) for s, u in _BYTE_UNITS)[unit]
-
-
 def _time(seconds: float | None) -> str:
     return NOT_MEASURED if seconds is None else human_time(seconds)
-
-
-def _yes(flag: bool) -> str:
-    return "yes" if flag else "no"
 
 
 def _worst(results: Results, keys: Sequence[tuple]) -> tuple[tuple, float] | None:
@@ -476,7 +440,7 @@ def _targets(results: Results) -> list[list[str]]:
     else:
         (_, _, alpha), seconds = worst
         rows.append([label, f"worst {human_time(seconds)} ({ALPHA} = {alpha:g})",
-                     _yes(seconds <= TARGET_BAKE_S)])
+                     yes_no(seconds <= TARGET_BAKE_S)])
     for step in cfg.steps_nm:
         for kind, what in ((KERNEL_SUM, "GPU kernel time, both passes (timestamps)"),
                            (GPU_WALL, "GPU end-to-end (wall clock)")):
@@ -489,7 +453,7 @@ def _targets(results: Results) -> list[list[str]]:
                 continue
             (_, _, alpha, n, _), seconds = worst
             rows.append([label, f"worst {human_time(seconds)} ({Layer(alpha, n).label})",
-                         _yes(seconds <= TARGET_TABLE_S)])
+                         yes_no(seconds <= TARGET_TABLE_S)])
     return rows
 
 
@@ -508,24 +472,11 @@ def render_section(results: Results, command: str) -> str:
         Starts with :data:`BEGIN_MARKER`, ends with :data:`END_MARKER` (no trailing newline).
     """
     cfg, env = results.config, results.environment
-    out = [BEGIN_MARKER, "## Rough Bragg layers: filter bake and transmissivity tables "
-           "(`tools/bench_rough.py`)", ""]
-    out.append("_Generated by the command below; do not edit between the markers._")
-    if cfg.name == "quick":
-        out += ["", "**Quick mode: tiny tables, the numbers are not meaningful.**"]
-    versions = ", ".join(f"{k} {v}" for k, v in env["versions"].items())
-    cores_busy = env.get("background_cores")
-    background = ("unknown (no /proc/stat)" if cores_busy is None else
-                  f"{cores_busy:.2f} cores busy on average (from /proc/stat)")
+    out = report.section_head(
+        BEGIN_MARKER, "Rough Bragg layers: filter bake and transmissivity tables "
+        f"(`python -m {MODULE}`)", command, env, "tiny tables" if cfg.name == "quick" else None)
     settings = f"θ_i step {cfg.resolution_deg:g}°, {cfg.psi_samples} ψ samples per entry"
     out += [
-        "",
-        f"- Command: `{command}`",
-        f"- Date: {env['date']}",
-        f"- Adapter: {env['adapter']}",
-        f"- CPU: {env['cpu']}, {env['cores']} cores available",
-        f"- Other processes on the machine during the run: {background}",
-        f"- Python {env['python']}; {versions}",
         f"- Filters: {settings} ({results.rows} rows).",
         f"- Layers: Bragg mirrors n1 = {N1:g}, n2 = {N2:g}, d1 = d2 = {PERIOD_NM / 2:g} nm "
         f"(Λ = {PERIOD_NM:g} nm), host n1, N in {{{', '.join(map(str, cfg.counts))}}}, "
@@ -590,7 +541,8 @@ def render_section(results: Results, command: str) -> str:
                      f"≈ {human_bytes(PAPER_TABLE_BYTES)}"])
     out += _table(["table", "shape", "float32", "paper (sec. 4.2.2)"], rows)
 
-    out += ["", "### LUT files of the filters (`wgbragg.common.luts`, as the cache writes them)", ""]
+    out += ["", "### LUT files of the filters (`wgbragg.common.luts`, as the cache writes them)",
+            ""]
     rows = [[f"{alpha:g}", human_bytes(results.lut_bytes[alpha]), results.lut_dtypes[alpha]]
             for alpha in cfg.alphas]
     out += _table([ALPHA, "file", "stored dtypes (theta_i, theta_d, values, weights)"], rows)
@@ -604,8 +556,9 @@ def render_section(results: Results, command: str) -> str:
         "clock, what a caller pays: grid set-up, upload, dispatch, readback, the float64 "
         "weights and the validated, read-only arrays. The bake pipeline is compiled before "
         "timing (one small untimed bake). `TransmissionFilter` has no GPU-timestamp helper, "
-        "so the bake has no kernel-only figure. LUT load: `wgbragg.common.luts.transmission_filter` "
-        "on a cache hit (read, header and SHA-256 checks, `TransmissionFilter.from_arrays`).")
+        "so the bake has no kernel-only figure. LUT load: "
+        "`wgbragg.bsdf.filter_cache.transmission_filter` on a cache hit (read, header and "
+        "SHA-256 checks, `TransmissionFilter.from_arrays`).")
     out.append(
         "2. Transmissivity: `RoughBraggLayer(mirror, alpha, transmission_filter=filter)`, the "
         "filter baked beforehand (not timed here). Kernel columns: "
@@ -647,18 +600,14 @@ def render_section(results: Results, command: str) -> str:
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     """Parse the command line (``argv`` without the program name)."""
-    parser = argparse.ArgumentParser(
-        prog="bench_rough.py",
-        description="Rough Bragg layers: F_alpha bake, integrated transmissivity, table sizes.",
-    )
-    _docs.add_section_arguments(
-        parser, DEFAULT_OUTPUT, "tiny tables (seconds); writes nothing unless --output")
-    return parser.parse_args(argv)
+    return report.argument_parser(
+        MODULE, "Rough Bragg layers: F_alpha bake, integrated transmissivity, table sizes.",
+        "tiny tables (seconds); writes nothing unless --output").parse_args(argv)
 
 
 def output_path(args: argparse.Namespace) -> Path | None:
     """Where the section goes: ``--output``, else docs/benchmarks.md in full mode only."""
-    return _docs.section_output(args, DEFAULT_OUTPUT)
+    return report.section_output(args)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -674,12 +623,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     int
         Exit status.
     """
-    argv = list(sys.argv[1:] if argv is None else argv)
-    args = parse_args(argv)
-    results = run_benchmarks(QUICK if args.quick else FULL, progress=not args.no_progress)
-    section = render_section(results, shlex.join(["python", "tools/bench_rough.py", *argv]))
-    _docs.publish(section, output_path(args), BEGIN_MARKER, END_MARKER)
-    return 0
+
+    def measure(quick: bool, progress: bool, command: str) -> str:
+        return render_section(run_benchmarks(QUICK if quick else FULL, progress), command)
+
+    return report.section_main(argv, MODULE, parse_args, (BEGIN_MARKER, END_MARKER), measure)
 
 
 if __name__ == "__main__":

@@ -26,23 +26,19 @@ Optional packages that cannot be imported are reported as "not installed".
 
 Usage::
 
-    python tools/bench_reflectance.py                 # full run, rewrites docs/benchmarks.md
-    python tools/bench_reflectance.py --no-write      # full run, print only
-    python tools/bench_reflectance.py --quick         # tiny sizes (< 20 s), print only
-    python tools/bench_reflectance.py --quick --output /tmp/bench.md
+    python -m benchmarks.reflectance                  # full run, rewrites docs/benchmarks.md
+    python -m benchmarks.reflectance --no-write       # full run, print only
+    python -m benchmarks.reflectance --quick          # tiny sizes (< 20 s), print only
+    python -m benchmarks.reflectance --quick --output /tmp/bench.md
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
-import datetime
-import importlib
 import importlib.metadata
 import math
 import os
-import platform
-import shlex
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -50,29 +46,25 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
-# tools/ is not a package: make the shared helpers importable however this file is loaded
-# (as a script, or by path from the tests).
-_TOOLS = str(Path(__file__).resolve().parent)
-if _TOOLS not in sys.path:
-    sys.path.insert(0, _TOOLS)
-
-import _docs  # noqa: E402
-# parse_ratio is re-exported: readers of the report (the tests) parse its cells with it.
-from _docs import TIMES, human_ratio, parse_ratio  # noqa: E402, F401
-from _docs import markdown_table as _table  # noqa: E402
+from benchmarks import report
+from benchmarks.report import (
+    NOT_MEASURED,
+    TIMES,
+    human_rate,
+    human_ratio,
+    optional_import,
+    progress_bar,
+    yes_no,
+)
+from benchmarks.report import markdown_table as _table
 
 # torch's OpenMP workers spin for a while after each parallel region; on 2 shared cores that
 # spinning lands on the next cell (lavapipe's threads). Set before torch is imported.
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_OUTPUT = REPO_ROOT / "docs" / "benchmarks.md"
-
-BEGIN_MARKER, END_MARKER = _docs.markers("bench_reflectance")
-
-DOC_INTRO = _docs.DOC_INTRO
+MODULE = "benchmarks.reflectance"
+BEGIN_MARKER, END_MARKER = report.markers("bench_reflectance")
 
 # The mirror of the issue: index-matched host (host = n1), n1 substrate.
 N1, N2, D1_NM, D2_NM = 1.0, 1.5, 125.0, 375.0
@@ -86,8 +78,6 @@ TARGET_GPU_RATE = 100e6  # evaluations/s, at every N
 TARGET_FLATNESS = 0.10  # max/min - 1 over N
 TARGET_TMM_FAST_RATIO = 3000.0  # GPU / tmm_fast at N = 20
 
-NOT_MEASURED = "—"
-# Written as an escape: ruff flags a literal multiplication sign as confusable with "x".
 NOT_INSTALLED = "not installed"
 
 
@@ -261,14 +251,6 @@ def stack(N: int) -> tuple[list[float], list[float]]:
     return indices, thicknesses
 
 
-def _import_optional(name: str) -> tuple[Any, str | None]:
-    """(module, None), or (None, reason) when it cannot be imported."""
-    try:
-        return importlib.import_module(name), None
-    except Exception as exc:  # a broken torch raises OSError etc., not only ImportError
-        return None, f"{type(exc).__name__}: {exc}".splitlines()[0]
-
-
 # --------------------------------------------------------------------------- evaluators
 
 # Each evaluator computes R for one method on flat float32 (wavelength_nm, theta) arrays. The
@@ -277,23 +259,23 @@ def _import_optional(name: str) -> tuple[Any, str | None]:
 
 def _bragg_kernel(polarization: str):
     from wgbragg import gpu
-    from wgbragg.optics import kernels
+    from wgbragg.optics import yeh_gpu
 
     constants: dict[str, Any] = {
         "POLARIZATION": {"s": 0, "p": 1, "unpolarized": 2}[polarization],
         "HOST_MATCHED": True,
     }
-    # Time the workgroup size the library dispatches with; wgbragg.optics.kernels may pin one.
-    workgroup_size = getattr(kernels, "WORKGROUP_SIZE", None)
+    # Time the workgroup size the library dispatches with; wgbragg.optics.yeh_gpu may pin one.
+    workgroup_size = getattr(yeh_gpu, "WORKGROUP_SIZE", None)
     if workgroup_size is not None:
         constants["WORKGROUP_SIZE"] = int(workgroup_size)
     return gpu.compute_pipeline("optics/yeh_reflectance.wgsl", constants=constants)
 
 
 def _bragg_params(N: int) -> np.ndarray:
-    from wgbragg.optics import kernels
+    from wgbragg.optics import yeh_gpu
 
-    return kernels.bragg_params(N1, N2, D1_NM, D2_NM, N, N1)
+    return yeh_gpu.bragg_params(N1, N2, D1_NM, D2_NM, N, N1)
 
 
 def evaluate_gpu(N, wavelength_nm, theta, polarization="s"):
@@ -530,22 +512,8 @@ def _version(distribution: str) -> str:
 
 
 def _environment(modules: dict[str, Any]) -> dict[str, Any]:
-    from wgbragg import __version__
-    from wgbragg import gpu
-
-    info = gpu.adapter_info()
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        cores = os.cpu_count() or 1
-    env = {
-        "date": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"),
-        "adapter": f"{info['name']} [{info['backend']}]",
-        "cpu": _docs.cpu_model(),
-        "cores": cores,
-        "python": platform.python_version(),
-        "versions": {"wgbragg": __version__, "numpy": np.__version__},
-    }
+    """:func:`benchmarks.report.run_facts` with the peers' versions and torch's threads."""
+    env = report.run_facts()
     for name in modules:
         env["versions"][name] = _version(name)
     if "tmm_fast" in modules:
@@ -576,7 +544,7 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
     modules, missing = {}, {}
     for method in METHODS:
         if method.package is not None:
-            module, why = _import_optional(method.package)
+            module, why = optional_import(method.package)
             if module is None:
                 missing[method.key] = why
             else:
@@ -589,9 +557,8 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
     tasks = [cell for _ in range(cfg.passes) for cell in cells]
     measurements: dict[tuple[str, int], Measurement] = {}
     sizes: dict[tuple[str, int], Any] = {}
-    load = _docs.LoadMeter()
-    bar = tqdm(tasks, desc="bench_reflectance", unit="cell", disable=not progress,
-               file=sys.stderr)
+    load = report.LoadMeter()
+    bar = progress_bar(tasks, show=progress, desc="bench_reflectance", unit="cell")
     for key, N in bar:
         bar.set_postfix_str(f"{key} N={N}")
         result = _measure(key, N, cfg, sizes)
@@ -604,48 +571,6 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
 
 
 # --------------------------------------------------------------------------- report
-
-_PREFIXES = ((1e12, "T"), (1e9, "G"), (1e6, "M"), (1e3, "k"), (1.0, ""))
-
-
-def human_rate(rate: float) -> str:
-    """Rate with 3 significant digits and an SI prefix, e.g. ``"123 M/s"``, ``"1.10 k/s"``.
-
-    Parameters
-    ----------
-    rate : float
-        Evaluations per second, > 0.
-
-    Returns
-    -------
-    str
-    """
-    for scale, prefix in _PREFIXES:
-        # Round first so that 999.7 k becomes "1.00 M", not "1e+03 k".
-        if float(f"{rate:.3g}") >= scale or scale == 1.0:
-            value = float(f"{rate:.3g}") / scale
-            digits = max(0, 2 - math.floor(math.log10(value))) if value > 0 else 2
-            return f"{value:.{digits}f} {prefix}/s"
-    raise AssertionError("unreachable")
-
-
-def parse_rate(text: str) -> float:
-    """Inverse of :func:`human_rate`.
-
-    Parameters
-    ----------
-    text : str
-        As made by :func:`human_rate`.
-
-    Returns
-    -------
-    float
-    """
-    number, unit = text.strip().split()
-    prefix = unit.removesuffix("/s")
-    scale = dict((p, s) for s, p in _PREFIXES)[prefix]
-    return float(number) * scale
-
 
 def _n_label(N: int) -> str:
     exponent = math.log10(N)
@@ -676,15 +601,15 @@ def _targets(results: Results) -> list[list[str]]:
     if gpu_rates:
         low = min(gpu_rates)
         rows.append([f"GPU kernel >= {human_rate(TARGET_GPU_RATE)} at every N",
-                     f"min {human_rate(low)}", "yes" if low >= TARGET_GPU_RATE else "no"])
+                     f"min {human_rate(low)}", yes_no(low >= TARGET_GPU_RATE)])
     flat = flatness(results, "gpu")
     if flat is not None:
         rows.append([f"GPU kernel flat in N (max/min - 1 <= {TARGET_FLATNESS:.0%})",
-                     f"{flat:.1%}", "yes" if flat <= TARGET_FLATNESS else "no"])
+                     f"{flat:.1%}", yes_no(flat <= TARGET_FLATNESS)])
     if ("gpu", 20) in m and ("tmm_fast", 20) in m:
         ratio = m["gpu", 20].rate / m["tmm_fast", 20].rate
         rows.append([f"GPU kernel >= {TARGET_TMM_FAST_RATIO:,.0f}{TIMES} `tmm_fast` at N = 20",
-                     human_ratio(ratio), "yes" if ratio >= TARGET_TMM_FAST_RATIO else "no"])
+                     human_ratio(ratio), yes_no(ratio >= TARGET_TMM_FAST_RATIO)])
     else:
         rows.append([f"GPU kernel >= {TARGET_TMM_FAST_RATIO:,.0f}{TIMES} `tmm_fast` at N = 20",
                      NOT_INSTALLED, "not checked"])
@@ -707,24 +632,10 @@ def render_section(results: Results, command: str) -> str:
     """
     cfg, m, env = results.config, results.measurements, results.environment
     n_header = [_n_label(N) for N in N_VALUES]
-    out = [BEGIN_MARKER, "## Reflectance throughput (`tools/bench_reflectance.py`)", ""]
-    out.append("_Generated by the command below; do not edit between the markers._")
-    if cfg.name == "quick":
-        out.append("")
-        out.append("**Quick mode: tiny problem sizes, the numbers are not meaningful.**")
-    versions = ", ".join(f"{k} {v}" for k, v in env["versions"].items())
-    cores_busy = env.get("background_cores")
-    background = ("unknown (no /proc/stat)" if cores_busy is None else
-                  f"{cores_busy:.2f} cores busy on average (from /proc/stat)")
-    threads = f", torch threads {env['torch_threads']}" if "torch_threads" in env else ""
+    out = report.section_head(
+        BEGIN_MARKER, f"Reflectance throughput (`python -m {MODULE}`)", command, env,
+        "tiny problem sizes" if cfg.name == "quick" else None)
     out += [
-        "",
-        f"- Command: `{command}`",
-        f"- Date: {env['date']}",
-        f"- Adapter: {env['adapter']}",
-        f"- CPU: {env['cpu']}, {env['cores']} cores available{threads}",
-        f"- Other processes on the machine during the run: {background}",
-        f"- Python {env['python']}; {versions}",
         f"- Mirror: (n1, n2, d1, d2) = ({N1}, {N2}, {D1_NM:g} nm, {D2_NM:g} nm), host = n1; "
         f"float32 inputs, wavelength {WAVELENGTH_RANGE_NM[0]:g} to {WAVELENGTH_RANGE_NM[1]:g} nm "
         f"by angle {THETA_RANGE_DEG[0]:g} to {THETA_RANGE_DEG[1]:g}°.",
@@ -821,50 +732,21 @@ def render_section(results: Results, command: str) -> str:
     return "\n".join(out)
 
 
-def update_document(text: str | None, section: str) -> str:
-    """Put ``section`` into a benchmarks document, replacing an earlier version of it.
-
-    Parameters
-    ----------
-    text : str or None
-        Current document, or None if it does not exist yet.
-    section : str
-        As made by :func:`render_section`, markers included.
-
-    Returns
-    -------
-    str
-        ``text`` with the part from :data:`BEGIN_MARKER` to :data:`END_MARKER` replaced by
-        ``section``; ``section`` appended if ``text`` has no markers; the intro followed by
-        ``section`` if ``text`` is None.
-
-    Raises
-    ------
-    ValueError
-        If the markers are unpaired, repeated or out of order: rewriting then could eat
-        someone else's section.
-    """
-    return _docs.update_document(text, section, BEGIN_MARKER, END_MARKER, DOC_INTRO)
-
-
 # --------------------------------------------------------------------------- CLI
+
+DESCRIPTION = ("Reflectance evaluations/s: GPU kernel vs numpy Yeh, transfer matrices, tmm and "
+               "tmm_fast.")
+QUICK_HELP = "tiny sizes and repeats (< 20 s); writes nothing unless --output"
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     """Parse the command line (``argv`` without the program name)."""
-    parser = argparse.ArgumentParser(
-        prog="bench_reflectance.py",
-        description="Reflectance evaluations/s: GPU kernel vs numpy Yeh, transfer matrices, "
-                    "tmm and tmm_fast.",
-    )
-    _docs.add_section_arguments(
-        parser, DEFAULT_OUTPUT, "tiny sizes and repeats (< 20 s); writes nothing unless --output")
-    return parser.parse_args(argv)
+    return report.argument_parser(MODULE, DESCRIPTION, QUICK_HELP).parse_args(argv)
 
 
 def output_path(args: argparse.Namespace) -> Path | None:
     """Where the section goes: ``--output``, else docs/benchmarks.md in full mode only."""
-    return _docs.section_output(args, DEFAULT_OUTPUT)
+    return report.section_output(args)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -880,13 +762,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     int
         Exit status.
     """
-    argv = list(sys.argv[1:] if argv is None else argv)
-    args = parse_args(argv)
-    results = run_benchmarks(QUICK if args.quick else FULL, progress=not args.no_progress)
-    section = render_section(results, shlex.join(["python", "tools/bench_reflectance.py",
-                                                  *argv]))
-    _docs.publish(section, output_path(args), BEGIN_MARKER, END_MARKER)
-    return 0
+
+    def measure(quick: bool, progress: bool, command: str) -> str:
+        return render_section(run_benchmarks(QUICK if quick else FULL, progress), command)
+
+    return report.section_main(argv, MODULE, parse_args, (BEGIN_MARKER, END_MARKER), measure)
 
 
 if __name__ == "__main__":

@@ -22,43 +22,44 @@ alone).
 
 Usage::
 
-    python tools/bench_film.py                  # full run (minutes): docs/benchmarks.md
-    python tools/bench_film.py --no-write       # full run, print only
-    python tools/bench_film.py --quick          # tiny grid, print only
-    python tools/bench_film.py --quick --output /tmp/b.md
+    python -m benchmarks.film                   # full run (minutes): docs/benchmarks.md
+    python -m benchmarks.film --no-write        # full run, print only
+    python -m benchmarks.film --quick           # tiny grid, print only
+    python -m benchmarks.film --quick --output /tmp/b.md
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
-import shlex
 import sys
 import time
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
-# tools/ is not a package: make the shared helpers importable however this file is loaded.
-_TOOLS = str(Path(__file__).resolve().parent)
-if _TOOLS not in sys.path:
-    sys.path.insert(0, _TOOLS)
+from benchmarks import report
+from benchmarks.report import (
+    NOT_MEASURED,
+    SIGMA,
+    TIMES,
+    Stats,
+    delta_e_xyz,
+    human_time,
+    progress_bar,
+    yes_no,
+)
+from benchmarks.report import markdown_table as _table
 
-import _docs  # noqa: E402
-from _docs import TIMES, human_time, parse_time  # noqa: E402, F401
-from _docs import markdown_table as _table  # noqa: E402
-
-REPO_ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_OUTPUT = REPO_ROOT / "docs" / "benchmarks.md"
-BEGIN_MARKER, END_MARKER = _docs.markers("bench_film")
+MODULE = "benchmarks.film"
+BEGIN_MARKER, END_MARKER = report.markers("bench_film")
 
 REFERENCE = "reference"
 FOURIER = ("fourier-table", "fourier-gaussian")
 UNCORRECTED = "fourier-gaussian, E white as D65"
-"""The Gaussian fits without the white-point correction (physics notes, sec. 5)."""
+"""The Gaussian fits without the white-point correction (``docs/physics.md``, "Thin-film colour
+in Fourier space")."""
 
 BASES: dict[str, dict[str, Any]] = {
     "1.0": {"n_base": 1.0}, "1.5": {"n_base": 1.5},
@@ -71,8 +72,6 @@ TARGET_TABLE_MEAN = 1.0  # mean dE2000 of "fourier-table" against "reference" (i
 TARGET_GPU_AGREEMENT = 0.1  # max dE2000, numpy vs GPU of the same method
 WHITE_TOLERANCE = 2e-3  # perfect reflector in linear sRGB, as the reference's own
 
-NOT_MEASURED = "—"
-SIGMA = "\u03c3"  # an escape: ruff flags a literal sigma as confusable with "o"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -183,27 +182,11 @@ class Results:
 # --------------------------------------------------------------------------- measurement
 
 
-def _delta_e(xyz_a: np.ndarray, xyz_b: np.ndarray) -> np.ndarray:
-    from wgbragg.colour.colorimetry import delta_e_2000, xyz_to_linear_srgb
-
-    return delta_e_2000(xyz_to_linear_srgb(xyz_a), xyz_to_linear_srgb(xyz_b))
-
-
 def _uncorrected(xyz: np.ndarray) -> np.ndarray:
     """Undo the Bradford adaptation: the Gaussian fits' XYZ under illuminant E."""
     from wgbragg.colour.thin_film import E_TO_D65_BRADFORD
 
     return xyz @ np.linalg.inv(E_TO_D65_BRADFORD).T
-
-
-def _gpu_available() -> tuple[bool, str | None]:
-    from wgbragg import gpu
-
-    try:
-        gpu.get_device()
-    except Exception as exc:  # no adapter: still measure numpy and say why the GPU is missing
-        return False, f"{type(exc).__name__}: {exc}".splitlines()[0]
-    return True, None
 
 
 def brute_force_xyz(film, theta, sigma_nm: float, nodes: int) -> np.ndarray:
@@ -217,8 +200,8 @@ def brute_force_xyz(film, theta, sigma_nm: float, nodes: int) -> np.ndarray:
 
 def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
     """Measure every method and order on the grid of ``cfg`` (see the module docstring)."""
-    have_gpu, gpu_error = _gpu_available()
-    load = _docs.LoadMeter()
+    have_gpu, gpu_error = report.gpu_available()
+    load = report.LoadMeter()
     grid = films(cfg)
     angles = np.radians(np.asarray(cfg.angles_deg, np.float64))
     keys = rows(cfg)
@@ -227,20 +210,20 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
     gpu_keys = [(REFERENCE, 0), *[key for key in keys if key[0] in FOURIER]] if have_gpu else []
     gpu_delta_e = {key: np.zeros(shape) for key in gpu_keys}
 
-    bar = tqdm(list(enumerate(grid)), desc="bench_film accuracy", unit="film",
-               disable=not progress, file=sys.stderr)
+    bar = progress_bar(list(enumerate(grid)), show=progress, desc="bench_film accuracy",
+                       unit="film")
     for i, (_, film) in bar:
         reference = film.xyz(angles)
         if (REFERENCE, 0) in gpu_delta_e:
-            gpu_delta_e[REFERENCE, 0][i] = _delta_e(reference, film.xyz(angles, backend="gpu"))
+            gpu_delta_e[REFERENCE, 0][i] = delta_e_xyz(reference, film.xyz(angles, backend="gpu"))
         for method, order in keys:
             if method == UNCORRECTED:
                 xyz = _uncorrected(film.xyz(angles, FOURIER[1], order=order))
             else:
                 xyz = film.xyz(angles, method, order=order)
-            delta_e[method, order][i] = _delta_e(reference, xyz)
+            delta_e[method, order][i] = delta_e_xyz(reference, xyz)
             if (method, order) in gpu_delta_e:
-                gpu_delta_e[method, order][i] = _delta_e(
+                gpu_delta_e[method, order][i] = delta_e_xyz(
                     xyz, film.xyz(angles, method, "gpu", order=order))
     from wgbragg import ThinFilm
     from wgbragg.colour.colorimetry import xyz_to_linear_srgb
@@ -252,7 +235,7 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
 
     seconds = _time(cfg, angles, have_gpu, progress)
     prefilter = _prefilter_check(cfg, angles, progress)
-    environment = _docs.run_facts(gpu_error)
+    environment = report.run_facts(gpu_error)
     environment["background_cores"] = load.background_cores()
     return Results(cfg, [base for base, _ in grid], delta_e, gpu_delta_e, white, seconds,
                    prefilter, environment)
@@ -275,8 +258,7 @@ def _time(cfg: Config, angles: np.ndarray, have_gpu: bool,
     backends = ("numpy", "gpu") if have_gpu else ("numpy",)
     tasks = [(base, method, order, backend) for base in TIMING_BASES
              for method, order in timed for backend in backends]
-    bar = tqdm(tasks * 2, desc="bench_film timing", unit="cell", disable=not progress,
-               file=sys.stderr)
+    bar = progress_bar(tasks * 2, show=progress, desc="bench_film timing", unit="cell")
     for base, method, order, backend in bar:
         film = ThinFilm(1.5, 500.0, **BASES[base])
         options = {} if method == REFERENCE else {"order": order}
@@ -306,34 +288,18 @@ def _prefilter_check(cfg: Config, angles: np.ndarray, progress: bool) -> list:
     thickness = float(np.ceil(max(cfg.prefilter_std_nm) * nodes.max() / 100.0) * 100.0)
     out = []
     tasks = [(base, sigma) for base in cfg.bases for sigma in cfg.prefilter_std_nm]
-    for base, sigma in tqdm(tasks, desc="bench_film prefiltering", unit="case",
-                            disable=not progress, file=sys.stderr):
+    for base, sigma in progress_bar(tasks, show=progress, desc="bench_film prefiltering",
+                                    unit="case"):
         film = ThinFilm(PREFILTER_FILM_INDEX, thickness, **BASES[base])
         truth = brute_force_xyz(film, angles, sigma, cfg.prefilter_nodes)
         for order in (DEFAULT_ORDER, MAX_ORDER):
-            de = _delta_e(truth, film.xyz(angles, "fourier-table", order=order,
+            de = delta_e_xyz(truth, film.xyz(angles, "fourier-table", order=order,
                                           thickness_std_nm=sigma))
             out.append((base, sigma, order, float(de.mean()), float(de.max())))
     return out
 
 
 # --------------------------------------------------------------------------- report
-
-
-def stats_cell(values: np.ndarray) -> str:
-    """``"mean / p95 / max"`` with two decimals."""
-    flat = np.asarray(values, np.float64).ravel()
-    return f"{flat.mean():.2f} / {np.percentile(flat, 95):.2f} / {flat.max():.2f}"
-
-
-def parse_stats(text: str) -> tuple[float, float, float]:
-    """Inverse of :func:`stats_cell`."""
-    mean, p95, top = (float(v) for v in text.split("/"))
-    return mean, p95, top
-
-
-def _yes(flag: bool) -> str:
-    return "yes" if flag else "no"
 
 
 def render_section(results: Results, command: str) -> str:
@@ -347,24 +313,12 @@ def render_section(results: Results, command: str) -> str:
 
     cfg, env = results.config, results.environment
     bases = np.array(results.bases)
-    out = [BEGIN_MARKER, "## Thin-film colour methods (`tools/bench_film.py`)", ""]
-    out.append("_Generated by the command below; do not edit between the markers._")
-    if cfg.name == "quick":
-        out += ["", "**Quick mode: tiny grid, the numbers are not meaningful.**"]
-    versions = ", ".join(f"{k} {v}" for k, v in env["versions"].items())
-    busy = env.get("background_cores")
-    background = ("unknown (no /proc/stat)" if busy is None else
-                  f"{busy:.2f} cores busy on average (from /proc/stat)")
+    out = report.section_head(
+        BEGIN_MARKER, f"Thin-film colour methods (`python -m {MODULE}`)", command, env,
+        "tiny grid" if cfg.name == "quick" else None)
     thick = cfg.thicknesses_nm
     step = f" every {thick[1] - thick[0]:g} nm" if len(thick) > 2 else ""
     out += [
-        "",
-        f"- Command: `{command}`",
-        f"- Date: {env['date']}",
-        f"- Adapter: {env['adapter']}",
-        f"- CPU: {env['cpu']}, {env['cores']} cores available",
-        f"- Other processes on the machine during the run: {background}",
-        f"- Python {env['python']}; {versions}",
         f"- Grid: films in air, d = {thick[0]:g} to {thick[-1]:g} nm{step} {TIMES} n_film in "
         f"{{{', '.join(f'{n:g}' for n in cfg.film_indices)}}} {TIMES} base in "
         f"{{{', '.join(cfg.bases)}}} {TIMES} θ = {cfg.angles_deg[0]:g} to "
@@ -378,20 +332,20 @@ def render_section(results: Results, command: str) -> str:
     header = ["method", *[f"base {b}" for b in cfg.bases], "all"]
     table = []
     for key, de in results.delta_e.items():
-        cells = [stats_cell(de[bases == b]) for b in cfg.bases]
-        table.append([label(*key), *cells, stats_cell(de)])
+        cells = [Stats.of(de[bases == b]).cell() for b in cfg.bases]
+        table.append([label(*key), *cells, Stats.of(de).cell()])
     out += _table(header, table)
 
     out += ["", "### Perfect reflector (θ = 90°) in linear sRGB", ""]
     table = [[method, ", ".join(f"{v:.4f}" for v in rgb),
-              _yes(bool(np.all(np.abs(rgb - 1.0) <= WHITE_TOLERANCE)))]
+              yes_no(bool(np.all(np.abs(rgb - 1.0) <= WHITE_TOLERANCE)))]
              for method, rgb in results.white.items()]
     out += _table(["method", "R, G, B", f"within {WHITE_TOLERANCE:g} of 1"], table)
 
     out += ["", "### numpy against GPU (same method and order): dE2000", ""]
     if results.gpu_delta_e:
         table = [[label(*key), f"{de.max():.4f}", f"{de.mean():.5f}",
-                  _yes(de.max() <= TARGET_GPU_AGREEMENT)]
+                  yes_no(de.max() <= TARGET_GPU_AGREEMENT)]
                  for key, de in results.gpu_delta_e.items()]
         out += _table(["method", "max", "mean", f"max <= {TARGET_GPU_AGREEMENT}"], table)
     else:
@@ -428,12 +382,12 @@ def render_section(results: Results, command: str) -> str:
     out += _table(["target", "measured", "met"], [
         [f"`fourier-table` (M = {DEFAULT_ORDER}): mean dE2000 <= {TARGET_TABLE_MEAN:g} "
          "against `reference`", f"{table_de.mean():.3f}",
-         _yes(table_de.mean() <= TARGET_TABLE_MEAN)],
+         yes_no(table_de.mean() <= TARGET_TABLE_MEAN)],
         [f"numpy and GPU versions within dE2000 {TARGET_GPU_AGREEMENT:g}",
          NOT_MEASURED if gpu_max is None else f"max {gpu_max:.4f}",
-         "not checked" if gpu_max is None else _yes(gpu_max <= TARGET_GPU_AGREEMENT)],
+         "not checked" if gpu_max is None else yes_no(gpu_max <= TARGET_GPU_AGREEMENT)],
         ["perfect reflector -> sRGB (1, 1, 1) for every method",
-         "see the table above", _yes(white_ok)],
+         "see the table above", yes_no(white_ok)],
     ])
 
     out += ["", "Notes:", ""]
@@ -464,23 +418,18 @@ def render_section(results: Results, command: str) -> str:
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     """Parse the command line (``argv`` without the program name)."""
-    parser = argparse.ArgumentParser(
-        prog="bench_film.py",
-        description="Thin-film colour methods: dE2000 against reference, time per colour.")
-    _docs.add_section_arguments(parser, DEFAULT_OUTPUT, "tiny grid; writes nothing unless "
-                                "--output")
-    return parser.parse_args(argv)
+    return report.argument_parser(
+        MODULE, "Thin-film colour methods: dE2000 against reference, time per colour.",
+        "tiny grid; writes nothing unless --output").parse_args(argv)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the benchmark, print the section and write it where asked; returns the status."""
-    argv = list(sys.argv[1:] if argv is None else argv)
-    args = parse_args(argv)
-    results = run_benchmarks(QUICK if args.quick else FULL, progress=not args.no_progress)
-    section = render_section(results, shlex.join(["python", "tools/bench_film.py", *argv]))
-    _docs.publish(section, _docs.section_output(args, DEFAULT_OUTPUT), BEGIN_MARKER,
-                  END_MARKER)
-    return 0
+
+    def measure(quick: bool, progress: bool, command: str) -> str:
+        return render_section(run_benchmarks(QUICK if quick else FULL, progress), command)
+
+    return report.section_main(argv, MODULE, parse_args, (BEGIN_MARKER, END_MARKER), measure)
 
 
 if __name__ == "__main__":
