@@ -379,8 +379,11 @@ def test_thin_film_is_continuous_at_its_critical_angle(n_film, n_base, k_base, h
 def test_total_internal_reflection_in_a_dense_host():
     wavelength = np.linspace(360.0, 830.0, 95)[:, None]
     for n1, n2, host in ((1.3, 2.5, 2.0), (1.0, 1.5, 1.33), (1.5, 1.0, 1.6), (1.59, 1.67, 2.4)):
-        critical = math.asin(n1 / host)
-        theta = np.append(np.linspace(critical, math.pi / 2, 25), np.nextafter(critical, 2.0))
+        # 1e-9 rad past the critical angle: host sin(theta) >= n1 by thousands of ulps, whatever
+        # the last bit of a CPU's sin (1 - R grows as the square root of a shortfall, so no
+        # tolerance of a few ulps would cover one).
+        critical = math.asin(n1 / host) + 1e-9
+        theta = np.linspace(critical, math.pi / 2, 25)
         for N in (1, 2, 20, MAX_INT32):
             mirror = BraggMirror(n1, n2, 300.0, 20.0, N, host=host)
             for pol in (*POLARIZATIONS, "unpolarized"):
@@ -624,14 +627,19 @@ def test_phase_average_is_exact_inside_band_gaps():
 
 
 def test_phase_average_at_a_band_edge_under_brewster_is_exact():
-    """p at Brewster's angle: C = 0, and where sin^2 K Lambda is 0 too the mean was 0 / 0."""
+    """p at Brewster's angle: C = 0, and where sin^2 K Lambda is 0 too the mean was 0 / 0.
+
+    The inputs land on sin^2 = 0 exactly only with this CPU's last bit of sin; one ulp away
+    sin^2 ~ 1e-29 and |C| ~ 1e-17, where the exact R is below 1e-20 and the phase average, ill
+    conditioned at this 0 / 0 point, a few 1e-6. What must hold is a finite, vanishing R."""
     n1, n2, d1, d2 = 1.0144732001868666, 1.0, 561.4886022923857, 1986.001046149856
     brewster, wavelength = math.atan(n2 / n1), 514.24326811702133
-    assert bloch_dispersion(n1, n2, d1, d2, wavelength, brewster, "p")[1] == 0.0
+    assert abs(bloch_dispersion(n1, n2, d1, d2, wavelength, brewster, "p")[1]) <= 1e-27
     for N in (5, 10**4):
         averaged = yeh_reflectance(n1, n2, d1, d2, N, wavelength, brewster, "p",
                                    method="phase-averaged")
-        assert averaged == yeh_reflectance(n1, n2, d1, d2, N, wavelength, brewster, "p") == 0.0
+        assert np.isfinite(averaged) and 0.0 <= averaged <= 1e-5
+        assert 0.0 <= yeh_reflectance(n1, n2, d1, d2, N, wavelength, brewster, "p") <= 1e-20
 
 
 def test_unknown_yeh_method_is_refused():

@@ -148,7 +148,8 @@ def test_smooth_limit_is_the_film_colour(degrees):
 def test_quadrature_nodes_leave_the_surface_and_weights_are_positive():
     l, cos_d, weight = reflection_quadrature(np.array([0.0, 0.2, 0.9, 1.0]), 0.5, 16, mirror=True)
     assert l.shape == (4, 2 * 2 * 16 * 16, 3) and cos_d.shape == weight.shape == l.shape[:-1]
-    assert np.all(l[..., 2] >= 0.0) and np.all(weight >= 0.0)
+    # cos 2 theta_m at theta_m = pi / 4 is 0 only up to the rounding of cos and sin.
+    assert np.all(l[..., 2] >= -4 * np.finfo(float).eps) and np.all(weight >= 0.0)
     np.testing.assert_allclose(np.linalg.norm(l, axis=-1), 1.0, atol=1e-12)
     # The mirrored half cancels every odd moment in y.
     np.testing.assert_allclose(np.einsum("ek,ek->e", weight, l[..., 1]), 0.0, atol=1e-15)
