@@ -49,7 +49,7 @@ def tmp_shaders(tmp_path, monkeypatch):
     """A private shader folder holding a copy of gpu/harness.wgsl."""
     (tmp_path / "gpu").mkdir()
     shutil.copy(gpu.shader_dir() / "gpu/harness.wgsl", tmp_path / "gpu/harness.wgsl")
-    monkeypatch.setattr(gpu, "shader_dir", lambda: tmp_path)
+    monkeypatch.setattr(gpu.shaders, "shader_dir", lambda: tmp_path)  # load_shader's lookup
     return tmp_path
 
 
@@ -535,7 +535,7 @@ def test_pass_clock_needs_timestamps(monkeypatch):
     class NoTimestamps:
         features = frozenset()
 
-    monkeypatch.setattr(gpu, "get_device", lambda: NoTimestamps())
+    monkeypatch.setattr(gpu.timing, "get_device", lambda: NoTimestamps())  # pass_clock's
     with pytest.raises(RuntimeError, match="timestamp-query"):
         with gpu.pass_clock():
             pass

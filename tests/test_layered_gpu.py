@@ -141,6 +141,15 @@ def assert_close(gpu, reference, rtol, what):
     assert np.all(error <= rtol * scale), f"{what}: {error / scale} > {rtol}"
 
 
+def limit_buffers(monkeypatch, nbytes):
+    """Make the device's largest buffer ``nbytes`` wherever it is looked up: by the layered
+    engine, which splits requests by it (``gpu.max_buffer_bytes``), and inside the harness,
+    whose device arrays refuse larger buffers (``gpu.device``) and whose quads must fit it
+    (``gpu.layouts``). An engine that stopped splitting then fails with a ValueError."""
+    for module in (gpu, gpu.device, gpu.layouts):
+        monkeypatch.setattr(module, "max_buffer_bytes", lambda: nbytes)
+
+
 # --------------------------------------------------------------------------- layouts
 
 
@@ -432,7 +441,7 @@ def test_shifted_points_beyond_one_buffer_are_expanded_by_the_host(structures, m
     wi = random_directions(6, seed=63)[:, None]
     u = ShiftedPoints.sobol(16, 4, (6,), seed=64)
     whole = s.sample(wi, u, backend="gpu", colour_method="hero")
-    monkeypatch.setattr(gpu, "max_buffer_bytes", lambda: 16 * 40)  # 40 samples a dispatch
+    limit_buffers(monkeypatch, 16 * 40)  # 40 samples a dispatch
     split = s.sample(wi, u, backend="gpu", colour_method="hero")
     for a, b in zip(whole, split, strict=True):
         np.testing.assert_array_equal(a, b)
@@ -552,7 +561,7 @@ def test_batches_beyond_the_largest_buffer_are_dispatched_in_parts(structures, m
     real_dispatch = layered_gpu._dispatch
     monkeypatch.setattr(layered_gpu, "_dispatch",
                         lambda *args: dispatches.append(args[5].count) or real_dispatch(*args))
-    monkeypatch.setattr(layered_gpu.gpu, "max_buffer_bytes", lambda: 2**20)
+    limit_buffers(monkeypatch, 2**20)
     parts = (s.brdf(wi, wo, backend="gpu"),
              s.brdf(wi[:, None], wo[:, None], wavelength, backend="gpu"),
              *s.sample(wi, u, backend="gpu"))
@@ -630,7 +639,7 @@ def test_plain_transmissivity_tables_give_the_quads_results(structures, monkeypa
     u = np.random.default_rng(55).random((64, 4))
     with_quads = dataclasses.replace(structures["two-layers"])  # fresh caches
     expected = with_quads.sample(wi, u, backend="gpu", colour_method="hero")
-    monkeypatch.setattr(gpu, "BILINEAR_QUADS_MAX_BYTES", 0)
+    monkeypatch.setattr(gpu.layouts, "BILINEAR_QUADS_MAX_BYTES", 0)
     plain = dataclasses.replace(structures["two-layers"])
     got = plain.sample(wi, u, backend="gpu", colour_method="hero")
     for layout, s in ((True, with_quads), (False, plain)):

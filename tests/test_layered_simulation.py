@@ -440,7 +440,7 @@ def test_plain_rgb_tables_give_the_quads_results(structures, monkeypatch):
     with_quads = dataclasses.replace(structures["A over B, base None"])  # fresh caches
     expected = with_quads.simulate(WI, WO, paths=64, mode="single", seed=3)
     assert layered_simulation._layers(with_quads, None, True)[2] is True
-    monkeypatch.setattr(gpu, "BILINEAR_QUADS_MAX_BYTES", 0)
+    monkeypatch.setattr(gpu.layouts, "BILINEAR_QUADS_MAX_BYTES", 0)
     plain = dataclasses.replace(structures["A over B, base None"])
     got = plain.simulate(WI, WO, paths=64, mode="single", seed=3)
     assert layered_simulation._layers(plain, None, True)[2] is False

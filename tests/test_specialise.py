@@ -156,9 +156,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
 
 @pytest.fixture
 def tmp_shaders(tmp_path, monkeypatch):
+    (tmp_path / "gpu").mkdir()
     (tmp_path / "gpu/harness.wgsl").write_text(
         (gpu.shader_dir() / "gpu/harness.wgsl").read_text(encoding="utf-8"), encoding="utf-8")
-    monkeypatch.setattr(gpu, "shader_dir", lambda: tmp_path)
+    monkeypatch.setattr(gpu.shaders, "shader_dir", lambda: tmp_path)  # load_shader's lookup
     return tmp_path
 
 

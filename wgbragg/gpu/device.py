@@ -1,0 +1,233 @@
+"""The process-wide wgpu device: adapter choice, limits and llvmpipe's loop budget.
+
+One device per process (:func:`get_device`), on the adapter that ``WGBRAGG_ADAPTER`` names or
+else the one wgpu prefers; :func:`adapter_info` describes it, and :func:`max_buffer_bytes`
+bounds every buffer a kernel binds.
+
+Loop budget
+-----------
+llvmpipe (lavapipe's shader compiler) ends every loop of an invocation once the loops of its
+SIMD group (8 lanes on AVX2) have taken :data:`LOOP_BUDGET` back-edges in total, counted over
+all loops, nested ones included, as the slowest lane of the group sees them. It does so
+silently: the kernel returns a partial sum, or a walk stops early. Every kernel whose loop
+count comes from its inputs therefore keeps an invocation's total iterations under
+:data:`SAFE_LOOP_ITERATIONS`, by splitting the work over invocations or dispatches or by
+refusing the input with a ``ValueError``. Kernels that can still overrun report it through
+``loops_were_cut()`` (``gpu/harness.wgsl``), and the host turns the flags into a
+:class:`LoopBudgetError` with :func:`check_loops`.
+
+Environment
+-----------
+``WGBRAGG_ADAPTER``
+    Case-insensitive substring of the adapter's device name or description
+    selecting the adapter, e.g. ``llvmpipe``.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import tempfile
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import wgpu
+
+LOOP_BUDGET = 65535
+"""Back-edges llvmpipe lets one SIMD group of invocations take, over all its loops
+(``LP_MAX_TGSI_LOOP_ITERATIONS`` in Mesa's gallivm), before it ends them."""
+
+SAFE_LOOP_ITERATIONS = 32768
+"""Iterations a kernel may plan for one invocation: half of :data:`LOOP_BUDGET`, leaving room
+for the short inner loops (Newton steps, bisections, unrolled sums) that the plan does not
+count."""
+
+_OPTIONAL_FEATURES = ("timestamp-query", "shader-f64")
+
+# Backends in order of preference when several adapters match WGBRAGG_ADAPTER:
+# the project targets Vulkan; GL adapters (lavapipe also shows up as one) go last.
+_BACKEND_RANK = {"vulkan": 0, "metal": 1, "d3d12": 2}
+
+# Limits requested at the adapter's own values rather than the WebGPU defaults.
+_RAISED_LIMITS = ("max-compute-invocations-per-workgroup", "max-compute-workgroup-size-x",
+                  "max-storage-buffer-binding-size", "max-buffer-size")
+
+_NO_ADAPTER = "no Vulkan adapter found: install mesa-vulkan-drivers (lavapipe)"
+
+
+# --------------------------------------------------------------------------- adapter
+
+
+def select_adapter(infos: Sequence[Mapping[str, Any]], pattern: str) -> int:
+    """Index of the adapter whose name matches ``pattern``.
+
+    Parameters
+    ----------
+    infos : sequence of mapping
+        Adapter infos as ``GPUAdapter.info`` gives them (keys ``device``,
+        ``description``, ``backend_type``).
+    pattern : str
+        Case-insensitive substring of ``device`` or ``description``.
+
+    Returns
+    -------
+    int
+        Index into ``infos``; among several matches the Vulkan one is preferred.
+
+    Raises
+    ------
+    RuntimeError
+        If nothing matches; the message lists the available adapters.
+    """
+    needle = pattern.lower()
+    matches = [
+        i
+        for i, info in enumerate(infos)
+        if needle in str(info.get("device", "")).lower()
+        or needle in str(info.get("description", "")).lower()
+    ]
+    if not matches:
+        available = "; ".join(
+            f"{info.get('device', '?')} [{info.get('backend_type', '?')}]" for info in infos
+        )
+        raise RuntimeError(
+            f"WGBRAGG_ADAPTER={pattern!r} matches no adapter; available: {available or 'none'}"
+        )
+    return min(
+        matches,
+        key=lambda i: _BACKEND_RANK.get(str(infos[i].get("backend_type", "")).lower(), 9),
+    )
+
+
+def _find_adapter() -> Any:
+    """The adapter ``WGBRAGG_ADAPTER`` names, else the one wgpu prefers."""
+    pattern = os.environ.get("WGBRAGG_ADAPTER", "").strip()
+    if pattern:
+        adapters = wgpu.gpu.enumerate_adapters_sync()
+        if not adapters:
+            raise RuntimeError(_NO_ADAPTER)
+        return adapters[select_adapter([a.info for a in adapters], pattern)]
+    try:
+        adapter = wgpu.gpu.request_adapter_sync(power_preference="high-performance")
+    except Exception as exc:
+        raise RuntimeError(_NO_ADAPTER) from exc
+    if adapter is None:
+        raise RuntimeError(_NO_ADAPTER)
+    return adapter
+
+
+@functools.cache
+def _adapter_and_device() -> tuple[Any, wgpu.GPUDevice]:
+    if not os.environ.get("XDG_RUNTIME_DIR"):
+        # Mesa's window-system probing prints an error per adapter without it; headless compute
+        # needs no real one, so any private folder will do.
+        os.environ["XDG_RUNTIME_DIR"] = tempfile.mkdtemp(prefix="wgbragg-xdg-")
+    adapter = _find_adapter()
+    features = [f for f in _OPTIONAL_FEATURES if f in adapter.features]
+    # The WebGPU default caps workgroups at 256 invocations; software rasterisers such as
+    # lavapipe pay a fixed cost per workgroup, so ask for what the adapter really allows.
+    # Buffers too: the WebGPU defaults (128 MiB a binding, 256 MiB a buffer) are below what
+    # real GPUs hold.
+    limits = {name: adapter.limits[name] for name in _RAISED_LIMITS if name in adapter.limits}
+    device = adapter.request_device_sync(required_features=features, required_limits=limits)
+    return adapter, device
+
+
+def get_device() -> wgpu.GPUDevice:
+    """The process-wide wgpu device, created on first use.
+
+    Returns
+    -------
+    wgpu.GPUDevice
+        With ``timestamp-query`` and ``shader-f64`` enabled where the adapter has them.
+
+    Raises
+    ------
+    RuntimeError
+        If no adapter exists, or ``WGBRAGG_ADAPTER`` matches none.
+    """
+    return _adapter_and_device()[1]
+
+
+def adapter_info() -> dict[str, Any]:
+    """Name, backend and type of the adapter behind :func:`get_device`.
+
+    Returns
+    -------
+    dict
+        ``name``, ``description``, ``backend``, ``adapter_type`` and
+        ``is_lavapipe`` (``"llvmpipe"`` in the name, Mesa's CPU Vulkan driver).
+    """
+    info = _adapter_and_device()[0].info
+    name = str(info.get("device", ""))
+    return {
+        "name": name,
+        "description": str(info.get("description", "")),
+        "backend": str(info.get("backend_type", "")),
+        "adapter_type": str(info.get("adapter_type", "")),
+        "is_lavapipe": "llvmpipe" in name.lower(),
+    }
+
+
+# --------------------------------------------------------------------------- limits
+
+
+def max_buffer_bytes() -> int:
+    """The largest storage buffer a kernel can bind on this device, in bytes.
+
+    It bounds every per-pixel or per-invocation array: 128 MiB on lavapipe (8,388,608 vec4
+    pixels), more on most real GPUs. :class:`~wgbragg.gpu.pipelines.DeviceArray` refuses larger
+    ones with a ValueError, and the public entry points that size buffers from user input check
+    it first, naming their parameter.
+    """
+    limits = get_device().limits
+    return int(min(limits["max-storage-buffer-binding-size"], limits["max-buffer-size"]))
+
+
+def check_buffer_size(nbytes: int, what: str) -> None:
+    """Raise ValueError if a buffer of ``nbytes`` exceeds :func:`max_buffer_bytes`.
+
+    Parameters
+    ----------
+    nbytes : int
+    what : str
+        What the buffer holds, for the message.
+    """
+    largest = max_buffer_bytes()
+    if nbytes > largest:
+        raise ValueError(
+            f"{what}: {nbytes} bytes exceed this GPU's largest storage buffer ({largest} bytes,"
+            f" {adapter_info()['name']}); split the work or reduce its size"
+        )
+
+
+# --------------------------------------------------------------------------- loop budget
+
+
+class LoopBudgetError(ValueError):
+    """The device ended a kernel's loops before its work was done (llvmpipe's
+    :data:`LOOP_BUDGET`): the input asks for more iterations than this backend can run."""
+
+
+def check_loops(cut, what: str) -> None:
+    """Raise :class:`LoopBudgetError` if any ``loops_were_cut()`` flag in ``cut`` is set.
+
+    Parameters
+    ----------
+    cut : array_like
+        The kernel's flags (non-zero = cut), any shape: one per point, or a single word
+        that any cut invocation sets.
+    what : str
+        The work and the input that sizes it, for the message.
+    """
+    cut = np.asarray(cut)
+    if np.any(cut != 0):
+        # Kernels that report in one shared word cannot say where.
+        where = (" at some points" if cut.size == 1
+                 else f" at {np.count_nonzero(cut)} of {cut.size} points")
+        raise LoopBudgetError(
+            f"{what}: the GPU ({adapter_info()['name']}) ended the kernel's loops early{where} "
+            f"(llvmpipe allows {LOOP_BUDGET} loop iterations per invocation); use "
+            "backend='numpy', or ask for less work per point"
+        )
