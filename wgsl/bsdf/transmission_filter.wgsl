@@ -6,7 +6,7 @@
 // lies above pi/2, so cos of the rounded angle would be negative at grazing incidence.
 // The midpoint samples first .. first + count - 1 of psi_samples: F is the sum of these parts
 // over a partition of 0 .. psi_samples - 1, which lets the host keep count within llvmpipe's
-// loop budget (wgbragg/gpu.py, "Loop budget") whatever psi_samples is.
+// loop budget (wgbragg/gpu/device.py, "Loop budget") whatever psi_samples is.
 fn transmission_filter(incident: vec4<f32>, difference: vec4<f32>, alpha: f32,
                        psi_samples: u32, first: u32, count: u32) -> f32 {
     let ci = incident.x;

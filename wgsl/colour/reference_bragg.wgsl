@@ -2,15 +2,13 @@
 //   xyz[i] = sum_k R(lambda_k, theta_i) weights[k].xyz,  R unpolarized (mean of s, p).
 // The host passes the quadrature: 1 nm nodes for the reference, K strata for "spectral"
 // (wgbragg/colour/reference.py), at most gpu.SAFE_LOOP_ITERATIONS per dispatch: llvmpipe would end
-// a longer loop early (wgbragg/gpu.py, "Loop budget"), so colour_gpu.py sums chunks of nodes.
+// a longer loop early (wgbragg/gpu/device.py, "Loop budget"), so colour_gpu.py sums chunks of nodes.
 // The angle's fields come from the host in float64 (optics/yeh.wgsl, angle_geometry_given), the layer
 // phases from optical paths and 1 / lambda split on the host (split_cycles), so their fractions
-// keep float32's accuracy whatever the phase: with a few heavily weighted nodes ("spectral"),
-// one ulp of the phase at a sharp resonance moved a colour by 0.18 dE2000 from its float64
-// twin, and a float32 angle 0.4 at 86 degrees (K = 32).
-// Plain float32 sum: its rounding (bound 470 ulp relative, 1.3e-6 measured) is far below the
-// reflectance's own float32 error; a Kahan carry would be folded away by the driver's float
-// reassociation (measured).
+// keep float32's accuracy whatever the phase, which matters with a few heavily weighted nodes
+// ("spectral") at a sharp resonance. Plain float32 sum: its rounding (bound 470 ulp relative)
+// is far below the reflectance's own float32 error, and a Kahan carry would be folded away by
+// the driver's float reassociation (docs/performance.md, "wgbragg.colour.reference_gpu").
 //! include "gpu/harness.wgsl"
 //! include "gpu/numerics.wgsl"
 //! include "gpu/complex.wgsl"
