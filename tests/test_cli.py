@@ -103,7 +103,8 @@ def test_file_mistakes_are_clear_errors_before_any_work(argv, message, tmp_path,
     """A path that cannot be read or written: exit status 2 and one line, no traceback, no
     file left behind, and no render or bake started (they would fail the test)."""
     (tmp_path / "file.txt").write_text("in the way")
-    from wgbragg.common import luts
+    from wgbragg.bsdf import filter_cache
+    from wgbragg.colour import tables
     from wgbragg.app import maps
     from wgbragg.render import renderer as render
     from wgbragg.app import scatterogram
@@ -115,8 +116,8 @@ def test_file_mistakes_are_clear_errors_before_any_work(argv, message, tmp_path,
     monkeypatch.setattr(render.Renderer, "render", forbidden)
     monkeypatch.setattr(maps, "reflectance_map", forbidden)
     monkeypatch.setattr(scatterogram, "scatterogram", forbidden)
-    monkeypatch.setattr(luts, "transmission_filter", forbidden)
-    monkeypatch.setattr(luts, "colour_tables", forbidden)
+    monkeypatch.setattr(filter_cache, "transmission_filter", forbidden)
+    monkeypatch.setattr(tables, "colour_tables", forbidden)
     before = sorted(tmp_path.rglob("*"))
     assert main([a.replace("{tmp}", str(tmp_path)) for a in argv]) == 2
     error = capsys.readouterr().err

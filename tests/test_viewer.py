@@ -24,7 +24,7 @@ import pytest
 from PIL import Image
 
 from conftest import EXPECT_LAVAPIPE
-from wgbragg.render.renderer import Renderer, display_transform
+from wgbragg.render import Renderer, display_transform
 from wgbragg.scene.model import LayeredBraggMaterial, ThinFilmMaterial
 from wgbragg.app.viewer import DEFAULT_FILM, Viewer
 

@@ -174,7 +174,7 @@ def _scatterogram(args) -> int:
 
 
 def _check_render_size(size: tuple[int, int]) -> None:
-    from wgbragg.render.renderer import check_size
+    from wgbragg.render import check_size
 
     try:
         check_size(size)
@@ -192,8 +192,8 @@ def _size(text: str) -> tuple[int, int]:
 
 def _render(args) -> int:
     from wgbragg.common.exr import write_exr
-    from wgbragg.render.renderer import Renderer, save_png
-    from wgbragg.scene.model import load_preset, load_scene
+    from wgbragg.render import Renderer, save_png
+    from wgbragg.scene import load_preset, load_scene
 
     if (args.scene_file is None) == (args.scene is None):
         raise ValueError("give either a scene file or --scene NAME, not both or neither")
@@ -240,6 +240,15 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", required=True)
     commands.add_parser("info", help="adapter, versions and shader folder").set_defaults(
         run=_info)
+    _add_reflectance_command(commands)
+    _add_map_command(commands)
+    _add_bake_command(commands)
+    _add_scatterogram_command(commands)
+    _add_render_command(commands)
+    return parser
+
+
+def _add_reflectance_command(commands) -> None:
     reflect = commands.add_parser("reflectance", help="print R(wavelength, theta) of a mirror")
     _add_mirror_arguments(reflect)
     reflect.add_argument("--wavelength", type=float, nargs="+", default=[450.0, 550.0, 650.0],
@@ -247,10 +256,16 @@ def build_parser() -> argparse.ArgumentParser:
     reflect.add_argument("--theta-deg", type=float, nargs="+", default=[0.0, 30.0, 60.0],
                          help="angles of incidence in degrees, 0..90")
     reflect.set_defaults(run=_reflectance)
+
+
+def _add_map_command(commands) -> None:
     mapping = commands.add_parser("map", help="reflectance map (wavelength x angle) as a PNG")
     _add_mirror_arguments(mapping)
     mapping.add_argument("-o", "--output", default="out/reflectance_map.png")
     mapping.set_defaults(run=_map)
+
+
+def _add_bake_command(commands) -> None:
     bake = commands.add_parser("bake", help="bake transmission filters and colour tables into "
                                "the LUT cache")
     bake.add_argument("--alpha", type=float, nargs="*", default=list(DEFAULT_ALPHAS),
@@ -270,6 +285,9 @@ def build_parser() -> argparse.ArgumentParser:
     bake.add_argument("--no-progress", dest="progress", action="store_false",
                       help="no progress bar")
     bake.set_defaults(run=_bake)
+
+
+def _add_scatterogram_command(commands) -> None:
     scatter = commands.add_parser(
         "scatterogram", help="reflected hemisphere of a rough Bragg layer for one light "
         "direction, as a PNG (Fig. 9)")
@@ -295,6 +313,9 @@ def build_parser() -> argparse.ArgumentParser:
     scatter.add_argument("--backend", choices=("gpu", "numpy"), default="numpy")
     scatter.add_argument("-o", "--output", default="out/scatterogram.png")
     scatter.set_defaults(run=_scatterogram)
+
+
+def _add_render_command(commands) -> None:
     render = commands.add_parser(
         "render", help="path-trace a scene to a PNG (8-bit sRGB) and optionally an EXR (linear)")
     render.add_argument("scene_file", nargs="?", default=None, help="a scene TOML file")
@@ -316,7 +337,6 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--no-progress", dest="progress", action="store_false",
                         help="no progress bar")
     render.set_defaults(run=_render)
-    return parser
 
 
 def main(argv: list[str] | None = None) -> int:

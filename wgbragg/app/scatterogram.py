@@ -1,16 +1,10 @@
 """Scatterograms: the hemisphere of light a layered Bragg structure reflects for one light
 direction, as an imaging scatterometer records it (Bragg paper Fig. 9).
 
-The hemisphere is drawn with an azimuthal equidistant projection: the distance from the centre
-is proportional to the polar angle of the outgoing direction (0 at the normal, the image's
-edge at 90 degrees), the azimuth is the angle around the centre (+x to the right, +y up).
-A pixel holds the reflected radiance ``f(wi, wo) cos(theta_i)`` of a directional light of unit
-irradiance at normal incidence, as linear sRGB (the colour of the spectral BRDF), and the PNG
-shows it on a white surround with circles at 5, 30, 60 and 90 degrees.
-
-The jewel-beetle presets are the cuticle areas of the paper's Table 3 (Schenk, Wilts & Stavenga
-2013): one rough Bragg layer (alpha = 0.05) in air over an absorbing base, the mirror seen from
-air (Appendix D).
+An azimuthal equidistant projection of ``f(wi, wo) cos(theta_i)`` as linear sRGB, saved as a
+PNG on a white surround with circles at 5, 30, 60 and 90 degrees; the presets are the
+jewel-beetle cuticles of the paper's Table 3. Details: ``docs/physics.md``, section 11 and
+"wgbragg.app.scatterogram".
 """
 
 from __future__ import annotations

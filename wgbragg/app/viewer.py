@@ -1,50 +1,12 @@
 """The interactive demo's model: a progressive render whose Bragg or thin-film material is
 edited live.
 
-A :class:`Viewer` holds a scene (by default the teapot preset), the material being edited (one
-of its layered Bragg or thin-film materials, which the viewer can turn into the other kind), the
-camera orbit and the display settings, and renders the scene
-progressively with :class:`wgbragg.render.renderer.Renderer`: :meth:`Viewer.frame` adds one sample
-per
-pixel and returns the image to show, and every edit restarts the accumulation. It has no window
-of its own: :mod:`wgbragg.app.viewer_window` draws it with its controls (``demo.py``), and tests and
-scripts drive it directly::
-
-    viewer = Viewer("teapot", size=(256, 256))
-    viewer.set_layer(0, period_nm=200.0, alpha=0.1)
-    viewer.edit(mode="spectral", environment="studio", yaw_deg=40.0)
-    pixels = viewer.frame()              # (256, 256, 3) uint8 sRGB
-    viewer.budgets.table_ms              # the tables re-baked by the last Bragg edit
-    viewer.edit(material_type="thin-film")
-    viewer.set_film(thickness_nm=500.0, base="Au", noise=True, noise_range_nm=(300.0, 700.0))
-
-Interactive budgets (the Bragg paper's figures; :data:`TABLE_BUDGET_MS`,
-:data:`FILTER_BUDGET_S`, :data:`PREVIEW_BUDGET_FPS`) are measured with ``time.perf_counter``
-on every edit and frame and kept in :attr:`Viewer.budgets`.
-
-Progressive refinement. While :attr:`Viewer.interacting` is set (a drag in the window, a slider
-held), frames come from a second renderer. Where the scene allows it (no smooth coating), that
-renderer shades with filtered image-based lighting (:data:`PREVIEW_IBL`, see
-:mod:`wgbragg.render.renderer`): camera rays only, no shadow or bounce rays, about three times
-cheaper
-than a path, so the preview keeps full resolution; otherwise, or where even that is too slow,
-it renders at ``1 / preview_scale`` of the resolution, shown with each pixel repeated, so that
-the preview keeps :data:`PREVIEW_BUDGET_FPS` where one full frame is slower (software Vulkan);
-released, the full-resolution path tracer takes over and accumulates. An edit updates the
-renderer in use at once and the others when they are next shown.
-
-Thin films (``material_type="thin-film"``, :meth:`Viewer.set_film`) are GGX microfacets coated
-by a film, optionally of a thickness varying by a noise map; they need no tables, so an edit
-costs only an upload. The viewer renders the film with a thickness map always (a constant one
-when the thickness is uniform), so that turning the noise on or off does not specialise another
-pipeline (seconds on a software Vulkan), and switching the material's kind keeps the other
-kind's settings.
-
-The side panel's data are here too: the selected layer's reflectance at normal incidence
-(:meth:`Viewer.spectrum`), its landmarks (:meth:`Viewer.landmarks`) and its colour from 0 to
-90 degrees by the current colour method (:meth:`Viewer.colour_strip`); for the film, its
-reflectance (:meth:`Viewer.film_spectrum`) and its RGB mode colour
-(:meth:`Viewer.film_colour_strip`).
+A :class:`Viewer` holds a scene, the material being edited, the camera orbit and the display
+settings; :meth:`Viewer.frame` adds one sample per pixel and every edit restarts the
+accumulation. It keeps the interactive budgets (:attr:`Viewer.budgets`), a low-resolution or
+filtered-lighting preview while :attr:`Viewer.interacting` is set, and the side panel's data.
+It has no window of its own (:mod:`wgbragg.app.viewer_window` draws it); an example and the
+preview's rules: ``docs/design.md``, "The demo" and "wgbragg.app.viewer".
 """
 
 from __future__ import annotations
@@ -70,8 +32,8 @@ from wgbragg.colour.colorimetry import xyz_weights
 from wgbragg.colour.methods import COLOUR_METHODS
 from wgbragg.bsdf.materials import BraggMirror
 from wgbragg.optics.metals import METALS
-from wgbragg.render.renderer import Renderer, ibl_levels, display_transform
-from wgbragg.scene.model import (
+from wgbragg.render import Renderer, display_transform, ibl_levels
+from wgbragg.scene import (
     ENVIRONMENT_TYPES,
     MAX_EXPOSURE,
     MAX_IMAGE_SIDE,
@@ -131,8 +93,7 @@ FILM_COLOUR_METHOD = "fourier-table"
 # Share of a preview frame's time left to the window's own drawing when choosing the scale.
 _PREVIEW_HEADROOM = 0.75
 # A filtered-lighting pixel's cost relative to a path's, the guess until one is measured:
-# camera rays and shadow rays only (split-sum 1.7 against 5.7 us a pixel at 256 x 256 on
-# lavapipe).
+# camera rays and shadow rays only (docs/performance.md, "wgbragg.app.viewer").
 _FILTERED_PIXEL_COST_SHARE = 0.3
 # Weight of the newest frame in the running frame-time averages.
 _SMOOTHING = 0.2
@@ -197,6 +158,15 @@ def _choice(name: str, value, choices) -> str:
     if value not in choices:
         raise ValueError(f"{name} must be one of {tuple(choices)}, got {value!r}")
     return value
+
+
+def _checked_size(size) -> tuple[int, int]:
+    if not (isinstance(size, tuple | list) and len(size) == 2 and all(
+            isinstance(n, int) and not isinstance(n, bool) and 1 <= n <= MAX_IMAGE_SIDE
+            for n in size)):
+        raise ValueError(f"size must be two integers in [1, {MAX_IMAGE_SIDE}], got "
+                         f"{size!r}")
+    return tuple(size)
 
 
 def _albedo(value) -> float | tuple[float, float, float] | None:
@@ -374,6 +344,38 @@ class Viewer:
             scene = load_preset(scene)
         if not isinstance(scene, Scene):
             raise ValueError(f"scene must be a Scene or a preset name, got {scene!r}")
+        self._take_material(scene, material)
+        if preview_scale is not None:
+            check_count("preview_scale", preview_scale)
+        self.size = _checked_size(size)
+        self.mode = _choice("mode", scene.settings.mode if mode is None else mode, MODES)
+        self.colour_method = _choice("colour_method", colour_method, COLOUR_METHODS)
+        self.exposure = scene.settings.exposure
+        self._interacting = False
+        self._interaction_scale = 1
+        self._preview_ibl = bool(preview_ibl)
+        self._interaction_ibl = "monte-carlo"
+        self.budgets = Budgets()
+        self.last_frame: np.ndarray | None = None
+        self.scene = self._with_material(scene, self.material)
+        if environment_path is None and scene.environment.type == "exr":
+            environment_path = scene.environment.path
+        self._environment_path = environment_path
+        self._seed, self._max_bounces = seed, max_bounces
+        self._preview_scale = preview_scale
+        # Running mean seconds per pixel of a frame, per lighting ("monte-carlo" or PREVIEW_IBL).
+        self._pixel_seconds: dict[str, float] = {}
+        # Running mean frame time of preview (True) and full-resolution (False) frames.
+        self._frame_seconds: dict[bool, float] = {}
+        self._version = self._material_version = 0
+        self._slots: dict[tuple[int, str], _Slot] = {}
+        self._orbit(scene.camera)
+        # The full-resolution renderer, validating size, seed and max_bounces.
+        self._slot(1, "monte-carlo")
+
+    def _take_material(self, scene: Scene, material: str | None) -> None:
+        """Choose the edited material (the first editable one by default) and keep what its
+        toggles restore: the other kind's default, the noise map and the dielectric base."""
         editable = [name for name, m in scene.materials.items()
                     if isinstance(m, LayeredBraggMaterial | ThinFilmMaterial)]
         if material is None and not editable:
@@ -396,42 +398,13 @@ class Viewer:
                                              thickness_nm=0.5 * sum(self._noise_map.range))
         self._dielectric = ((self._film.n_base, self._film.k_base) if self._film.base is None
                             else (DEFAULT_FILM.n_base, DEFAULT_FILM.k_base))
-        if preview_scale is not None:
-            check_count("preview_scale", preview_scale)
-        if not (isinstance(size, tuple | list) and len(size) == 2 and all(
-                isinstance(n, int) and not isinstance(n, bool) and 1 <= n <= MAX_IMAGE_SIDE
-                for n in size)):
-            raise ValueError(f"size must be two integers in [1, {MAX_IMAGE_SIDE}], got "
-                             f"{size!r}")
-        self.size = tuple(size)
-        self.mode = _choice("mode", scene.settings.mode if mode is None else mode, MODES)
-        self.colour_method = _choice("colour_method", colour_method, COLOUR_METHODS)
-        self.exposure = scene.settings.exposure
-        self._interacting = False
-        self._interaction_scale = 1
-        self._preview_ibl = bool(preview_ibl)
-        self._interaction_ibl = "monte-carlo"
-        self.budgets = Budgets()
-        self.last_frame: np.ndarray | None = None
-        self.scene = self._with_material(scene, self.material)
-        if environment_path is None and scene.environment.type == "exr":
-            environment_path = scene.environment.path
-        self._environment_path = environment_path
-        self._seed, self._max_bounces = seed, max_bounces
-        self._preview_scale = preview_scale
-        # Running mean seconds per pixel of a frame, per lighting ("monte-carlo" or PREVIEW_IBL).
-        self._pixel_seconds: dict[str, float] = {}
-        # Running mean frame time of preview (True) and full-resolution (False) frames.
-        self._frame_seconds: dict[bool, float] = {}
-        self._version = self._material_version = 0
-        self._slots: dict[tuple[int, str], _Slot] = {}
-        camera = scene.camera
+
+    def _orbit(self, camera) -> None:
+        """Set the orbit (distance, yaw, pitch) from a camera looking at its target."""
         offset = np.subtract(camera.position, camera.look_at)
         self.distance = float(np.linalg.norm(offset))
         self.yaw_deg = math.degrees(math.atan2(offset[0], offset[2]))
         self.pitch_deg = math.degrees(math.asin(offset[1] / self.distance))
-        # The full-resolution renderer, validating size, seed and max_bounces.
-        self._slot(1, "monte-carlo")
 
     # ------------------------------------------------------------------ state
 

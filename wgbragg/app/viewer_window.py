@@ -1,22 +1,10 @@
 """The demo window: a :class:`wgbragg.app.viewer.Viewer` with its controls, on screen or offscreen.
 
-The picture is the viewer's progressive render, drawn by ``wgsl/app/viewer_window.wgsl`` at the
-largest
-whole scale that fits left of the side panel (nearest texels; smaller windows shrink it,
-filtered). The side panel (Dear ImGui through ``wgpu.utils.imgui``, like BRDF Explorer's)
-holds the budgets as measured, the rendering controls, the material's: Bragg layers (the
-structure, one section per layer) or a thin film (thickness or a noise map's range, indices,
-a metal or dielectric base, roughness), and the selected layer's or the film's reflectance at
-normal incidence (with the layer's landmarks) and its colour from 0 to 90 degrees by the
-current colour method (the film's as RGB mode renders it). A left drag on the picture orbits the
-camera about its target and the wheel zooms; every edit restarts the accumulation, and while
-a drag or a slider is held the viewer shows its low-resolution preview.
-
-On screen the canvas is rendercanvas's glfw window; ``offscreen=True`` uses rendercanvas's
-offscreen canvas, so that the same window renders without a display (``demo.py
---offscreen``). :meth:`ViewerWindow.capture` reads back what a frame put on the canvas.
-GUI packages are imported when a window is made, so :mod:`wgbragg.app.viewer` and the rest of the
-package work without them.
+The picture is the viewer's progressive render (``wgsl/app/viewer_window.wgsl``) beside a Dear
+ImGui side panel of budgets, rendering controls, the material's parameters, and the selected
+layer's or film's spectrum and colour strip. ``offscreen=True`` renders the same window
+without a display. GUI packages are imported when a window is made. Layout and controls:
+``docs/design.md``, "The demo" and "wgbragg.app.viewer_window".
 """
 
 from __future__ import annotations
@@ -445,11 +433,16 @@ class ViewerWindow:
     def _spectrum_panel(self) -> None:
         imgui, viewer = self._imgui, self.viewer
         index = min(self.selected_layer, len(viewer.layers) - 1)
-        colour = imgui.color_convert_float4_to_u32
-        draw = imgui.get_window_draw_list()
         width = imgui.get_content_region_avail().x
         film = viewer.material_type == "thin-film"
+        self._spectrum_plot(index, width, film)
+        self._colour_strip(index, width, film)
 
+    def _spectrum_plot(self, index: int, width: float, film: bool) -> None:
+        """The reflectance spectrum at normal incidence, with the layer's landmarks."""
+        imgui, viewer = self._imgui, self.viewer
+        colour = imgui.color_convert_float4_to_u32
+        draw = imgui.get_window_draw_list()
         if film:
             imgui.separator_text(f"thin film, d = {viewer.film_thickness_nm:.0f} nm: R at "
                                  "normal incidence")
@@ -487,6 +480,11 @@ class ViewerWindow:
         imgui.same_line(width - 45.0)
         imgui.text(f"{high:.0f} nm")
 
+    def _colour_strip(self, index: int, width: float, film: bool) -> None:
+        """The colour of the layer (or film) from 0 to 90 degrees."""
+        imgui, viewer = self._imgui, self.viewer
+        colour = imgui.color_convert_float4_to_u32
+        draw = imgui.get_window_draw_list()
         if film:
             imgui.separator_text(f"thin film: colour, 0 to 90 deg ({FILM_COLOUR_METHOD})")
             theta, colours = viewer.film_colour_strip()

@@ -69,7 +69,7 @@ class BraggMirror(BraggStack):
             stratified wavelengths (``seed=`` jitters them). ``"approx"`` / ``"subdivided"``
             (``s=3``): the paper's piecewise-constant landmark spectra (sec. 3.2.2, App. B;
             ``host == n1``). ``"averaged"``: phase-averaged product integration between
-            landmarks (ours), or on a fixed grid (``quadrature="grid"``, about 2.2x faster).
+            landmarks (ours), or on a fixed grid (``quadrature="grid"``, faster).
         backend : {"numpy", "gpu"}
         **options
             ``samples``, ``seed`` (spectral), ``s`` (subdivided), or ``averaging_from``,

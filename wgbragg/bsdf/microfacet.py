@@ -1,21 +1,11 @@
 """Isotropic GGX (Trowbridge-Reitz) microfacets: distribution, masking, visible-normal sampling.
 
 Float64 numpy twins of ``wgsl/bsdf/microfacet.wgsl``. Conventions: the macro-normal is +z,
-directions are
-unit vectors with a trailing axis of 3 pointing away from the surface, angles are in radians and
-``alpha`` is the GGX roughness (the slope scale: ``alpha = 1`` is very rough). The
-distribution and masking are written in cosines, without tangents, so that they stay finite at
-grazing angles and for the smallest accepted ``alpha``.
-
-Why ``alpha = 0`` is refused: a perfect mirror makes ``D`` a Dirac delta on the normal, which
-eq 18 evaluates as 0 off the normal and 0/0 on it. The smallest accepted roughness,
-:data:`ALPHA_MIN`, already concentrates half of the normals within 0.006 degrees of the normal.
-
-References
-----------
-Fourneau, Pacanowski & Barla 2024, eqs 18 and 19. Walter, Marschner, Li & Torrance, *Microfacet
-models for refraction through rough surfaces*, EGSR 2007. Heitz, *Sampling the GGX Distribution
-of Visible Normals*, JCGT 7(4), 2018.
+directions are unit vectors with a trailing axis of 3 pointing away from the surface, angles
+are in radians and ``alpha`` is the GGX roughness (the slope scale: ``alpha = 1`` is very
+rough), at least :data:`ALPHA_MIN`. The distribution and masking are written in cosines,
+without tangents, so that they stay finite at grazing angles. Why ``alpha = 0`` is refused,
+and references: ``docs/physics.md``, "wgbragg.bsdf.microfacet".
 """
 
 from __future__ import annotations
@@ -252,7 +242,8 @@ def ggx_visible_normal_pdf(wi, m, alpha) -> np.ndarray:
     check_broadcast(wi=wi.shape[:-1], m=m.shape[:-1], alpha=alpha.shape)
     cos_wm = np.maximum(np.sum(wi * m, axis=-1), 0.0)
     cos_m = np.clip(m[..., 2], -1.0, 1.0)
-    return ggx_G1_over_cos(np.clip(wi[..., 2], 0.0, 1.0), alpha) * cos_wm * ggx_D_unchecked(cos_m, alpha)
+    return (ggx_G1_over_cos(np.clip(wi[..., 2], 0.0, 1.0), alpha) * cos_wm
+            * ggx_D_unchecked(cos_m, alpha))
 
 
 def half_vector(wi: np.ndarray, wo: np.ndarray) -> np.ndarray:

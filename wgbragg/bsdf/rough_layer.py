@@ -1,17 +1,11 @@
 """Rough Bragg layers: ballistic transmission through a distribution of tilted Bragg mirrors.
 
-Fourneau, Pacanowski & Barla 2024, sec. 4.1-4.2. A rough Bragg layer is a GGX distribution
-(roughness ``alpha``) of identical mirrors embedded in their own ``n1``: light goes through it
-undeviated, and its cosine-weighted transmission is the mirror's transmittance ``T = 1 - R``
-filtered over the difference angle ``theta_d`` by the roughness alone (eq 28)::
-
-    f_t(theta_i) cos(theta_i) = int_0^{pi/2} T(theta_d) F_alpha(theta_i, theta_d) dtheta_d
-
-With the filter baked once per ``alpha``
-(:class:`~wgbragg.bsdf.transmission_filter.TransmissionFilter`,
-cached by :mod:`wgbragg.common.luts`), a layer's table over (theta_i, wavelength) is one matrix
-product, computed on the GPU by ``wgsl/bsdf/rough_layer_transmissivity.wgsl``. Angles are in ``n1``,
-radians; wavelengths in nm.
+A rough Bragg layer (Fourneau, Pacanowski & Barla 2024, sec. 4.1-4.2) transmits light
+undeviated, with its mirror's transmittance filtered over the difference angle by the
+roughness alone (eq 28). With the filter baked once per ``alpha``, a layer's table over
+(theta_i, wavelength) is one matrix product, computed on the GPU by
+``wgsl/bsdf/rough_layer_transmissivity.wgsl``. Angles are in ``n1``, radians; wavelengths in
+nm. Details: ``docs/physics.md``, section 10 and "wgbragg.bsdf.rough_layer".
 """
 
 from __future__ import annotations
@@ -35,11 +29,11 @@ from wgbragg.bsdf import filter_cache
 __all__ = ["RoughBraggLayer"]
 
 # The product pass (bsdf/rough_layer_transmissivity.wgsl): filter rows per workgroup (ROWS),
-# wavelengths
-# per invocation (SPAN), WORKGROUP_SIZE. Measured on lavapipe (2 cores): 16 x 12 blocks with the
-# weights in a texture run the product ~3x faster than 4 x 4 blocks from a storage buffer;
-# 8 x 8 and 16 x 8 blocks are slower, 16 x 16 no faster. Eight invocations (one SIMD row there)
-# keep the padding of the wavelength blocks small: 96 per workgroup, 480 for the 471 of 1 nm.
+# wavelengths per invocation (SPAN), WORKGROUP_SIZE; the fastest blocks on lavapipe
+# (docs/performance.md, "wgbragg.bsdf.rough_layer"). Eight invocations keep the padding of the
+# wavelength blocks small: 96 per workgroup, 480 for the 471 of 1 nm. ROWS and SPAN are
+# written out in the kernel, so tests/test_wgsl_layouts.py checks them instead of passing them
+# as override constants.
 _WORKGROUP_SIZE = 8
 _ROWS_PER_GROUP = 16
 _WAVELENGTHS_PER_LANE = 12
@@ -179,7 +173,8 @@ class RoughBraggLayer:
         GGX roughness in [0.01, 1].
     transmission_filter : TransmissionFilter, optional
         The filter of ``alpha``; by default the cached one at 0.25 degrees and 1000 azimuth
-        samples (:func:`wgbragg.common.filter_cache.transmission_filter`, baked on the GPU on first use).
+        samples (:func:`wgbragg.bsdf.filter_cache.transmission_filter`, baked on the GPU on
+        first use).
 
     Raises
     ------
@@ -313,8 +308,8 @@ class RoughBraggLayer:
         phases = passes[0].outputs[0] if cell_means else np.zeros((1, 2), np.float32)
         transmittance = gpu.compute_pipeline(
             "bsdf/rough_layer_transmittance.wgsl",
-            constants={"WORKGROUP_SIZE": pointwise_gpu.WORKGROUP_SIZE, "HOST_MATCHED": self.ballistic,
-                       "CELL_MEANS": cell_means},
+            constants={"WORKGROUP_SIZE": pointwise_gpu.WORKGROUP_SIZE,
+                       "HOST_MATCHED": self.ballistic, "CELL_MEANS": cell_means},
         ).bind([wavelength, theta_d, phases], [(4 * quads * n, np.float32)], mirror)
         params = np.zeros((), _PARAMS_DTYPE)
         params["rows"], params["quads"], params["wavelengths"] = rows, quads, n

@@ -1,35 +1,11 @@
 """A rough thin film: GGX microfacets each coated by the same film (Belcour & Barla 2017).
 
-The BRDF of BB17 eq 1 (Kneiphof et al. 2019 eq 1) with separable Smith masking::
-
-    f(wi, wo) = D(h) G1(wi) G1(wo) R(h.wi) / (4 |wi.z| |wo.z|),   h = normalize(wi + wo),
-
-for ``wi`` and ``wo`` both above the surface (0 otherwise), ``D`` and ``G1`` the isotropic GGX
-distribution and masking (:mod:`wgbragg.bsdf.microfacet`) and ``R`` the film's Airy reflectance at
-the
-microfacet incidence ``theta_d = acos(h.wi)``, both polarisations averaged
-(:meth:`wgbragg.ThinFilm.reflectance`). Spectral results take ``R`` at each wavelength; RGB
-results take the film's linear sRGB colour (:meth:`wgbragg.ThinFilm.rgb`), which is exact for this
-BRDF: its only spectral factor is ``R``. It is the float64 twin of ``film_eval`` /
-``film_pdf`` in ``wgsl/render/renderer.wgsl``.
-
-Conventions as :mod:`wgbragg.bsdf.layered.model`: directions are unit vectors with a trailing axis
-of 3 in
-the surface frame (+z the normal), pointing away from the surface, in the film's host medium
-(the renderer's is air); a BRDF is in 1/sr; wavelengths in nm.
-
-The deterministic quadrature of the reflected lobe (:func:`reflection_quadrature`) is shared
-with :mod:`wgbragg.lighting.ibl`: it integrates ``int f cos(theta_o) g dwo`` for any ``g`` in
-closed-form
-limits, with no kink at the horizon (where plain Gauss grids over the visible normals lose
-accuracy).
-
-References
-----------
-L. Belcour & P. Barla, "A Practical Extension to Microfacet Theory for the Modeling of Varying
-Iridescence", ACM TOG 36(4), 65, 2017, eq 1. Kneiphof, Golla & Klein, "Real-time Image-based
-Lighting of Microfacet BRDFs with Varying Iridescence", EGSR 2019, eq 1. Heitz, "Sampling the
-GGX Distribution of Visible Normals", JCGT 7(4), 2018.
+``f(wi, wo) = D(h) G1(wi) G1(wo) R(h.wi) / (4 |wi.z| |wo.z|)`` with ``R`` the film's Airy
+reflectance at the microfacet incidence, both polarisations averaged: the float64 twin of
+``film_eval`` / ``film_pdf`` in ``wgsl/render/renderer.wgsl``. Conventions are those of
+:mod:`wgbragg.bsdf.layered.model`, in the film's host medium. :func:`reflection_quadrature`,
+shared with :mod:`wgbragg.lighting.ibl`, integrates the reflected lobe deterministically.
+Details: ``docs/physics.md``, "wgbragg.bsdf.rough_thin_film".
 """
 
 from __future__ import annotations

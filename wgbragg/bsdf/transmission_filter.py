@@ -1,22 +1,12 @@
 """Transmission filter F_alpha of a rough Bragg layer: the weights of its ballistic transmission.
 
-A rough Bragg layer (Fourneau, Pacanowski & Barla 2024, sec. 4.2) transmits light without
-deviating it; what roughness changes is the angle ``theta_d`` between the light and each
-microfacet. The cosine-weighted ballistic BTDF is a filtered transmissivity (eq 28)::
-
-    f_t(theta_i) cos(theta_i) = int_0^{pi/2} T(theta_d) F_alpha(theta_i, theta_d) dtheta_d
-
-    F_alpha = 2 G1^2(theta_i) cos(theta_d) / cos(theta_i) sin(theta_d)
-              int_0^{psi_max} D~(theta_m(theta_i, theta_d, psi)) dpsi            (eq 29)
-
-with ``cos theta_m = cos ti cos td + sin ti sin td cos psi`` (eq 24) and ``psi_max`` of eq 26.
-The filter depends on the roughness alone, so it is baked once per ``alpha`` into a table
-(:class:`TransmissionFilter`) whose rows are quadrature weights: ``int T F dtheta_d`` becomes a
-dot product with ``T`` sampled at :attr:`TransmissionFilter.theta_d`. Its rows sum to
-``G1(theta_i)`` (Appendix C); the rest, ``1 - G1``, is the layer's absorption (eq 30).
-
-:func:`F_alpha` is the float64 twin of ``wgsl/bsdf/transmission_filter.wgsl``, and
-:func:`ballistic_transmission_reference` evaluates eq 23 by direct 2D quadrature, for tests.
+The cosine-weighted ballistic BTDF of a rough Bragg layer is its mirror's transmittance
+filtered over the difference angle, ``f_t cos = int T(theta_d) F_alpha(theta_i, theta_d)
+dtheta_d`` (Fourneau, Pacanowski & Barla 2024, eqs 28-29). The filter depends on the roughness
+alone, so it is baked once per ``alpha`` into a table of quadrature weights
+(:class:`TransmissionFilter`). :func:`F_alpha` is the float64 twin of
+``wgsl/bsdf/transmission_filter.wgsl``. Derivation: ``docs/physics.md``, section 10 and
+"wgbragg.bsdf.transmission_filter".
 """
 
 from __future__ import annotations
@@ -63,14 +53,10 @@ PSI_SAMPLES_PER_DISPATCH = 1024
 psi loop is the kernel's only loop, so this must stay within :data:`gpu.SAFE_LOOP_ITERATIONS`
 (llvmpipe silently ends longer loops, see :mod:`wgbragg.gpu`, "Loop budget"); it is smaller
 because the float32 error of the kernel's sum and half-angle rotation grows with the part's
-length: at alpha = 0.3 the largest entry error is 1.3e-5 of the peak with parts of 1024
-samples (``psi_samples`` from 1000 to 100000), 4.5e-4 with parts of 32768 (measured), for
-about 6% more bake time (0.25 degrees, 32768 samples, lavapipe)."""
+length (``docs/performance.md``, "wgbragg.bsdf.transmission_filter")."""
 
-# Gauss-Legendre panels along theta_d (see difference_angle_grid). Measured over theta_i in
-# 0..89 deg, the App. C identity holds to 7.7e-5 at alpha = 0.01 (panels of 2 alpha) and to
-# 1.8e-4 at alpha = 1 with the 24-panel floor (3.7e-5 with the 60 panels of 0.25-degree
-# resolution), which the square-root kink of F at theta_d = pi/2 - theta_i limits.
+# Gauss-Legendre panels along theta_d (see difference_angle_grid): how well the App. C identity
+# holds with them is in docs/performance.md, "wgbragg.bsdf.transmission_filter".
 _GAUSS_ORDER = 6
 _PANEL_WIDTH_PER_ALPHA = 2.0
 _MIN_PANELS = 24
@@ -256,7 +242,8 @@ def _bake_values_gpu(theta_i: np.ndarray, theta_d: np.ndarray, alpha: float,
                      psi_samples: int) -> np.ndarray:
     params = np.zeros((), BAKE_PARAMS_DTYPE)
     params["alpha"], params["psi_samples"] = alpha, psi_samples
-    # Workgroups of 64 and 256 bake equally fast on lavapipe; the harness default stays.
+    # The harness's default workgroup size
+    # (docs/performance.md, "wgbragg.bsdf.transmission_filter").
     kernel = gpu.compute_pipeline("bsdf/transmission_filter_bake.wgsl")
     inputs = [gpu.DeviceArray.upload(_angle_terms(theta).astype(np.float32))
               for theta in (theta_i, theta_d)]
@@ -398,8 +385,8 @@ class TransmissionFilter:
         Notes
         -----
         At the default settings the table holds 361 rows of ``6 max(60, ceil(pi / (4 alpha)))``
-        entries: 520 KB as float32 for alpha >= 0.0131, 684 KB at alpha = 0.01. The GPU bake
-        takes 0.075 s and 0.10 s for these on lavapipe (2 CPU cores).
+        entries: 520 KB as float32 for alpha >= 0.0131, 684 KB at alpha = 0.01 (bake times:
+        ``docs/performance.md``, "Rough Bragg layers").
         """
         alpha = check_filter_alpha(alpha)
         resolution_deg = _check_resolution(resolution_deg)
@@ -516,7 +503,8 @@ def ballistic_transmission_reference(T: Callable[[np.ndarray], np.ndarray], thet
         return 2.0 * quad(integrand, 0.0, phi_max, epsabs=epsabs, limit=200)[0]
 
     def polar(theta_m: float) -> float:
-        return float(ggx_D_unchecked(np.cos(theta_m), alpha)) * math.sin(theta_m) * azimuthal(theta_m)
+        return (float(ggx_D_unchecked(np.cos(theta_m), alpha)) * math.sin(theta_m)
+                * azimuthal(theta_m))
 
     split = min(10.0 * alpha, np.pi / 4)
     total = sum(quad(polar, lo, hi, epsabs=epsabs, limit=200)[0]

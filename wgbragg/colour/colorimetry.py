@@ -1,26 +1,10 @@
 """Colorimetry of reflectance spectra: D65-weighted CIE 1931 XYZ, linear sRGB and CIE dE2000.
 
-A reflectance spectrum ``R(lambda)`` seen under CIE illuminant D65 by the CIE 1931 2 degree
-standard observer has the tristimulus values
-
-    XYZ = int R(lambda) cmf(lambda) D65(lambda) dlambda / int ybar(lambda) D65(lambda) dlambda
-
-integrated over 360-830 nm, normalised so that a perfect reflector (``R = 1``) has ``Y = 1``. The
-*reference quadrature* is the 1 nm Riemann sum on the integer wavelengths 360, 361, ..., 830,
-i.e. the sum of :func:`xyz_weights`; it is what ``colour.sd_to_XYZ(..., method="Integration")``
-computes on the same 1 nm shape.
-
-All spectral data (CMFs, illuminant, sRGB matrix, D65 chromaticity) come from colour-science;
-nothing is typed in here. Units: wavelengths in nanometres; XYZ with ``Y = 1`` for the perfect
-reflector (colour's ``[0, 1]`` domain-range scale); linear sRGB with the perfect reflector at
-about ``(1, 1, 1)``.
-
-References
-----------
-CIE 015:2018, Colorimetry, 4th edition (tristimulus integration, CIE 1931 observer, D65).
-IEC 61966-2-1:1999, sRGB (XYZ to linear sRGB matrix).
-Sharma, Wu & Dalal, "The CIEDE2000 color-difference formula", Color Res. Appl. 30(1), 2005.
-Mansencal et al., colour-science, https://www.colour-science.org.
+The reference quadrature is the 1 nm sum over 360-830 nm (:func:`xyz_weights`), normalised so
+that a perfect reflector has ``Y = 1``; all spectral data come from colour-science. Units:
+wavelengths in nm; XYZ with ``Y = 1`` for the perfect reflector; linear sRGB with the perfect
+reflector at about ``(1, 1, 1)``. The integral and references: ``docs/physics.md``,
+"Colorimetry" and "wgbragg.colour.colorimetry".
 """
 
 from __future__ import annotations

@@ -1,28 +1,11 @@
 """The ``quadrature="grid"`` of colour method "averaged" (numpy reference): a fixed grid.
 
-"averaged" integrates the phase-averaged spectrum in pass bands and the exact one in band
-gaps. Its default quadrature (``"landmarks"``, :func:`wgbragg.colour.landmark_methods.averaged_xyz`)
-finds the band edges at every angle and places Gauss panels between them: accurate, but on
-lavapipe finding and bookkeeping the zones costs as much as the reflectances. ``"grid"``
-evaluates the same spectrum at ``grid_nodes`` wavelengths over 360-830 nm, uniform in
-``1 / lambda`` within each of three segments (:func:`grid_segments`) and fixed for every mirror
-and angle, and integrates R linearly interpolated in ``1 / lambda`` against the CMF x D65
-density: the product weights (:func:`grid_weights`) are computed once, so a colour is one dot
-product, and the float32 twin (``wgsl/colour/grid_bragg.wgsl``) steps the layer phases by a
-rotation per node, with no trigonometry per node.
-
-What is given up: the band edges, where the averaged spectrum has a square-root edge, fall
-between nodes. On the benchmark's grid (``tools/bench_rgb.py``, N >= 10) that costs about twice
-the landmark quadrature's mean dE2000 against a converged integral, within the issue's bounds,
-at about 2.2x its speed on lavapipe.
-
-Where it applies (:func:`grid_applies`): ``host == n1 < n2`` (no Appendix D host, n2 never
-evanescent) with an n2 layer, and cells thin enough that few band gaps lie in view
-(:data:`GRID_MIN_CELLS_PER_BAND`). At each angle the pass bands are phase-averaged when
-``N >= averaging_from`` and the exact spectrum oscillates at least ``470 / PANEL_NM`` times
-in view (as the landmark quadrature decides); otherwise the exact spectrum is sampled, which
-needs its oscillations resolved (:data:`GRID_MAX_OSCILLATIONS_PER_CELL`). Elsewhere "averaged"
-uses its landmark quadrature whatever ``quadrature`` says.
+The same spectrum as the landmark quadrature, evaluated at ``grid_nodes`` wavelengths fixed
+for every mirror and angle and integrated with precomputed product weights
+(:func:`grid_weights`), where it applies (:func:`grid_applies`); the float32 twin is
+``wgsl/colour/grid_bragg.wgsl``. How it works and where it applies: ``docs/physics.md``,
+"wgbragg.colour.grid"; what it costs in accuracy: ``docs/performance.md``, "The grid
+quadrature".
 """
 
 from __future__ import annotations
@@ -54,13 +37,12 @@ __all__ = [
 ]
 
 GRID_NODES = 96
-"""Default nodes of the grid. On the benchmark's mirrors with N >= 10 (``tools/bench_rgb.py``),
-dE2000 mean / p95 against "reference" 0.38 / 1.29 and against a converged integral 0.23 / 0.80;
-128 nodes: 0.31 / 1.09 and 0.14 / 0.51."""
+"""Default nodes of the grid (its accuracy at 96 and 128 nodes: ``docs/performance.md``,
+"wgbragg.colour.grid")."""
 
 GRID_BAND_NM = (410.0, 690.0)
 """Where the grid is finest (nm): outside it the CMF x D65 density is below ~5 % of its peaks,
-and nodes there cost time for little accuracy (4x coarser tails lost nothing measurable)."""
+and nodes there cost time for little accuracy."""
 
 GRID_TAIL_COARSENING = 4.0
 """About how much wider the grid's cells are outside :data:`GRID_BAND_NM` than inside."""
@@ -76,16 +58,14 @@ GRID_MAX_OSCILLATIONS_PER_CELL = 0.4
 the tails' cells hold 4x as many, where the density is small) with which the grid samples it:
 at normal incidence below ``averaging_from``, and at the most an averaging N leaves exact
 (``470 / PANEL_NM`` in view). The benchmark's worst case, N = 10 at Lambda = 988 nm and
-d1 / Lambda = 0.25, has 0.34 at 96 nodes (mean dE2000 0.23 against "reference" at N = 10)."""
+d1 / Lambda = 0.25, has 0.34 at 96 nodes."""
 
 GRID_MIN_CELLS_PER_BAND = 24
 """Fewest cells of the grid's band per band gap period (``K Lambda`` advancing by pi) at normal
 incidence: each band gap's square-root edges cost the grid accuracy, so cells thick enough to
 put many gaps in view keep the landmark quadrature. The benchmark's thickest cells (Lambda =
-988 nm) have 29 at 96 nodes; at N = 20 the grid measured mean dE2000 0.28 / 0.52 / 0.66 / 1.05
-/ 5.5 against a converged integral for Lambda = 988 / 1250 / 1500 / 2000 / 10000 nm (d1 =
-d2; 29 / 24 / 20 / 15 / 3 cells per band), the landmark quadrature 0.09 / 0.19 / 0.18 / 0.81 /
-0.73."""
+988 nm) have 29 at 96 nodes (the grid's error against the number of cells per band:
+``docs/performance.md``, "wgbragg.colour.grid")."""
 
 _GAUSS_POINTS = 5
 

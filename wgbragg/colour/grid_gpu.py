@@ -29,6 +29,7 @@ __all__ = ["WORKGROUP_SIZE", "benchmark_grid_xyz", "grid_angle_inputs", "grid_xy
 # As colour_gpu: one invocation integrates a whole colour.
 WORKGROUP_SIZE = 64
 
+# GridAngle.mode codes, MODE_* of wgsl/colour/grid_bragg.wgsl (tests/test_wgsl_layouts.py).
 MODE_EXACT, MODE_AVERAGED, MODE_TOTAL = 0.0, 1.0, 2.0
 
 

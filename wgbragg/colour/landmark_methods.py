@@ -1,22 +1,11 @@
 """Colour of a Bragg mirror from its spectral landmarks (numpy reference; the GPU twin is
-:mod:`wgbragg.colour.landmark_methods_gpu`):
+:mod:`wgbragg.colour.landmark_methods_gpu`).
 
-- ``"approx"`` and ``"subdivided"``: the piecewise-constant spectra of Fourneau, Pacanowski &
-  Barla 2024 (sec. 3.2.2, App. B), integrated with cumulative CMF tables (eq 15).
-- ``"averaged"`` (ours): outside band gaps the spectrum averaged over the phase of its N-fold
-  oscillation (:func:`wgbragg.optics.yeh_reflectance` with ``method="phase-averaged"``), inside
-  them the exact finite-N reflectance (eq 9). The band edges of both polarisations split the
-  visible range into zones; each zone is integrated by three-point Gauss-Legendre panels (at
-  most :data:`PANEL_NM` wide) in a variable that clusters the nodes quadratically at band
-  edges, where the averaged spectrum has a square-root edge and would otherwise need graded
-  pieces. Both polarisations are smooth inside a zone and share its nodes. Modes, Airy and
-  zero points are not needed. About 40 to 60 nodes where every zone is averaged, O(1) in N.
-  Where the oscillations are too few to average (below N = ``averaging_from``, default
-  :data:`AVERAGING_MIN_PERIODS`, or wider than a panel: short periods, up to about 110 nodes),
-  the exact R is integrated with ``panels_per_oscillation`` (default
-  :data:`PANELS_PER_OSCILLATION`) panels per oscillation (:func:`_quadrature`).
-  ``quadrature="grid"`` integrates the same spectrum on fixed nodes instead
-  (:mod:`wgbragg.colour.grid`): faster, less accurate at band edges.
+``"approx"`` and ``"subdivided"`` integrate the paper's piecewise-constant spectra
+(Fourneau, Pacanowski & Barla 2024, sec. 3.2.2, App. B) with cumulative CMF tables (eq 15);
+``"averaged"`` (ours) integrates the phase-averaged spectrum in pass bands and the exact one
+in gaps, by Gauss panels between the band edges. The methods: ``docs/physics.md``, "Colour
+methods of a Bragg mirror" and "wgbragg.colour.landmark_methods".
 """
 
 from __future__ import annotations
@@ -45,8 +34,8 @@ __all__ = [
 ]
 
 AVERAGING_MIN_PERIODS = 16
-"""Smallest N integrated through the phase-averaged spectrum (physics notes, sec. 4: averaging
-costs up to 6 dE2000 at N = 5 and under 0.25 from N = 20)."""
+"""Smallest N integrated through the phase-averaged spectrum (``docs/physics.md`` sec. 8:
+averaging costs up to 6 dE2000 at N = 5 and under 0.25 from N = 20)."""
 
 EXACT_MIN_OSCILLATION_NM = 0.1
 """With n2 evanescent and below :data:`AVERAGING_MIN_PERIODS`, zones whose oscillations are on
@@ -275,9 +264,10 @@ def _zones(mirror, theta):
     oscillates N times. With n2 evanescent, a polarisation in a gap at the zone's middle
     changes by 0: the pass bands of deep tunnelling through the n2 layer can be narrower than
     the arithmetic resolves, which puts the phases at their edges anywhere in [0, pi]
-    (float32 from ``kappa ~ 16``, float64 from ~37), and the gaps on either side then took a
-    share of up to 1, with N x 3 panels, from rounding. (Propagating n2 has no such bands;
-    there the check would cost the float32 twin 17 % of its time.)
+    (float32 from ``kappa ~ 16``, float64 from ~37), and the gaps on either side would take a
+    share of up to 1, with N x 3 panels, from rounding. Propagating n2 has no such bands, and
+    there the check is left out for speed (``docs/performance.md``,
+    "wgbragg.colour.landmark_methods").
     """
     edges = [np.sort(np.concatenate([s_found.omega[s_found.kind == "edge"],
                                      p_found.omega[p_found.kind == "edge"]]))
@@ -452,9 +442,10 @@ def averaged_xyz(mirror, theta, averaging_from=AVERAGING_MIN_PERIODS,
         ``"landmarks"`` (default): Gauss panels between the band edges of each angle, as
         above. ``"grid"``: the same spectrum at ``grid_nodes`` wavelengths uniform in
         ``1 / lambda``, fixed for every angle, with precomputed product weights
-        (:mod:`wgbragg.colour.grid`): about 2.2x faster on lavapipe and about twice the mean
-        error, where it applies (``host == n1 < n2``, cells with few band gaps in view, and
-        exact spectra the grid resolves); elsewhere the landmark quadrature is used.
+        (:mod:`wgbragg.colour.grid`): faster and less accurate (``docs/performance.md``,
+        "The grid quadrature"), where it applies (``host == n1 < n2``, cells with few band
+        gaps in view, and exact spectra the grid resolves); elsewhere the landmark quadrature
+        is used.
     grid_nodes : int, optional
         Nodes of ``quadrature="grid"``, in [16, 4096]; default
         :data:`~wgbragg.colour.grid.GRID_NODES` (96). Validated but unused by ``"landmarks"``.
@@ -462,12 +453,9 @@ def averaged_xyz(mirror, theta, averaging_from=AVERAGING_MIN_PERIODS,
     Notes
     -----
     The two options trade accuracy for speed where the exact spectrum is integrated, which
-    is where "averaged" spends most of its time below N = 16. On the benchmark's grid
-    (``tools/bench_rgb.py``, table '"averaged" settings' in docs/benchmarks.md, lavapipe)
-    ``averaging_from=10, panels_per_oscillation=1`` takes the float32 kernel from 5.1x to 6.6x
-    the speed of "reference", and dE2000 against it, pooled over N >= 10, from mean 0.28 /
-    p95 1.10 / max 4.4 to 0.42 / 1.33 / 5.0 (against a converged integral: 0.10 / 0.40 / 2.6
-    to 0.23 / 0.91 / 5.0).
+    is where "averaged" spends most of its time below N = 16; what each setting costs and
+    gains: ``docs/performance.md``, 'The "averaged" settings' and
+    "wgbragg.colour.landmark_methods".
 
     Raises
     ------

@@ -1,35 +1,11 @@
-"""Dispatch of the float32 landmark colour kernel (``wgsl/colour/landmark_methods_bragg.wgsl``): the
-GPU twins of :func:`wgbragg.colour.landmark_methods.approx_xyz` ("approx", "subdivided") and
-:func:`wgbragg.colour.landmark_methods.averaged_xyz` ("averaged").
+"""Dispatch of the float32 landmark colour kernel (``wgsl/colour/landmark_methods_bragg.wgsl``):
+the GPU twins of :func:`wgbragg.colour.landmark_methods.approx_xyz` ("approx", "subdivided")
+and :func:`wgbragg.colour.landmark_methods.averaged_xyz` ("averaged").
 
-One invocation per angle finds the landmarks of each polarisation (Newton on the closed-form
-dispersion in the mode coordinate, ``wgsl/optics/landmarks.wgsl``) and integrates each landmark
-interval as it is reached (``wgsl/colour/landmark_methods.wgsl``): O(1) in N, no per-angle storage.
-"averaged" sweeps both polarisations at once, over the zones between their band edges.
-Pipelines are specialised on the method and on ``host == n1``; ``s`` of "subdivided" is a
-uniform, so any ``s`` reuses one pipeline. "averaged" below N = ``averaging_from`` (default
-:data:`~wgbragg.colour.landmark_methods.AVERAGING_MIN_PERIODS`) with ``host == n1 <= n2``, where
-every
-zone is integrated through the exact spectrum, is also specialised on N (``EXACT_PERIODS``):
-the kernel unrolls the recurrence of ``U_{N-1}`` and compiles the averaged zones out, one
-pipeline per N (lavapipe runs both sides of every branch, so what is compiled in is paid for).
-
-Table, built once per process in float64 and uploaded as a storage buffer of 32-bit words:
-``cmf``, the XYZ density at the 1 nm nodes 360..830 nm in float32
-(:func:`colorimetry.xyz_density`, linear in between as there) and its cumulative integral
-(:func:`colorimetry.cumulative_table`; with the exact in-cell quadratic they give
-:func:`colorimetry.cumulative_xyz`, the boxes of eq 15). Each density row also packs the slope
-of the cell above it into its fourth word (:func:`pack_density_slopes`, within 1e-6 per nm),
-so that a quadrature node reads one row, not two, which saved 13 % of "averaged"'s time on
-lavapipe (numpy against GPU: up to 1e-3 dE2000 more on the benchmark's grid, max still 0.006).
-
-Speed and accuracy against the "reference" kernel: ``tools/bench_rgb.py``
-(docs/benchmarks.md). "averaged" evaluates R of both polarisations at three Gauss nodes per
-panel: 40 to 60 nodes where every zone is averaged, and ``panels_per_oscillation`` (3)
-panels per oscillation where the exact spectrum is integrated (below N = ``averaging_from``,
-16, and where oscillations are wider than a panel: up to about 110 nodes); "approx" one
-envelope value per landmark interval. Those two options of "averaged" are pipeline constants
-(``AVERAGING_MIN_PERIODS``, ``PANELS_PER_OSCILLATION``): a setting compiles once.
+One invocation per angle finds the landmarks of each polarisation and integrates each
+landmark interval as it is reached: O(1) in N, no per-angle storage. The pipelines'
+specialisation and the packed colour-matching table: ``docs/design.md``,
+"wgbragg.colour.landmark_methods_gpu".
 """
 
 from __future__ import annotations
@@ -73,8 +49,8 @@ __all__ = [
 GPU_LANDMARK_METHODS = {"approx": 0, "subdivided": 1, "averaged": 2}
 """Method names and their ``METHOD`` override codes."""
 
-# As colour_gpu: one invocation integrates a whole colour, so small workgroups fill the
-# device sooner; on lavapipe 16 .. 256 time the same within noise.
+# As reference_gpu: one invocation integrates a whole colour, so small workgroups fill the
+# device sooner (docs/performance.md, "wgbragg.colour.landmark_methods_gpu").
 WORKGROUP_SIZE = 64
 
 

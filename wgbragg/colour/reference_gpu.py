@@ -1,25 +1,11 @@
 """Dispatch of the float32 colour kernels (``wgsl/colour/reference_bragg.wgsl``,
 ``wgsl/colour/reference_film.wgsl``): the GPU twins of :mod:`wgbragg.colour.reference`.
 
-One invocation per angle loops over the quadrature nodes it is given (wavelengths and their
-XYZ weights, uploaded as storage buffers) and accumulates ``R * weight`` in a plain
-float32 sum, ``R`` unpolarized. Pipelines are specialised like :mod:`wgbragg.optics.pointwise_gpu`: the
-Bragg kernel compiles Appendix D out when the host equals ``n1``, the film kernel reads a
-dispersive base's index per node (``DISPERSIVE``).
-
-The Bragg kernel takes each angle's geometry and optical paths ``q1 d1``, ``q2 d2`` from the
-host in float64 (:func:`angle_inputs`), the paths and ``1 / lambda`` split into float32 heads of
-12 significant bits and their rests (:func:`split_float32`). The kernel then forms the
-fractional layer phases in turns to float32's accuracy (``split_cycles`` in
-``wgsl/optics/yeh.wgsl``),
-not to that of the whole phase, and ``cos(theta)`` keeps its relative accuracy at grazing
-incidence. Few spectral nodes at a sharp resonance (N = 100) magnify either rounding:
-"spectral" (K = 16) was 0.18 dE2000 from its float64 twin, K = 32 0.4 at 86 degrees.
-
-The kernels' node loop has no inner loop, so one dispatch takes at most :data:`CHUNK_NODES`
-nodes (llvmpipe's loop budget, see :mod:`wgbragg.gpu`); more nodes ("spectral" takes up to
-100000) run as several dispatches in one submission, their float32 partial sums added on the
-host in float64.
+One invocation per angle sums ``R * weight`` over the quadrature nodes it is given, in chunks
+of at most :data:`CHUNK_NODES` nodes per dispatch (llvmpipe's loop budget) added on the host
+in float64. The Bragg kernel takes each angle's geometry and split optical paths from the host
+(:func:`angle_inputs`, :func:`split_float32`): ``docs/design.md``,
+"wgbragg.colour.reference_gpu".
 """
 
 from __future__ import annotations
@@ -41,8 +27,8 @@ __all__ = [
 ]
 
 # One invocation evaluates a whole spectrum (471 reflectances for the reference), so even a few
-# hundred angles should fill several workgroups: 64 rather than the reflectance kernels' 256. On lavapipe
-# (2 cores) 16, 64 and 256 time the same within noise for 90 to 16384 angles.
+# hundred angles should fill several workgroups: 64 rather than the reflectance kernels' 256
+# (docs/performance.md, "wgbragg.colour.reference_gpu").
 WORKGROUP_SIZE = 64
 
 CHUNK_NODES = gpu.SAFE_LOOP_ITERATIONS

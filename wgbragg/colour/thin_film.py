@@ -1,61 +1,11 @@
 """Colour of a thin film by spectral integration in Fourier space (Belcour & Barla 2017).
 
-The Airy reflectance of a film (host ``n1`` | film ``n2``, thickness ``d`` | base ``n3 + i k3``)
-is, for each polarisation, a Fourier series in the phase ``delta = 2 pi nu D`` with
-``nu = 1 / lambda`` and the optical path difference ``D = 2 n2 d cos(theta2)``:
-
-    R = 1 - T* [1 + 2 sum_{m >= 1} Re((-w)^m e^{i m delta})],
-    w = r12 r23,   T* = (1 - |r12|^2)(1 - |r23|^2) / (1 - |w|^2)
-
-(``r12`` real, ``r23`` complex: a conducting base or total reflection at the base; this is
-BB17 eqs 5-6 with ``C0 = 1 - T*``, ``C_m = -T* |w|^m`` and the phase ``arg(-w)`` taking the
-place of ``phi21 + phi23``). With the Fresnel coefficients held constant over a spectral window,
-the colour integral of the m-th term is the Fourier transform of the window's sensitivity,
-evaluated at ``m D``:
-
-    XYZ = sum_windows (1 - T*) F(0) - 2 T* sum_{m=1}^{M} Re((-w)^m F(m D)),
-    F(x) = int s(lambda) e^{2 pi i x / lambda} d lambda       (BB17 eqs 8-10)
-
-truncated at the order ``M`` (``order=``). Two sensitivities:
-
-- ``"fourier-table"``: ``s`` is the D65-weighted CIE 1931 weight of the reference quadrature
-  (:func:`wgbragg.colour.colorimetry.xyz_weights`), so ``F`` is the 1 nm sum the reference itself
-  computes, tabulated every :data:`TABLE_STEP_NM` of OPD up to :data:`TABLE_RANGE_NM` (beyond,
-  0: the iridescence cut-off of BB17 sec. 5). The table stores ``F`` times
-  ``e^{-2 pi i x nu_c}`` for each window's mean frequency ``nu_c``: that envelope varies on
-  ~1 um scales where ``F`` itself oscillates every ~0.5 um, so linear interpolation stays
-  accurate. For a constant-index base the series is exact up to truncation and interpolation.
-  For a dispersive base (a metal) the sensitivity is split into :data:`DISPERSION_NODES`
-  windows, the cardinal functions of a natural cubic spline in wavelength, each with its own
-  table and the Fresnel coefficients of its node: the spectrum's dependence on the base index
-  is interpolated by that spline.
-- ``"fourier-gaussian"``: the paper's Gaussian fits of the CIE 1931 functions (two Gaussians
-  for x-bar, one each for y-bar and z-bar, in ``nu``; :data:`GAUSSIAN_LOBES`), closed-form
-  Fourier transforms, each channel normalised to 1 at zero OPD. The fit is of the bare
-  functions, white under illuminant E; its XYZ is adapted from E to our D65 white (the
-  perfect reflector's XYZ of the reference quadrature) with the Bradford transform
-  (:data:`E_TO_D65_BRADFORD`), so a perfect reflector is exactly the reference's white. Each
-  lobe uses the Fresnel coefficients at its centre wavelength (the paper's per-band modes).
-
-Thickness prefiltering (BB17 sec. 5): for a Gaussian distribution of thicknesses with standard
-deviation ``sigma`` (``thickness_std_nm=``), the m-th term averages to the transform of the
-sensitivity times ``exp(-2 pi^2 s^2 nu^2)``, ``s = m (2 n2 cos theta2) sigma``, i.e. ``F``
-convolved with a Gaussian of standard deviation ``s`` in OPD. Closed form for the Gaussian
-fits; for the table a second axis over ``s`` (every :data:`PREFILTER_STEP_NM` up to
-:data:`PREFILTER_RANGE_NM`, 0 beyond), the paper's mip-map over the variance.
-
-Where the film is evanescent (``n1 sin theta1 >= n2``: frustrated total reflection) the
-spectrum does not oscillate and the series does not apply: both methods then integrate the exact
-Airy reflectance at nodes with white weights (:func:`evanescent_nodes`). They do so too just
-below that critical angle, where both interfaces reflect almost totally and the series
-converges too slowly to truncate while the OPD is still small enough for a smooth spectrum,
-blended with the series in between (:data:`TAIL_RANGE`, :data:`EXACT_OPD_RANGE_NM`).
-
-References
-----------
-L. Belcour & P. Barla, "A Practical Extension to Microfacet Theory for the Modeling of Varying
-Iridescence", ACM TOG 36(4), 65, 2017: eqs 2-10, sec. 5 (evaluation, prefiltering) and the
-supplemental GLSL (``evalSensitivity``, the Gaussian constants).
+The methods ``"fourier-table"`` and ``"fourier-gaussian"`` (:data:`FOURIER_METHODS`) sum the
+Airy reflectance's Fourier series in the optical path difference against the transform of a
+colour-matching sensitivity, truncated at ``order=``, optionally prefiltered over a Gaussian
+distribution of thicknesses (``thickness_std_nm=``); evanescent and near-critical films are
+integrated exactly. The derivation: ``docs/physics.md``, "Thin-film colour in Fourier space"
+and "wgbragg.colour.thin_film".
 """
 
 from __future__ import annotations
@@ -325,8 +275,8 @@ def _spline_nodes(count: int) -> tuple[np.ndarray, np.ndarray]:
     1 nm reference nodes (count, 471)).
 
     Natural cubic spline cardinal functions: ``sum_b f(lambda_b) h_b`` is the spline through
-    the nodes, and ``sum_b h_b = 1``. Measured against linear hats, cubic splines need 10
-    nodes where hats need 16-24 for the same colour error over gold and copper.
+    the nodes, and ``sum_b h_b = 1``. They need fewer nodes than linear hats for the same
+    colour error over metals (``docs/performance.md``, "wgbragg.colour.thin_film").
     """
     wavelength = colorimetry.xyz_weights()[0]
     nodes = np.linspace(*colorimetry.WAVELENGTH_RANGE_NM, count)

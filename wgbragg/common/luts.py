@@ -1,28 +1,11 @@
 """Look-up-table files and their cache: baked once, verified on every load.
 
-A LUT file is an uncompressed ``.npz`` archive (``np.savez``) holding named numeric arrays
-and one ``meta`` entry, the UTF-8 bytes of a JSON object (stored as a ``uint8`` array)::
-
-    {"format": "wgbragg-lut", "format_version": 1, "kind": "transmission-filter",
-     "parameters": {"alpha": 0.1, ...},
-     "arrays": {"values": {"dtype": "<f8", "shape": [361, 361]}, ...},
-     "checksum": "<sha256 hex>"}
-
-The checksum is the SHA-256 of the canonical JSON of ``format_version``, ``kind`` and
-``parameters``, followed, for every array in name order, by the JSON of
-``[name, dtype, shape]`` and the array's C-order little-endian bytes. :func:`load_lut` reads
-with ``np.load(..., allow_pickle=False)``, compares every ``.npy`` header with ``meta`` before
-reading its data, and refuses anything that does not match with a :class:`LutError` naming
-the file and the fault; nothing in a file is ever unpickled.
-
-:func:`cached` keeps one file per (kind, parameters) in :func:`cache_dir`: a valid file is
-loaded, a missing one baked and saved, an invalid one reported with a :class:`LutWarning`,
-re-baked and replaced. Every write is atomic (a temporary file renamed onto the target), so a
-crash or a concurrent reader never sees half a file.
-
-Two kinds are wired in: :func:`transmission_filter` (the rough-interface transmission filter
-of :mod:`wgbragg.bsdf.transmission_filter`) and :func:`colour_tables` (the colorimetry tables the
-GPU colour kernels upload). ``wgbragg bake`` fills the cache ahead of time.
+A LUT file is an uncompressed ``.npz`` of named numeric arrays and a JSON ``meta`` entry with a
+checksum; :func:`load_lut` never unpickles and refuses any mismatch with a :class:`LutError`,
+and :func:`cached` keeps one file per (kind, parameters) in :func:`cache_dir`, re-baking an
+invalid one. Its kinds are baked by :func:`wgbragg.bsdf.filter_cache.transmission_filter` and
+:func:`wgbragg.colour.tables.colour_tables`. The format: ``docs/design.md``, "Look-up tables
+and the cache" and "wgbragg.common.luts".
 """
 
 from __future__ import annotations

@@ -1,19 +1,13 @@
 """Uniform numbers in a form a kernel expands itself: one point set, digitally shifted per group.
 
-A renderer draws its samples on the device. :meth:`LayeredBragg.sample` takes its uniform
-numbers ``u`` from the caller, and an array of them costs the host their generation and an
-upload of 16 bytes per sample (1.2 MB for 1184 pixels x 64 samples). :class:`ShiftedPoints`
-describes the same numbers in a few kilobytes: ``n`` points shared by every group (a pixel's
-samples) and one random digital shift per group, expanded in the kernel.
+:class:`ShiftedPoints` describes a renderer's uniform numbers in a few kilobytes, ``n`` points
+shared by every group (a pixel's samples) and one random digital shift per group, instead of
+16 bytes per sample uploaded (``docs/design.md``, "wgbragg.common.sampling").
 
 Convention, stated once: a number is a 32-bit binary fraction (``uint32`` digits ``b`` stand
 for ``b / 2**32``), shifted by XOR, and read as the float32 of its top 23 bits,
 ``(b >> 9) * 2**-23``: exact in float32 and float64 alike, in ``[0, 1 - 2**-23]``, so the
 numpy and GPU backends see identical numbers.
-
-A digital shift keeps each number uniform (every pixel's estimate stays unbiased) and keeps a
-(t, m, s)-net's stratification in dyadic intervals, which a shift modulo 1 would break
-(Owen 2003, "Quasi-Monte Carlo sampling", sec. 3.3; Sobol' 1967).
 """
 
 from __future__ import annotations

@@ -6,28 +6,11 @@ Float64 numpy twin of ``wgsl/lighting/environment_map.wgsl``, which reads
 Convention, stated once: +y is up. Texel column ``x`` in ``[0, W)`` covers the azimuths
 ``phi`` in ``[2 pi x / W - pi, 2 pi (x + 1) / W - pi]``, measured from +z towards +x; row ``y``
 in ``[0, H)``, row 0 at the top of the image, covers the polar angles ``theta`` in
-``[pi y / H, pi (y + 1) / H]`` from +y. A direction is::
-
-    d = (sin theta sin phi, cos theta, sin theta cos phi)
-
-so the image centre looks along +z, its left and right edges along -z (the seam,
-``phi = -pi`` belongs to column 0), and a sun at azimuth ``az`` and elevation ``el``,
-``(cos el sin az, sin el, cos el cos az)``, sits at ``phi = az``, ``theta = pi/2 - el``.
-Angles are in radians, densities per steradian, radiance in the map's unit (linear sRGB).
-
-Radiance is piecewise constant: a direction sees its texel, unfiltered, the same function the
-sampling density follows.
-
-Importance sampling draws texel ``(x, y)`` with probability proportional to
-``(L + f) * Omega_y``: ``L`` its luminance (Rec. 709 weights), ``Omega_y = (2 pi / W)
-(cos theta_y - cos theta_(y+1))`` its solid angle, and ``f`` a floor of :data:`FLOOR_FRACTION`
-times the map's mean luminance (1 for a black map, which is then sampled uniformly), so that
-every direction with radiance, however dim, can be drawn. The row is drawn by ``u[..., 0]``
-from the marginal CDF, the column by ``u[..., 1]`` from that row's conditional CDF, and where
-each ``u`` falls within its CDF step places the direction in the texel, uniformly in ``phi``
-and in ``cos theta``. The density per solid angle is thus constant within a texel::
-
-    pdf(d) = (L + f) / sum over texels of (L + f) Omega
+``[pi y / H, pi (y + 1) / H]`` from +y. A direction is
+``d = (sin theta sin phi, cos theta, sin theta cos phi)``, so the image centre looks along +z
+and the seam ``phi = -pi`` belongs to column 0. Angles are in radians, densities per
+steradian, radiance in the map's unit (linear sRGB). Radiance is piecewise constant per texel,
+and so is the sampling density (``docs/physics.md``, "wgbragg.lighting.environment_map").
 """
 
 from __future__ import annotations

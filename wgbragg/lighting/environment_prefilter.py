@@ -1,80 +1,12 @@
 """Prefiltered environments for image-based lighting: the split-sum radiance and the lobe
 moments of Kneiphof et al. 2019, baked per roughness into small equirectangular maps.
 
-The quantity
-------------
-For an output direction ``r`` (unit) and a kernel ``K``, with ``L(l)`` the environment's
-linear sRGB radiance arriving from ``l``:
-
-- GGX of roughness ``alpha`` (Karis's split sum with ``n = v = r``, as Kneiphof et al. 2019
-  eq 12 uses it): ``K(r, l) = D(h) G1(r.l; alpha)`` for ``r.l > 0``, else 0, with
-  ``h = normalize(r + l)``, ``D`` the isotropic GGX distribution at ``cos = r.h`` and ``G1``
-  Smith's masking (:func:`wgbragg.bsdf.microfacet.ggx_D`, :func:`~wgbragg.bsdf.microfacet.ggx_G1`);
-- ``"cosine"`` (Lambertian surfaces): ``K(r, l) = max(0, r.l)``.
-
-Each output texel (direction ``r`` at its centre) holds, summed over the texels ``t`` of an
-input map (directions ``l_t`` at their centres, ``Omega_t`` their exact solid angles)::
-
-    radiance = sum L_t K_t Omega_t / sum K_t Omega_t                              (rgb)
-    w_t      = Y(L_t) K_t Omega_t          (Y: luminance, Rec. 709 weights)
-    mean     = sum w_t l_t / sum w_t                                (|mean| <= 1)
-    second   = sum w_t l_t l_t^T / sum w_t           (xx, yy, zz, xy, yz, zx)
-
-and where ``sum w_t = 0`` (a black region) ``mean = r`` and ``second = r r^T``. In ratio
-form a constant environment prefilters to exactly its constant. A window (below) whose
-kernel meets no texel centre, possible only with a ``sizes`` override far too coarse for
-``alpha``, gives radiance 0.
-
-Resolutions and windows
------------------------
-A level of roughness ``alpha`` in [0.01, 1] reads an input map of
-``W_in = min(512, max(64, 2**ceil(log2(4 pi / alpha))))`` by ``H_in = W_in / 2`` texels (about
-four texels across the lobe's ``alpha`` radians) and writes ``W_out = max(32, W_in // 2)`` by
-``H_out = W_out / 2``; the cosine level reads 64 x 32 and writes 32 x 16
-(:func:`level_sizes`). The input map is the source resampled to ``W_in x H_in``
-(:func:`resample_environment`): an :class:`~wgbragg.lighting.environment_map.EnvironmentMap`'s
-piecewise constant radiance averaged exactly over each new texel (area-weighted by solid
-angle: a box filter when the source is larger, the limit of supersampling when it is
-smaller); a :class:`~wgbragg.lighting.procedural_environment.ProceduralEnvironment`'s gradient
-averaged
-over 4 x 4 regular subsamples per texel (equal-area: midpoints in azimuth and in ``cos
-theta``), plus its disc's coverage of each texel it touches measured with at least 16 x 16
-subsamples (and enough for 32 across the disc's radius), the coverages then scaled so that
-the disc's energy ``sum_t L_t Omega_t`` equals ``disc_radiance 2 pi (1 - disc_cos)``.
-
-The GGX kernel is truncated where ``D(h) / D(n) < 1e-4``: ``l`` counts when
-``angle(l, r) <= min(pi/2, 2 atan(10 alpha))`` (the whole hemisphere from ``alpha = 0.1``);
-the cosine kernel's window is the hemisphere. Both backends test a texel against the window
-the same way, ``|r - l|^2 / 2 = 1 - r.l <= 1 - cos(window)`` (accurate where ``l`` is near
-``r``). The GPU visits only the input rows whose centres lie within the window and, per row,
-the columns around ``r``'s azimuth that can (:class:`_Plan`, computed in float64 for the
-window's exact edge); the seam wraps and rows that hold a pole are visited whole.
-
-Backends
---------
-``"numpy"`` is the float64 twin, vectorised per output row (slow at full resolution: tests
-use small levels). ``"gpu"`` runs ``wgsl/lighting/environment_prefilter.wgsl`` in float32, one
-invocation per output texel. llvmpipe (lavapipe) silently ends the loops of a SIMD group of
-invocations after 65535 iterations in total (:mod:`wgbragg.gpu`, "Loop budget"), so a level's
-input rows are split into blocks in which no output row iterates more than
-:data:`MAX_ITERATIONS` times, and the invocations of an output row are padded to a multiple of
-:data:`SIMD_LANES` so that no group mixes two rows (whose loops, run in lockstep, could take
-up to twice the turns); one dispatch per block adds into a buffer of partial sums, and the
-last also normalises. Sums are taken per input row and then added, which keeps the float32
-ratios within about 1e-6 of their float64 values.
-
-The result, :class:`PrefilteredEnvironment`, looks levels up bilinearly between texel centres
-(:meth:`PrefilteredEnvironment.lookup`, the twin of
-``wgsl/lighting/environment_prefilter_lookup.wgsl``)
-and packs them for the renderer (:meth:`PrefilteredEnvironment.packed`). Directions follow
-:mod:`wgbragg.lighting.environment_map` (+y up, row 0 at the top, the seam ``phi = +-pi`` at the
-left
-edge); radiance is in the source's unit.
-
-References
-----------
-Kneiphof, Golla & Klein, *Real-time image-based lighting of microfacet BRDFs with varying
-iridescence*, EGSR 2019. Karis, *Real shading in Unreal Engine 4*, SIGGRAPH course 2013.
+:func:`prefilter_environment` bakes one map per level (a GGX roughness or ``"cosine"``), on the
+GPU in float32 or with the float64 numpy twin; :class:`PrefilteredEnvironment` looks levels up
+and packs them for the renderer. Directions follow :mod:`wgbragg.lighting.environment_map`;
+radiance is in the source's unit. The prefiltered quantities, resolutions and windows:
+``docs/physics.md``, "wgbragg.lighting.environment_prefilter"; the GPU's blocks and the loop
+budget: ``docs/design.md``, same heading.
 """
 
 from __future__ import annotations
@@ -135,13 +67,14 @@ PARAMS_DTYPE = gpu.struct_dtype([
 ])
 """Layout of ``PrefilterParams`` in ``wgsl/lighting/environment_prefilter.wgsl``."""
 
-# Input rows, output rows and columns of wgsl/lighting/environment_prefilter.wgsl (storage layout:
-# four
-# 4-byte fields, no padding).
-_ROW_DTYPE = np.dtype({"names": ["sin", "cos", "first", "end"],
-                       "formats": ["<f4", "<f4", "<u4", "<u4"], "itemsize": 16})
-_COLUMN_DTYPE = np.dtype({"names": ["sin", "cos", "centre", "pad"],
-                          "formats": ["<f4", "<f4", "<u4", "<u4"], "itemsize": 16})
+_ROW_DTYPE = gpu.struct_dtype([
+    ("sin_theta", "f32"), ("cos_theta", "f32"), ("first", "u32"), ("end", "u32"),
+])
+"""``OutputRow`` of ``wgsl/lighting/environment_prefilter.wgsl``."""
+_COLUMN_DTYPE = gpu.struct_dtype([
+    ("sin_phi", "f32"), ("cos_phi", "f32"), ("centre", "u32"), ("_pad", "u32"),
+])
+"""``OutputColumn`` of ``wgsl/lighting/environment_prefilter.wgsl``."""
 
 _LARGEST_WIDTH = 4096
 _LARGEST_HEIGHT = 2048
@@ -185,7 +118,8 @@ def _check_levels(levels) -> tuple:
 
 
 def level_sizes(level) -> tuple[tuple[int, int], tuple[int, int]]:
-    """Input and output resolutions of a level (see the module docstring).
+    """Input and output resolutions of a level (``docs/physics.md``,
+    "wgbragg.lighting.environment_prefilter").
 
     Parameters
     ----------
@@ -399,7 +333,8 @@ def resample_environment(source, width: int, height: int) -> np.ndarray:
     source : EnvironmentMap or ProceduralEnvironment
         An image is averaged exactly (its piecewise constant radiance, weighted by solid
         angle, ``intensity`` applied); a procedural environment is rasterised with regular
-        subsamples and its disc's energy kept exact (see the module docstring).
+        subsamples and its disc's energy kept exact (``docs/physics.md``,
+        "wgbragg.lighting.environment_prefilter").
     width, height : int
         Texels across (``phi``) and down (``theta``), in [2, 4096] and [1, 2048].
 
@@ -546,10 +481,10 @@ def _gpu_inputs(plan: _Plan, radiance: np.ndarray) -> list[np.ndarray]:
     if not np.isfinite(texels).all():
         raise ValueError("source radiance is beyond the float32 range of the GPU backend")
     out_rows = np.zeros(target.height, _ROW_DTYPE)
-    out_rows["sin"], out_rows["cos"] = np.sin(target.theta), np.cos(target.theta)
+    out_rows["sin_theta"], out_rows["cos_theta"] = np.sin(target.theta), np.cos(target.theta)
     out_rows["first"], out_rows["end"] = plan.first, plan.end
     out_columns = np.zeros(target.width, _COLUMN_DTYPE)
-    out_columns["sin"], out_columns["cos"] = np.sin(target.phi), np.cos(target.phi)
+    out_columns["sin_phi"], out_columns["cos_phi"] = np.sin(target.phi), np.cos(target.phi)
     out_columns["centre"] = plan.centre
     return [rows, columns, texels, out_rows, out_columns, plan.spans.reshape(-1)]
 

@@ -1,55 +1,12 @@
 """Filtered image-based lighting of microfacet materials: the float64 twin of the renderer's
 ``"split-sum"`` and ``"kneiphof"`` modes (``wgsl/render/renderer.wgsl``, ``ibl_radiance``).
 
-Notation: ``n`` the normal, ``v`` the unit direction to the viewer, ``cos_v = n.v``,
-``r = 2 cos_v n - v`` the ideal reflection, ``alpha`` the GGX roughness. A prefiltered
-environment (:mod:`wgbragg.lighting.environment_prefilter`) gives at ``(r, alpha)`` the radiance
-``Lbar`` (rgb) and the luminance-weighted first and second moments ``m1 = E[l]``,
-``m2 = E[l l^T]`` of the light directions ``l`` under the kernel
-``K(r, l) = D(normalize(r + l)) G1(r.l)``: the lobe of the BRDF times the cosine when
-``n = v = r`` (Karis's split sum, Kneiphof et al. 2019 sec. 3.2). A microfacet material
-``f = D G1(l) G1(v) R(h.l) / (4 cos_l cos_v)`` is then shaded as
-
-    L_out = Lbar * E(cos_v, alpha) * Rbar
-
-with ``E`` the microfacet albedo of the lobe with ``R = 1`` (:func:`microfacet_albedo`, the
-"prefiltered BRDF") and ``Rbar`` the reflectance term, by mode (:data:`IBL_MODES`):
-
-- ``"monte-carlo"``: no filtering (the path tracer; nothing here).
-- ``"split-sum"`` (Belcour & Barla 2017, sec. 5, the real-time approximation of their
-  Fig. 16): ``Rbar = R(theta_v)``, the colour at the ideal reflection (``h = n``).
-- ``"kneiphof"`` (Kneiphof et al. 2019, eqs 20-29) for a thin film: the moments projected on
-  ``v`` give ``x = l.v ~ (mu_x, sigma_x^2)`` (:func:`moment_statistics`); the mean microfacet
-  incidence is ``cos theta_1 = sqrt((1 + mu_x) / 2)`` (eq 22); the cosine inside the film,
-  linearised around the mean (eqs 24-26, ``k = n_host^2 / n_film^2``),
-
-      mu_c2 = sqrt(1 + k (mu_x - 1) / 2),     sigma_c2 = (k / 4) / mu_c2 * sigma_x,
-
-  and the optical path ``D = 2 n_film d cos theta_2`` has the spread
-  ``sigma_D = 2 n_film d sigma_c2`` (eq 28). The film's Fourier colour at ``theta_1`` with
-  each term ``m`` filtered by a Gaussian of OPD spread ``m sigma_D`` (eq 29) is exactly its
-  colour with thickness prefiltering (:mod:`wgbragg.colour.thin_film`, whose m-th spread is
-  ``m (2 n_film cos theta_2) s``) at ``s = d sigma_c2 / mu_c2``
-  (:func:`kneiphof_parameters`, :func:`film_kneiphof_reflectance`).
-- ``"kneiphof"`` for a rough Bragg layer in air (our analogue: no short Fourier series in
-  the OPD exists): the colour is averaged over ``x ~ N(mu_x, sigma_x^2)`` directly, by a
-  5-node Gauss-Hermite rule, each node clamped to [-1, 1] and mapped exactly (no
-  linearisation) to ``theta_1 = acos(sqrt((1 + x) / 2))``
-  (:func:`bragg_filtered_reflectance`).
-
-Under uniform white illumination (``Lbar = 1``) the exact reflected radiance is the
-directional albedo ``int f cos_l dl`` (:func:`uniform_reflected_radiance`), and a renderer's
-prefiltered moments are those of the kernel alone (:func:`uniform_light_moments`,
-:func:`uniform_light_statistics`): the set-up of Kneiphof et al.'s Fig. 7, measured by
-``tools/bench_ibl.py``.
-
-References
-----------
-Kneiphof, Golla & Klein, "Real-time Image-based Lighting of Microfacet BRDFs with Varying
-Iridescence", EGSR 2019 (Computer Graphics Forum 38(4)), eqs 12, 20-29, Fig. 7.
-Belcour & Barla, "A Practical Extension to Microfacet Theory for the Modeling of Varying
-Iridescence", ACM TOG 36(4), 2017, sec. 5 and Fig. 16. Karis, "Real Shading in Unreal Engine
-4", SIGGRAPH 2013 course notes (the split sum).
+A microfacet material is shaded once per view as ``L_out = Lbar E(cos_v, alpha) Rbar``: the
+prefiltered radiance at the ideal reflection (:mod:`wgbragg.lighting.environment_prefilter`),
+the lobe's albedo with ``R = 1`` (:func:`microfacet_albedo`) and a reflectance term per mode
+(:data:`IBL_MODES`). The notation and the derivation (Kneiphof et al. 2019 eqs 20-29; our
+Gauss-Hermite analogue for Bragg layers): ``docs/physics.md``, "Split-sum and Kneiphof
+shading" and "wgbragg.lighting.ibl".
 """
 
 from __future__ import annotations

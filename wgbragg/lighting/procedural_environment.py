@@ -1,20 +1,11 @@
 """The procedural environments of the path tracer in float64 numpy: the twin of
 ``environment_radiance`` in ``wgsl/render/renderer_scene.wgsl``, for references and tests.
 
-An environment is light arriving from infinitely far away, a function of the unit direction
-``d`` it arrives from (pointing away from the scene, +y up, as :mod:`wgbragg.render.renderer`):
-
-- ``"uniform"``: the scene's constant ``radiance`` in every direction, no disc;
-- ``"sky"`` and ``"studio"``: for ``d_y >= 0`` a gradient from the horizon colour to the
-  zenith colour by ``sqrt(d_y)``, the ground colour below, and a disc source (the sun, the
-  studio's key light) whose radiance is added within its angular radius; every radiance is
-  the palette's times ``intensity`` (:data:`PALETTES`). The renderer uploads these very
-  parameters (:meth:`ProceduralEnvironment.from_scene`), so the twin cannot drift from it.
-
-Radiance is in the scene's relative units per linear sRGB channel (a uniform environment of
-radiance 1 around a white Lambertian object makes it appear with radiance 1); angles are in
-degrees where a palette gives them. EXR environments are images, not formulas: their float64
-twin is :mod:`wgbragg.lighting.environment_map`.
+``"uniform"``, ``"sky"`` and ``"studio"`` (:data:`PROCEDURAL_TYPES`): a constant, or a gradient
+from horizon to zenith over a ground colour with a disc source, in the scene's relative
+radiance units (+y up). The renderer uploads the same parameters
+(:meth:`ProceduralEnvironment.from_scene`). Details: ``docs/physics.md``, "Environment maps"
+and "wgbragg.lighting.procedural_environment".
 """
 
 from __future__ import annotations
@@ -148,8 +139,9 @@ class ProceduralEnvironment:
 def environment_radiance(environment, directions) -> np.ndarray:
     """Radiance of a procedural environment arriving from unit ``directions``, in float64.
 
-    The twin of ``environment_radiance`` in ``wgsl/render/renderer_scene.wgsl``, with the parameters
-    :mod:`wgbragg.render.renderer` uploads for the environment (see the module docstring).
+    The twin of ``environment_radiance`` in ``wgsl/render/renderer_scene.wgsl``, with the
+    parameters :mod:`wgbragg.render` uploads for the environment (``docs/physics.md``,
+    "wgbragg.lighting.procedural_environment").
 
     Parameters
     ----------

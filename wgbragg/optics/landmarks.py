@@ -111,14 +111,13 @@ def _evanescent_landmarks(mirror, s, polarization, omega_range):
     The integers are the modes of ``n_plus = q1 d1`` (where ``x = (-1)^k cosh(kappa)``, in a
     gap with the sign of App. A) and the zeros of ``h`` the Airy points: the limits, as
     ``q2 -> 0``, of the propagating landmarks, so that landmark colours are continuous at n2's
-    critical angle (with only the edges, "approx" and "subdivided" jumped there by 1.6 to 9.9
-    dE2000 on the mirrors tried; now by 1e-4).
+    critical angle (how far they jumped with only the edges: ``docs/performance.md``,
+    "wgbragg.optics.landmarks").
     ``h`` has exactly one zero per branch: ``h = 0`` reads ``cot(pi tau) + c tanh(kappa) = 0``
     with ``c = (|eta2| / eta1 - eta1 / |eta2|) / 2``, which decreases everywhere if
     ``c <= 0``; if ``c > 0``, rising through a zero would need ``rho > sinh(2 kappa)``, while
     a zero has ``tau - k > 1/2``, so ``kappa > pi rho / 2``. Each pass band holds a zero
-    (``cos K Lambda`` runs from +-1 to -+1 across it), so there is one per branch; none of
-    20000 random configurations scanned on a fine grid (one-off checks) held two. Written with
+    (``cos K Lambda`` runs from +-1 to -+1 across it), so there is one per branch. Written with
     ``sech`` instead of ``cosh``, the edges of bands narrower than float64 resolves (deep
     tunnelling) coincide with their zero instead of overflowing.
     """
@@ -201,8 +200,8 @@ def find_landmarks(mirror, theta: float, polarization: str, omega_range=VISIBLE_
     integer ``k`` (the modes of ``n_plus = q1 d1``) and one pass band between consecutive
     ones, whose Airy point and edges are found by bisection (:func:`_evanescent_landmarks`),
     as in the float32 twin; there are no zero points. Bands of any width are found, down to
-    those of deep tunnelling through a thick ``n2`` layer, which a scan on a grid (our
-    earlier method, 512 wavenumbers) missed.
+    those of deep tunnelling through a thick ``n2`` layer, which a scan on a grid of
+    wavenumbers would miss.
     """
     return find_landmarks_many(mirror, [check_angle(theta)], polarization, omega_range)[0]
 
@@ -217,7 +216,6 @@ def find_landmarks_many(mirror, thetas, polarization: str, omega_range=VISIBLE_O
     """
     if not isinstance(polarization, str) or polarization not in ("s", "p"):
         raise ValueError(f"polarization must be 's' or 'p', got {polarization!r}")
-    lo_omega, hi_omega = omega_range
     s = mirror.host * np.sin(check_angle(thetas, "thetas").reshape(-1))
     searched = (s < mirror.n1) & (mirror.n1 != mirror.n2) & (mirror.d2 != 0.0)
     q2sq = (mirror.n2 - s) * (mirror.n2 + s)
@@ -230,12 +228,6 @@ def find_landmarks_many(mirror, thetas, polarization: str, omega_range=VISIBLE_O
     n_plus[evanescent] = q1[evanescent] * mirror.d1
     # Found landmarks of every angle: (angle, omega, kind index) in groups, concatenated.
     owners, omegas, kinds = [], [], []
-
-    def found(owner, omega, kind):
-        owners.append(owner)
-        omegas.append(omega)
-        kinds.append(np.full(omega.size, kind))
-
     if evanescent.size:
         owner, omega, kind = _evanescent_landmarks(mirror, s[evanescent], polarization,
                                                    omega_range)
@@ -243,53 +235,70 @@ def find_landmarks_many(mirror, thetas, polarization: str, omega_range=VISIBLE_O
         omegas.append(omega)
         kinds.append(kind)
     if propagating.size:
-        plus = n_plus[propagating]
-        # Modes bracketing the range; each pair (m, m + 1) holds one Airy point and two edges.
-        first = np.floor(lo_omega * plus / np.pi).astype(np.int64)
-        last = np.ceil(hi_omega * plus / np.pi).astype(np.int64)
-        index, mode = integer_ranges(first, last + 1)
-        found(propagating[index], mode * np.pi / plus[index], KINDS.index("mode"))
-        index, m = integer_ranges(first, last)
-        owner = propagating[index]
-        lower, upper = m * np.pi / plus[index], (m + 1) * np.pi / plus[index]
-
-        def x_at(omega):
-            return _dispersion(mirror, omega, s[owner], polarization)[0]
-
-        def sin2_at(omega):
-            return _dispersion(mirror, omega, s[owner], polarization)[1]
-
-        x_lower = x_at(np.maximum(lower, 1e-12))
-        airy = _bisect(x_at, lower, upper, x_lower <= 0.0)
-        # sin^2 K Lambda <= 0 at a mode (inside its gap) and = 1 at the Airy point.
-        rising = _bisect(sin2_at, lower, airy, np.full(lower.shape, True))
-        falling = _bisect(sin2_at, airy, upper, np.full(lower.shape, False))
-        # A closed gap (Brewster's angle for p, App. A) has its edges on the mode itself.
-        rising = np.where(sin2_at(np.maximum(lower, 1e-12)) > 0.0, lower, rising)
-        falling = np.where(sin2_at(upper) > 0.0, upper, falling)
-        found(owner, airy, KINDS.index("airy"))
-        found(owner, rising, KINDS.index("edge"))
-        found(owner, falling, KINDS.index("edge"))
-        period = np.pi / (q2[propagating] * mirror.d2)
-        index, z = integer_ranges(np.maximum(1, np.floor(lo_omega / period)).astype(np.int64),
-                           np.ceil(hi_omega / period).astype(np.int64) + 1)
-        owner = propagating[index]
-        zeros = z * period[index]
-        keep = _dispersion(mirror, zeros, s[owner], polarization)[1] > 0.0
-        found(owner[keep], zeros[keep], KINDS.index("zero"))
-
+        for owner, omega, kind in _propagating_landmarks(mirror, s, q2, n_plus, propagating,
+                                                         polarization, omega_range):
+            owners.append(owner)
+            omegas.append(omega)
+            kinds.append(np.full(omega.size, kind))
     owner = np.concatenate([np.zeros(0, np.int64), *owners])
     omega = np.concatenate([np.zeros(0), *omegas])
     kind = np.concatenate([np.zeros(0, np.int64), *kinds])
+    return _per_angle(owner, omega, kind, n_plus, omega_range)
+
+
+def _propagating_landmarks(mirror, s, q2, n_plus, propagating, polarization, omega_range):
+    """Landmarks of the angles ``propagating`` (indices into ``s``, where n2 propagates):
+    groups of (angle index, omega, kind index) of the modes, Airy points, rising edges, falling
+    edges and zero points, in that order."""
+    lo_omega, hi_omega = omega_range
+    plus = n_plus[propagating]
+    # Modes bracketing the range; each pair (m, m + 1) holds one Airy point and two edges.
+    first = np.floor(lo_omega * plus / np.pi).astype(np.int64)
+    last = np.ceil(hi_omega * plus / np.pi).astype(np.int64)
+    index, mode = integer_ranges(first, last + 1)
+    groups = [(propagating[index], mode * np.pi / plus[index], KINDS.index("mode"))]
+    index, m = integer_ranges(first, last)
+    owner = propagating[index]
+    lower, upper = m * np.pi / plus[index], (m + 1) * np.pi / plus[index]
+
+    def x_at(omega):
+        return _dispersion(mirror, omega, s[owner], polarization)[0]
+
+    def sin2_at(omega):
+        return _dispersion(mirror, omega, s[owner], polarization)[1]
+
+    x_lower = x_at(np.maximum(lower, 1e-12))
+    airy = _bisect(x_at, lower, upper, x_lower <= 0.0)
+    # sin^2 K Lambda <= 0 at a mode (inside its gap) and = 1 at the Airy point.
+    rising = _bisect(sin2_at, lower, airy, np.full(lower.shape, True))
+    falling = _bisect(sin2_at, airy, upper, np.full(lower.shape, False))
+    # A closed gap (Brewster's angle for p, App. A) has its edges on the mode itself.
+    rising = np.where(sin2_at(np.maximum(lower, 1e-12)) > 0.0, lower, rising)
+    falling = np.where(sin2_at(upper) > 0.0, upper, falling)
+    groups += [(owner, airy, KINDS.index("airy")), (owner, rising, KINDS.index("edge")),
+               (owner, falling, KINDS.index("edge"))]
+    period = np.pi / (q2[propagating] * mirror.d2)
+    index, z = integer_ranges(np.maximum(1, np.floor(lo_omega / period)).astype(np.int64),
+                              np.ceil(hi_omega / period).astype(np.int64) + 1)
+    owner = propagating[index]
+    zeros = z * period[index]
+    keep = _dispersion(mirror, zeros, s[owner], polarization)[1] > 0.0
+    groups.append((owner[keep], zeros[keep], KINDS.index("zero")))
+    return groups
+
+
+def _per_angle(owner, omega, kind, n_plus, omega_range) -> list[Landmarks]:
+    """The found landmarks inside the range, sorted and split by angle."""
+    lo_omega, hi_omega = omega_range
     inside = (omega > lo_omega) & (omega < hi_omega)
     owner, omega, kind = owner[inside], omega[inside], kind[inside]
     # By angle, then omega; ties keep the order found (modes before Airy points and edges).
     order = np.lexsort((np.arange(omega.size), omega, owner))
     owner, omega, kind = owner[order], omega[order], kind[order]
-    bounds = np.searchsorted(owner, np.arange(s.size + 1))
+    bounds = np.searchsorted(owner, np.arange(n_plus.size + 1))
     names = np.array(KINDS)
     out = []
-    for angle in range(s.size):
+    for angle in range(n_plus.size):
         part = slice(bounds[angle], bounds[angle + 1])
         plus = n_plus[angle]
         if plus == 0.0:  # nothing searched

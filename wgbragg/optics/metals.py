@@ -1,27 +1,8 @@
 """Measured complex refractive indices ``n + i k`` of a few metals over the visible range.
 
-Each table is a verbatim excerpt of the refractiveindex.info database (public domain, CC0):
-the rows whose wavelengths bracket 360-830 nm, as ``wavelength_um n k``. Values between rows
-are interpolated linearly in wavelength, as the database's own plots and renderers such as
-Mitsuba do; outside the tabulated range a :class:`SpectralIndex` refuses to extrapolate.
-
-========  ================================  ================================================
-name      source                            database file
-========  ================================  ================================================
-``"Ag"``  Johnson & Christy 1972            ``database/data-nk/main/Ag/Johnson.yml``
-``"Al"``  Rakic 1995                        ``database/data-nk/main/Al/Rakic.yml``
-``"Au"``  Johnson & Christy 1972            ``database/data-nk/main/Au/Johnson.yml``
-``"Cu"``  Johnson & Christy 1972            ``database/data-nk/main/Cu/Johnson.yml``
-========  ================================  ================================================
-
-References
-----------
-P. B. Johnson & R. W. Christy, "Optical constants of the noble metals", Phys. Rev. B 6,
-4370-4379 (1972), https://doi.org/10.1103/PhysRevB.6.4370 (room temperature).
-A. D. Rakic, "Algorithm for the determination of intrinsic optical constants of metal films:
-application to aluminum", Appl. Opt. 34, 4755-4767 (1995), https://doi.org/10.1364/AO.34.004755.
-M. N. Polyanskiy, "refractiveindex.info database of optical constants", Sci. Data 11, 94
-(2024); repository https://github.com/polyanskiy/refractiveindex.info-database.
+Verbatim excerpts of the refractiveindex.info database (public domain, CC0) for Ag, Al, Au and
+Cu, interpolated linearly in wavelength; a :class:`SpectralIndex` refuses to extrapolate. The
+sources: ``docs/physics.md``, "wgbragg.optics.metals".
 """
 
 from __future__ import annotations

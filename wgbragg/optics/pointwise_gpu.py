@@ -15,8 +15,8 @@ from wgbragg import gpu
 __all__ = ["POLARIZATION_CODE", "WORKGROUP_SIZE", "evaluate_pointwise", "pointwise_buffers"]
 
 WORKGROUP_SIZE = 256
-"""Workgroup size of the reflectance kernels: on lavapipe (2 cores) 256 runs the Yeh kernel about
-25 % faster than 64 or 128, and larger sizes gain nothing (``python -m benchmarks.reflectance``)."""
+"""Workgroup size of the reflectance kernels, the fastest on lavapipe (``docs/performance.md``,
+"wgbragg.optics.pointwise_gpu")."""
 
 POLARIZATION_CODE = {"s": 0, "p": 1, "unpolarized": 2}
 """``POLARIZATION`` override constant of the kernels, by polarisation name."""

@@ -1,16 +1,10 @@
 """Yeh's closed-form reflectance of a Bragg mirror: O(1) in the number of periods N.
 
-The stack is ``host | (n1 d1, n2 d2) x N | n1``: N cells, each a layer of index ``n1`` then one of
-``n2``, below a host medium (``host = n1`` is the paper's index-matched top) and above an ``n1``
-substrate. Conventions are those of :mod:`wgbragg.optics.fresnel`.
-
-Numerics (float64 here, the same structure in ``wgsl/optics/yeh.wgsl``):
-
-* ``1 - cos^2(K Lambda)`` is formed as a product of four factors that each vanish at one kind
-  of band edge, instead of from ``cos(K Lambda)`` itself, so it keeps full relative accuracy at
-  band edges (see ``shared/notes/physics.md`` sec. 2).
-* Inside gaps ``sinh(mu) / sinh(N mu)`` is evaluated in scaled exponential form, so it underflows
-  to 0 (R -> 1) instead of overflowing for any N.
+The stack is ``host | (n1 d1, n2 d2) x N | n1``: N cells, each a layer of index ``n1`` then one
+of ``n2``, below a host medium (``host = n1`` is the paper's index-matched top) and above an
+``n1`` substrate. Conventions are those of :mod:`wgbragg.optics.fresnel`. How the float64
+code and its twin ``wgsl/optics/yeh.wgsl`` stay accurate at band edges and in deep gaps:
+``docs/design.md``, "Float32 numerics" and "wgbragg.optics.yeh".
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 // Cell means of the transmittance T = 1 - R of a matched mirror (host == n1): the twin of
 // wgbragg.bsdf.rough_layer._cell_transmittance (see its docstring). Requires numerics, complex,
 // layer and optics/yeh.wgsl. The phase window widens with the cell's span of T's features between
-// these (rough_layer._RESOLVED, _UNRESOLVED).
+// these (rough_layer._RESOLVED, _UNRESOLVED; checked by tests/test_wgsl_layouts.py).
 const RESOLVED: f32 = 0.1;
 const UNRESOLVED: f32 = 0.5;
 

@@ -9,11 +9,15 @@
 // vec4s (four difference angles each, zero-padded to a multiple of 4) for 4 ROWS SPAN
 // multiply-adds. The weights are a texture because a texel fetch reads a whole vec4 per lane
 // at once, which makes it cheaper there than a storage load. The block is written out: as
-// arrays indexed by loop counters, lavapipe keeps the sums in memory (2.5x slower).
+// arrays indexed by loop counters, lavapipe keeps the sums in memory, which is slower
+// (docs/performance.md, "wgbragg.bsdf.rough_layer").
 //! include "gpu/harness.wgsl"
 
-const ROWS: u32 = 16u;  // wgbragg.bsdf.rough_layer._ROWS_PER_GROUP
-const SPAN: u32 = 12u;  // wavelengths per invocation (wgbragg.bsdf.rough_layer._WAVELENGTHS_PER_LANE)
+// Rows per workgroup and wavelengths per invocation: written out below (four weight matrices,
+// twelve sums), so they cannot be override constants. tests/test_wgsl_layouts.py checks them
+// against rough_layer._ROWS_PER_GROUP and _WAVELENGTHS_PER_LANE and against the written-out code.
+const ROWS: u32 = 16u;
+const SPAN: u32 = 12u;
 
 struct TransmissivityParams {
     rows: u32,          // theta_i entries

@@ -30,6 +30,7 @@ override STEP_TAIL_RED: f32 = 0.0;
 override STEP_BAND: f32 = 0.0;
 override STEP_TAIL_BLUE: f32 = 0.0;
 
+// GridAngle.mode.x: wgbragg.colour.grid_gpu.MODE_* (checked by tests/test_wgsl_layouts.py).
 const MODE_EXACT: f32 = 0.0;
 const MODE_AVERAGED: f32 = 1.0;
 const MODE_TOTAL: f32 = 2.0;

@@ -26,11 +26,13 @@
 // enters. So a node's formulas are branch-free and chosen per zone by which loop runs
 // (averaged_zone): exact, averaged, or averaged in the pass bands of both polarisations (no
 // gap formula); below N = 16 the exact R comes from an unrolled recurrence (EXACT_PERIODS)
-// instead of matched_reflectance's three branches. Writing the three Gauss points of a panel
-// out in one iteration was measured slower (1.91 against 1.55 us per colour): the loop's
-// bookkeeping costs next to nothing, the larger body does.
+// instead of matched_reflectance's three branches. A panel's three Gauss points are one per
+// iteration, not written out in one: the loop's bookkeeping costs next to nothing, a larger
+// body does (docs/performance.md, "wgbragg.colour.landmark_methods_gpu").
 
-// colour_methods.PANEL_NM, PANEL_MARGIN, PHASE_SNAP and EXACT_MIN_OSCILLATION_NM.
+// wgbragg.colour.landmark_methods.PANEL_NM, PANEL_MARGIN, PHASE_SNAP and
+// EXACT_MIN_OSCILLATION_NM; these constants and the override defaults below are checked against
+// it by tests/test_wgsl_layouts.py.
 const PANEL_NM: f32 = 40.0;
 const PANEL_MARGIN: f32 = 0.05;
 const PHASE_SNAP: f32 = 0.15;
@@ -44,11 +46,12 @@ override PANELS_PER_OSCILLATION: f32 = 3.0;
 // whose zones are all exact and in the mode coordinate (N below AVERAGING_MIN_PERIODS, host
 // == n1 <= n2); 0 reads N at run time.
 override EXACT_PERIODS: u32 = 0u;
-// Three-point Gauss-Legendre on [0, 1] (colour_methods._GAUSS_NODES, _GAUSS_WEIGHTS).
+// Three-point Gauss-Legendre on [0, 1] (landmark_methods._GAUSS_NODES, _GAUSS_WEIGHTS).
 const GAUSS_OFFSET: f32 = 0.38729833;   // sqrt(0.6) / 2
 const GAUSS_OUTER: f32 = 0.27777778;    // 5 / 18
 const GAUSS_INNER: f32 = 0.44444444;    // 8 / 18
 
+// landmark_methods_gpu.GPU_LANDMARK_METHODS.
 const METHOD_APPROX: u32 = 0u;
 const METHOD_SUBDIVIDED: u32 = 1u;
 const METHOD_AVERAGED: u32 = 2u;
@@ -95,8 +98,8 @@ struct DensityCell {
 // 11-bit and Z in 10-bit two's complement, in steps of DENSITY_SLOPE_STEP per nm, which hold
 // the CIE 1931 x D65 slopes (|X'|, |Y'| <= 2.1e-4, |Z'| <= 7.2e-4 per nm) to within half a
 // step: the density is off by at most 1e-6 per nm (5e-5 of its peak). With the density at
-// the lower node in float32, a node reads one vec4 instead of two, which saved 13 % of
-// "averaged"'s time on lavapipe.
+// the lower node in float32, a node reads one vec4 instead of two (docs/performance.md,
+// "wgbragg.colour.landmark_methods_gpu").
 const DENSITY_SLOPE_STEP: vec3<f32> = vec3<f32>(2.384185791015625e-7, 2.384185791015625e-7,
                                                 1.9073486328125e-6);  // 2^-22, 2^-22, 2^-19
 
@@ -328,8 +331,7 @@ fn averaged_zone(c: ColourSetup, lo: f32, hi: f32, lower_edge: bool, upper_edge:
     var sums: ZoneSums;
     // Three loops, of which each zone enters one: lavapipe runs both sides of a branch but
     // skips a loop that no invocation enters. Most of the averaged nodes lie in zones in the
-    // pass bands of both polarisations, and skip the gap formula (6-11 % of N >= 16's time
-    // at Lambda = 244 nm).
+    // pass bands of both polarisations, and skip the gap formula (docs/performance.md).
     let nodes = 3u * panels;
     // (The geometry path has no gap formula to skip.)
     let pass_loop = both_pass && c.fast;
@@ -445,8 +447,8 @@ fn evanescent_gaps(c: ColourSetup, zones: ptr<function, Zones>, omega: f32) -> v
 }
 
 // A band edge at omega; those outside the range only bound zones outside it. check_gaps (a
-// literal at each call, so that the propagating sweep compiles without the check, which cost
-// it 1.5 % of its time though never taken): see evanescent_gaps.
+// literal at each call, so that the propagating sweep compiles without the check, which it
+// never takes but would pay for): see evanescent_gaps.
 fn zone_edge(c: ColourSetup, zones: ptr<function, Zones>, omega: f32, check_gaps: bool) {
     if (omega > OMEGA_LO && omega < OMEGA_HI) {
         var in_gap = vec2<bool>(false);

@@ -37,6 +37,8 @@ struct LandmarkColourParams {
 @group(0) @binding(2) var<storage, read_write> xyz: array<vec4<f32>>;  // w = 1 where llvmpipe cut the loops short
 @group(0) @binding(3) var<uniform> params: LandmarkColourParams;
 
+// Rows of the density block of the cmf table (landmark_methods_gpu.cmf_table; checked by
+// tests/test_wgsl_layouts.py).
 const CMF_NODES: u32 = 471u;
 fn cmf_density(j: u32) -> vec3<f32> {
     return bitcast<vec3<f32>>(cmf[j].xyz);

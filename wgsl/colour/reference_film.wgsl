@@ -1,9 +1,8 @@
 // Entry point: D65-weighted XYZ of a thin film, one invocation per angle theta[i]:
 //   xyz[i] = sum_k R(wavelength_nm[k], theta[i]) weights[k].xyz,  R unpolarized (mean of s, p).
 // Twin of colour/reference_bragg.wgsl for wgbragg.ThinFilm, chunked alike (at most
-// gpu.SAFE_LOOP_ITERATIONS nodes per dispatch). Plain float32 sum: its
-// rounding (bound 470 ulp relative, 1.3e-6 measured) is far below the reflectance's own float32
-// error; a Kahan carry would be folded away by the driver's float reassociation (measured).
+// gpu.SAFE_LOOP_ITERATIONS nodes per dispatch). Plain float32 sum, as there
+// (docs/performance.md, "wgbragg.colour.reference_gpu").
 //! include "gpu/harness.wgsl"
 //! include "gpu/numerics.wgsl"
 //! include "gpu/complex.wgsl"

@@ -147,7 +147,8 @@ fn airy_series(host: f32, n_film: f32, q1: f32, q2: f32, base: vec2<f32>,
     return vec3<f32>(t_star, r12 * r23);
 }
 
-// thin_film_colour.TAIL_RANGE and EXACT_OPD_RANGE_NM: below the film's critical angle, where
+// wgbragg.colour.thin_film.TAIL_RANGE and EXACT_OPD_RANGE_NM (checked by
+// tests/test_wgsl_layouts.py): below the film's critical angle, where
 // both interfaces reflect almost totally, a film of small OPD is integrated exactly, blended
 // with the series in between.
 const TAIL_LOW: f32 = 1e-4;

@@ -18,6 +18,8 @@
 //                          (cos theta_y - cos theta_(y+1)) / 2, cos^2(theta_(y+1) / 2))
 //     [2 + H + y W + x]    (r, g, b, conditional CDF at the end of texel x within row y)
 
+// The header rows above, and EnvironmentMap's luminance weights (checked against
+// environment_map.py by tests/test_wgsl_layouts.py).
 const ENVIRONMENT_ROWS: u32 = 2u;
 const ENVIRONMENT_LUMINANCE: vec3<f32> = vec3<f32>(0.2126, 0.7152, 0.0722);
 // The largest float32 below 1: u = 1 still falls inside the last CDF step.

@@ -25,7 +25,8 @@
 // edges lie on either side of its zero of cos K Lambda (its Airy point); the three roots by
 // safeguarded Newton.
 
-// The visible range 360..830 nm as angular wavenumbers (rad/nm): landmarks.VISIBLE_OMEGA.
+// The visible range 360..830 nm as angular wavenumbers (rad/nm): landmarks.VISIBLE_OMEGA (these
+// and the kind codes below are checked by tests/test_wgsl_layouts.py).
 const OMEGA_LO: f32 = 0.0075701028;   // 2 pi / 830
 const OMEGA_HI: f32 = 0.0174532925;   // 2 pi / 360
 const LAMBDA_LO_NM: f32 = 360.0;

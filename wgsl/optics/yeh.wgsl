@@ -4,7 +4,7 @@
 // The cell matrix is written A = e^{-i delta1} (P + i Q), C = e^{i delta1} i W with real P, Q, W,
 // so cos(K Lambda) = Re(A) and |C|^2 = W^2 need no complex arithmetic. 1 - cos^2(K Lambda) is a
 // product of four factors, each vanishing at one kind of band edge, so it keeps its relative
-// accuracy where cos(K Lambda) = +-1 (shared/notes/physics.md sec. 2). Phases are reduced in
+// accuracy where cos(K Lambda) = +-1 (docs/design.md, "Float32 numerics"). Phases are reduced in
 // cycles before any trigonometry, so thick layers lose nothing beyond their input rounding.
 
 struct BraggMirror {

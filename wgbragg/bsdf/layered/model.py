@@ -1,30 +1,14 @@
 """Layered Bragg structures and their single-reflection BRDF (Fourneau et al. 2024, sec. 4).
 
-A structure is, from the top: air; a smooth coating when the host index ``n1`` is not 1 (an
-air/``n1`` interface, Fresnel's law); ``L >= 1`` rough Bragg layers
-(:class:`~wgbragg.bsdf.rough_layer.RoughBraggLayer`) separated by thick ``n1``; and a base,
-absorbing or
-Lambertian. Conventions, stated once: directions are unit vectors with a trailing axis of 3 in
-the surface frame (+z is the normal), pointing away from the surface, in air; wavelengths are in
-nm; a BRDF is in 1/sr; spectral results carry one value per wavelength, RGB results are linear
-sRGB (D65) with a spectrally flat BRDF ``f`` giving ``f (1, 1, 1)``.
+A structure is, from the top: air; a smooth coating when the host index ``n1`` is not 1;
+``L >= 1`` rough Bragg layers (:class:`~wgbragg.bsdf.rough_layer.RoughBraggLayer`) separated
+by thick ``n1``; and a base, absorbing or Lambertian. :class:`LayeredBragg` evaluates, samples
+and simulates it; eq 34 and its terms: ``docs/physics.md``, section 11.
 
-The single-reflection model (eq 34) keeps the paths that reflect once, on a layer or on the base::
-
-    f(i, o) = T_c(i) T_c(o) / n1^2 [ sum_l f_l(i', o') prod_{k<l} t_k(i') t_k(o')
-                                      + rho / pi prod_k t_k(i') t_k(o') ]
-
-with ``i', o'`` the directions refracted into ``n1``, ``T_c`` the coating's Fresnel transmittance
-(1 without a coating), ``f_l`` the microfacet BRDF of layer ``l`` with its mirror's reflectance
-(eq 17) and ``t_k = f_t cos`` its integrated transmissivity (eq 28). The coating's own mirror
-reflection is a Dirac term: :meth:`LayeredBragg.brdf` leaves it out, :meth:`LayeredBragg.sample`
-samples it.
-
-References
-----------
-Fourneau, Pacanowski & Barla, "Interactive Exploration of Vivid Material Iridescence using Bragg
-Mirrors", Computer Graphics Forum 43(2), 2024, eqs 17, 28, 31-35. Mallett & Yuksel, "Spectral
-Primary Decomposition for Rendering with sRGB Reflectance", EGSR 2019 (RGB albedo as a spectrum).
+Conventions, stated once: directions are unit vectors with a trailing axis of 3 in the surface
+frame (+z is the normal), pointing away from the surface, in air; wavelengths are in nm; a
+BRDF is in 1/sr; spectral results carry one value per wavelength, RGB results are linear sRGB
+(D65) with a spectrally flat BRDF ``f`` giving ``f (1, 1, 1)``.
 """
 
 from __future__ import annotations
@@ -44,7 +28,12 @@ from wgbragg.common.validation import (
     check_directions,
     check_wavelength,
 )
-from wgbragg.bsdf.microfacet import ggx_D_unchecked, ggx_G1_over_cos, ggx_sample_visible_normal, half_vector
+from wgbragg.bsdf.microfacet import (
+    ggx_D_unchecked,
+    ggx_G1_over_cos,
+    ggx_sample_visible_normal,
+    half_vector,
+)
 from wgbragg.optics.yeh import yeh_reflectance
 from wgbragg.bsdf.layered.coating import (
     HERO,
@@ -409,7 +398,8 @@ class LayeredBragg:
         through = 1.0  # prod_{k<l} t_k(i') t_k(o')
         for index, layer in enumerate(self.layers):
             a = layer.alpha
-            shape = 0.25 * ggx_D_unchecked(cos_h, a) * ggx_G1_over_cos(ci, a) * ggx_G1_over_cos(co, a)
+            shape = (0.25 * ggx_D_unchecked(cos_h, a) * ggx_G1_over_cos(ci, a)
+                     * ggx_G1_over_cos(co, a))
             r = self._layer_reflectance(index, cos_d, wavelength, method, backend,
                                         colour_method)
             lobe = shape * r if spectral else shape[..., None] * r
@@ -647,6 +637,34 @@ class LayeredBragg:
             :meth:`pdf` of ``wo``; 0 marks the Dirac reflection (no density: do not weight it
             against light sampling).
         """
+        wi, u, wavelength, backend, colour_method = self._sample_arguments(
+            wi, u, wavelength_nm, method, backend, colour_method)
+        if backend == "gpu":
+            return layered_gpu.sample(self, wi, u, wavelength, method, colour_method)
+        hero = colour_method == HERO
+        shape = np.broadcast_shapes(wi.shape[:-1], u.shape[:-1])
+        wi, u = np.broadcast_to(wi, (*shape, 3)), np.broadcast_to(u, (*shape, u.shape[-1]))
+        wo, dirac, valid = self._sample_directions(wi, u, backend)
+
+        pdf = np.where(valid, self._pdf(wi, wo, backend), 0.0)
+        cos_pdf = np.where(valid & (pdf > 0.0), wo[..., 2] / np.where(pdf > 0.0, pdf, 1.0), 0.0)
+        if hero:
+            hero_nm, scale = colorimetry.hero_wavelengths(u[..., 3])
+            f = self._evaluate(wi[..., None, :], wo[..., None, :], hero_nm, method, backend,
+                               INTEGRATED)
+            xyz = np.einsum("...k,...kc->...c", f * scale, colorimetry.xyz_density(hero_nm))
+            weight = colorimetry.xyz_to_linear_srgb(xyz) * cos_pdf[..., None]
+            return wo, weight + dirac[..., None] * 1.0, pdf
+        f = self._evaluate(wi, wo, wavelength, method, backend, colour_method)
+        if wavelength is None:
+            weight = f * cos_pdf[..., None] + dirac[..., None] * 1.0
+        else:
+            weight = f * cos_pdf + dirac * 1.0
+        return wo, weight, pdf
+
+    def _sample_arguments(self, wi, u, wavelength_nm, method, backend, colour_method):
+        """:meth:`sample`'s arguments checked: ``wi``, ``u`` (a :class:`ShiftedPoints` kept
+        as it is for the GPU), the wavelengths, the backend and the colour method."""
         wi = check_directions(wi, "wi")
         backend = check_backend(backend)
         # A shifted point set goes to the kernel as it is; numpy reads its numbers (__array__).
@@ -672,12 +690,13 @@ class LayeredBragg:
             raise ValueError("wi must lie strictly above the horizon: wi[..., 2] in (0, 1]")
         check_broadcast(**{"wi": wi.shape[:-1], "u": u.shape[:-1],
                            "wavelength_nm": () if wavelength is None else wavelength.shape})
-        if backend == "gpu":
-            return layered_gpu.sample(self, wi, u, wavelength, method, colour_method)
-        shape = np.broadcast_shapes(wi.shape[:-1], u.shape[:-1])
-        wi, u = np.broadcast_to(wi, (*shape, 3)), np.broadcast_to(u, (*shape, width))
-        n = self.host_index
+        return wi, u, wavelength, backend, colour_method
 
+    def _sample_directions(self, wi, u, backend):
+        """:meth:`sample`'s directions for broadcast ``wi`` and ``u``: ``wo``, where the
+        coating's Dirac reflection was drawn, and where a continuous sample is valid (above
+        the horizon and out of the coating)."""
+        n = self.host_index
         fresnel = coating_reflectance(wi[..., 2], n)
         dirac = u[..., 0] < fresnel
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -686,7 +705,7 @@ class LayeredBragg:
         probabilities = self._component_probabilities(i[..., 2], backend)
         component = np.sum(pick[..., None] >= np.cumsum(probabilities, axis=-1)[..., :-1],
                            axis=-1)
-        o = np.empty((*shape, 3))
+        o = np.empty((*wi.shape[:-1], 3))
         for index, layer in enumerate(self.layers):
             chosen = component == index
             if np.any(chosen):
@@ -703,22 +722,7 @@ class LayeredBragg:
         wo, escapes = refract_out(o, n)
         valid = above & escapes & ~dirac
         wo = np.where(dirac[..., None], wi * np.array([-1.0, -1.0, 1.0]), wo)
-
-        pdf = np.where(valid, self._pdf(wi, wo, backend), 0.0)
-        cos_pdf = np.where(valid & (pdf > 0.0), wo[..., 2] / np.where(pdf > 0.0, pdf, 1.0), 0.0)
-        if hero:
-            hero_nm, scale = colorimetry.hero_wavelengths(u[..., 3])
-            f = self._evaluate(wi[..., None, :], wo[..., None, :], hero_nm, method, backend,
-                               INTEGRATED)
-            xyz = np.einsum("...k,...kc->...c", f * scale, colorimetry.xyz_density(hero_nm))
-            weight = colorimetry.xyz_to_linear_srgb(xyz) * cos_pdf[..., None]
-            return wo, weight + dirac[..., None] * 1.0, pdf
-        f = self._evaluate(wi, wo, wavelength, method, backend, colour_method)
-        if wavelength is None:
-            weight = f * cos_pdf[..., None] + dirac[..., None] * 1.0
-        else:
-            weight = f * cos_pdf + dirac * 1.0
-        return wo, weight, pdf
+        return wo, dirac, valid
 
     def albedo(self, theta_i, wavelength_nm=None, samples=4096, seed=0,
                method="single-reflection", backend="numpy", colour_method=None) -> np.ndarray:

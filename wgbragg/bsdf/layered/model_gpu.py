@@ -1,57 +1,11 @@
-"""Dispatch of the float32 single-reflection kernels (``wgsl/bsdf/layered/model_eval.wgsl``): the
-GPU
-twins of :meth:`LayeredBragg.brdf` (eq 34), :meth:`LayeredBragg.sample` (eq 35) and
+"""Dispatch of the float32 single-reflection kernels (``wgsl/bsdf/layered/model_eval.wgsl``):
+the GPU twins of :meth:`LayeredBragg.brdf` (eq 34), :meth:`LayeredBragg.sample` (eq 35) and
 :meth:`LayeredBragg.pdf`, reached through ``backend="gpu"``.
 
-The physics is ``wgsl/bsdf/layered/model.wgsl``, written for a renderer to include; this module
-builds
-its buffers and runs one invocation per pair ``(wi, wo)`` or sample ``(wi, u)``:
-
-- ``layers``: one :data:`LAYER_DTYPE` record per rough layer (its mirror, ``alpha``, filter
-  grid and the offsets of its tables);
-- ``tables``: float32, a fixed header (the colour-matching block of the landmark colour kernel,
-  XYZ -> linear sRGB, the 1 nm XYZ weights in linear sRGB, the hero wavelengths' inverse
-  CDF), then per layer the tables a variant reads: those derived from the layer's 1 nm
-  transmissivity table (:meth:`RoughBraggLayer.transmissivity_table`, computed on the GPU)
-  and, for ``"single-reflection-lut"``, the structure's reflectance LUTs (computed on the
-  GPU);
-- ``node_colours``: per 1 nm node, its linear sRGB weights and the base's albedo in one vec4
-  (the hero colour reads both at each of a sample's wavelengths in two loads);
-- ``transmissivity_quads``: each layer's transmissivity table again, spectral kinds only, as
-  the corners of its cells (:func:`gpu.bilinear_quads`) from the record's
-  ``transmissivity_elsewhere``: one load per lookup, not four (llvmpipe bounds-checks every
-  load); the renderer, which includes the same physics, reads the table in ``tables``;
-- the structure's own values (host index, base albedo) in the uniform.
-
-They are built once per structure and kind (spectral, factored RGB, density; LUT or not) and
-kept in the structure's table cache. Pipelines are specialised (override constants) on the
-number of layers, the coating, the base, the host (Appendix D), LUT or exact, integrated or
-factored RGB and its colour method, hero-wavelength colour, and the number of wavelengths per
-invocation.
-
-Wavelengths. The transmissivity tables, the spectral LUTs and the base's spectrum are tabulated
-at 360, 361, ..., 830 nm and interpolated linearly in between, so spectral results agree with
-the float64 model (which integrates the transmissivity at each requested wavelength) to float32
-rounding at whole nanometres, and to the tables' interpolation error between them. Wavelengths
-outside 360-830 nm are refused. A trailing wavelength axis along which the directions do not
-vary is multiplexed: one invocation evaluates the directions once for all its wavelengths, up
-to :func:`wavelengths_per_invocation`; a longer axis is split over several dispatches.
-
-Loop budget. llvmpipe ends an invocation's loops after a fixed number of iterations
-(:mod:`wgbragg.gpu`, "Loop budget"). The multiplexed wavelengths are split as above; the 471
-nodes of the integrated colour and of the factored "reference" colour bound the number of
-layers (:data:`MAX_INTEGRATED_LAYERS`); the loops of a landmark colour grow with the mirror's
-thickness, so every invocation reports whether its loops were cut and such a result is refused
-with :class:`gpu.LoopBudgetError`.
-
-RGB. ``colour_method="integrated"`` (the default) integrates the spectral model over the 471
-nodes in the kernel; ``"hero"`` (sampling only) estimates that colour from four hero
-wavelengths offset by ``u[..., 3]`` (``wgsl/colour/colorimetry_hero.wgsl``). Factored RGB
-multiplies the colours
-of eq 34's factors: with ``"single-reflection"`` each layer's colour at theta_d is computed in
-the kernel, by a landmark method (``wgsl/colour/landmark_methods.wgsl``: "averaged", "approx",
-"subdivided") or by the 1 nm sum ("reference"); ``"single-reflection-lut"`` reads colours
-tabulated by :meth:`BraggMirror.rgb` with any method.
+This module builds the buffers of ``wgsl/bsdf/layered/model.wgsl`` once per structure and kind
+and runs one invocation per pair ``(wi, wo)`` or sample ``(wi, u)``. The buffers, the
+pipelines' specialisation, the wavelength tables, the loop budget and the RGB modes:
+``docs/design.md``, "wgbragg.bsdf.layered.model_gpu".
 """
 
 from __future__ import annotations
@@ -113,7 +67,8 @@ PARAMS_DTYPE = gpu.struct_dtype([
 """``Params`` of bsdf/layered/model_eval.wgsl: a ``LayeredStructure`` (48 bytes), then the batch."""
 
 VISIBLE_NODES = 471
-_HERO_SEGMENTS = 512  # HERO_SEGMENTS of wgsl/colour/colorimetry_hero.wgsl
+"""Nodes of the 1 nm wavelength axis, 360..830 nm (``VISIBLE_NODES`` of
+``wgsl/bsdf/layered/model.wgsl``, checked by ``tests/test_wgsl_layouts.py``)."""
 
 MAX_INTEGRATED_LAYERS = gpu.SAFE_LOOP_ITERATIONS // VISIBLE_NODES - 2
 """Most layers of a structure whose RGB the kernel integrates over the 471 nodes in one
@@ -126,8 +81,8 @@ def wavelengths_per_invocation(layers: int) -> int:
 
     An invocation plans for :data:`gpu.SAFE_LOOP_ITERATIONS` loop iterations (llvmpipe's
     budget), and each wavelength takes one of the wavelength loop and ``layers + 1`` of the
-    layer loop (its exit test counts; a single layer is unrolled): on lavapipe, the budget
-    cut 65535 wavelengths at one layer, 16384 at two, 13107 at three and 10922 at four.
+    layer loop (its exit test counts; a single layer is unrolled), as lavapipe's cuts confirm
+    (``docs/performance.md``, "wgbragg.bsdf.layered.model_gpu").
 
     Parameters
     ----------
@@ -205,27 +160,46 @@ def _rgb_weights() -> np.ndarray:
 
 def _header() -> list[np.ndarray]:
     """The tables' fixed start: the CMF block, XYZ -> linear sRGB, the 1 nm XYZ weights in
-    linear sRGB, the hero wavelengths' inverse CDF."""
-    if colorimetry.HERO_SEGMENTS != _HERO_SEGMENTS:
-        raise RuntimeError(
-            f"wgsl/colour/colorimetry_hero.wgsl assumes {_HERO_SEGMENTS} inverse-CDF segments")
+    linear sRGB, the hero wavelengths' inverse CDF (its offsets are the WGSL constants
+    ``SRGB_MATRIX``, ``RGB_WEIGHTS`` and ``HERO_INVERSE_CDF``, and its length
+    ``colorimetry.HERO_SEGMENTS + 1``: ``tests/test_wgsl_layouts.py``,
+    ``tests/test_layered_hero.py``)."""
     matrix = np.zeros((3, 4), np.float32)
     matrix[:, :3] = colorimetry.XYZ_TO_LINEAR_SRGB
     return [cmf_table().ravel(), matrix.ravel(), _rgb_weights().astype(np.float32).ravel(),
             colorimetry.hero_inverse_cdf()]
 
 
-def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
-    blocks = _header()
-    size = sum(block.size for block in blocks)
+class _Blocks:
+    """The ``tables`` buffer being built: float32 blocks, each appended at a known offset."""
 
-    def append(table) -> int:
-        nonlocal size
-        offset = size
-        blocks.append(np.ascontiguousarray(table, np.float32).ravel())
-        size += blocks[-1].size
+    def __init__(self, blocks: list[np.ndarray]):
+        self.blocks = blocks
+        self.size = sum(block.size for block in blocks)
+
+    def append(self, table) -> int:
+        """Append ``table`` (flattened, float32) and return its offset in floats."""
+        offset = self.size
+        self.blocks.append(np.ascontiguousarray(table, np.float32).ravel())
+        self.size += self.blocks[-1].size
         return offset
 
+
+def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
+    blocks = _Blocks(_header())
+    records = _layer_records(structure, kind, lut, colour_method, blocks)
+    params, node_colours = _params(structure, kind, blocks)
+    quads = _transmissivity_quads(records, kind)
+    tables = np.concatenate(blocks.blocks)
+    for array in (tables, node_colours, records, params):
+        array.setflags(write=False)
+    return _Variant(records, tables, node_colours, params,
+                    _structure_constants(structure, records, quads))
+
+
+def _layer_records(structure, kind: str, lut: bool, colour_method: str,
+                   blocks: _Blocks) -> np.ndarray:
+    """The ``RoughLayer`` records, their tables appended to ``blocks``."""
     records = np.zeros(len(structure.layers), LAYER_DTYPE)
     for index, layer in enumerate(structure.layers):
         record = records[index]  # a view: structured scalars write through
@@ -238,17 +212,24 @@ def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
         record["alpha"] = layer.alpha
         record["rows"] = theta_i.size
         record["rows_per_radian"] = 1.0 / (theta_i[1] - theta_i[0])
-        record["transmissivity_mean"] = append(visible.mean(axis=1))
+        record["transmissivity_mean"] = blocks.append(visible.mean(axis=1))
         if kind == _SPECTRAL:
-            record["transmissivity"] = append(visible)
+            record["transmissivity"] = blocks.append(visible)
             if lut:
-                record["reflectance"] = append(structure._reflectance_lut(index, "gpu"))
+                record["reflectance"] = blocks.append(structure._reflectance_lut(index, "gpu"))
         elif kind == _FACTORED:
             weights = colorimetry.xyz_weights()[1]
-            record["transmissivity_rgb"] = append(colorimetry.xyz_to_linear_srgb(visible @ weights))
+            record["transmissivity_rgb"] = blocks.append(
+                colorimetry.xyz_to_linear_srgb(visible @ weights))
             if lut:
-                record["reflectance_rgb"] = append(
+                record["reflectance_rgb"] = blocks.append(
                     structure._reflectance_rgb_lut(index, "gpu", colour_method))
+    return records
+
+
+def _params(structure, kind: str, blocks: _Blocks) -> tuple[np.ndarray, np.ndarray]:
+    """The structure's part of ``Params`` and the ``node_colours`` buffer; a spectral base
+    albedo is appended to ``blocks``."""
     params = np.zeros((), PARAMS_DTYPE)
     base = structure._brdf_base()
     params["base_rgb"] = base.rgb
@@ -263,8 +244,14 @@ def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
     node_colours[:, :3] = _rgb_weights()
     if kind == _SPECTRAL and not structure.absorbing_base:
         albedo = base.spectrum(colorimetry.xyz_weights()[0])
-        params["base_spectrum"] = append(albedo)
+        params["base_spectrum"] = blocks.append(albedo)
         node_colours[:, 3] = albedo
+    return params, node_colours
+
+
+def _transmissivity_quads(records: np.ndarray, kind: str) -> bool:
+    """Whether the kernel reads the transmissivity tables as cell corners; if so, each
+    record's offset into them is set."""
     # bsdf/layered/model_eval.wgsl reads the transmissivity tables as cell corners (one load per
     # lookup, not four) where they fit the budget: at 4x a table's size they need 2.7 MB per
     # layer at the filters' default resolution.
@@ -272,11 +259,13 @@ def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
     quads = kind == _SPECTRAL and gpu.bilinear_quads_fit(1 + int(cells.sum()))
     if quads:
         records["transmissivity_elsewhere"] = 1 + np.concatenate([[0], np.cumsum(cells)[:-1]])
-    tables = np.concatenate(blocks)
-    for array in (tables, node_colours, records, params):
-        array.setflags(write=False)
+    return quads
+
+
+def _structure_constants(structure, records: np.ndarray, quads: bool) -> dict:
+    """The override constants that depend on the structure alone."""
     host_matched = all(np.float32(r["host"]) == np.float32(r["n1"]) for r in records)
-    constants = {
+    return {
         "LAYERS": len(structure.layers),
         "COATING": structure.has_coating,
         "BASE": int(not structure.absorbing_base),
@@ -286,7 +275,6 @@ def _build(structure, kind: str, lut: bool, colour_method: str) -> _Variant:
         "WORKGROUP_SIZE": WORKGROUP_SIZE,
         "TRANSMISSIVITY_QUADS": quads,
     }
-    return _Variant(records, tables, node_colours, params, constants)
 
 
 def _constants(variant: _Variant, kind: str, lut: bool, colour_method: str,

@@ -1,96 +1,18 @@
 """Position-free Monte Carlo simulation of a layered Bragg structure, on the GPU.
 
-The reference light transport of Fourneau, Pacanowski & Barla 2024 (sec. 4.2): a random walk
-in the structure of :class:`~wgbragg.bsdf.layered.model.LayeredBragg` that ignores lateral positions
-(Guo, Hasan & Zhao 2018), where every path may reflect any number of times. It validates the
-single-reflection model (eq 34), which keeps the paths that reflect once.
+The reference light transport of Fourneau, Pacanowski & Barla 2024 (sec. 4.2; Guo, Hasan &
+Zhao 2018): a random walk through a :class:`~wgbragg.bsdf.layered.model.LayeredBragg` that
+ignores lateral positions and lets a path reflect any number of times. It validates the
+single-reflection model (eq 34). :func:`simulate` estimates the BRDF by next-event estimation
+(``wo`` given) or returns the paths' exit directions and weights (``wo=None``).
 
-The walk
---------
-Directions are unit vectors in the surface frame (+z the normal); inside the structure every
-medium is the host ``n = n1`` of the layers. A path enters from air along ``-wi`` refracted
-into ``n``, then meets, as its direction says, the next layer below or above, the base, or the
-coating from inside:
-
-* a layer, in its frame (the normal flipped for a path coming from below), with incident
-  direction ``i`` at ``theta`` from the normal. ``transmission="ballistic"`` transmits
-  undeviated with probability ``p_t = 2 <t(theta)> / (1 + G1(theta))`` (eq 31 with ``t``
-  averaged over the path's wavelengths, eq 33) and weight ``t_k / p_t``, where
-  ``t = f_t cos`` is the integrated transmissivity (eq 28, the layer's table interpolated
-  linearly in ``theta`` and wavelength); otherwise it reflects about a visible GGX normal
-  ``m ~ VNDF(i)``, weight ``R_k(theta_d) G1(o) / (1 - p_t)`` with ``theta_d`` the angle
-  between ``i`` and ``m`` and ``R`` the mirror's unpolarized reflectance (Yeh).
-  ``transmission="naive"`` samples ``m ~ VNDF(i)`` first, then reflects with probability
-  ``P_r = <R(theta_d)>`` (weight ``R_k G1(o) / P_r``) or transmits (weight
-  ``(1 - R_k) G1(i) / (1 - P_r)``). Both have the expectation of the layer's transmission
-  ``t`` plus its lobe's albedo; what is left, at least ``1 - G1`` (eq 30), is absorbed.
-* the coating from inside (only when ``n != 1``): a specular reflection back down with the
-  Fresnel probability ``F_in`` (1 under total internal reflection), weight 1; else the path
-  leaves, refracted into air. Without a coating every path reaching the top leaves.
-* the base: absorbing, the path ends; Lambertian, it continues along a cosine-distributed
-  direction with weight ``albedo_k``.
-
-Russian roulette on the throughput starts after three reflections (unbiased), and
-``max_bounces`` caps the number of reflections of a path (the coating's internal ones and the
-base's included), a truncation.
-
-Loop budget. llvmpipe ends an invocation's loops after a fixed number of iterations
-(:mod:`wgbragg.gpu`, "Loop budget"), and a walk's loops grow with its reflections and the
-layers it crosses. An invocation therefore runs as many paths as fit in
-:data:`wgbragg.gpu.SAFE_LOOP_ITERATIONS` when each takes the longest walk ``max_bounces``
-allows (:func:`walk_iterations`), and ``max_bounces`` is at most :func:`bounce_limit`, where
-one such walk fills it.
-
-Estimators
-----------
-With ``wo`` given, the BRDF ``f(wi, wo)`` in 1/sr, without the coating's Dirac reflection, by
-next-event estimation: every vertex where a path meets a layer from above, or the base, is
-connected to ``o' = wo`` refracted into ``n``. It adds ``beta f_v(i, o') prod t(o')``:
-``beta`` the path's throughput, ``f_v`` the layer's microfacet lobe (eq 17, ``R_k`` at the
-half vector) or ``albedo_k / pi``, and the product over the layers above of their
-transmission along ``o'``, the ballistic ``t_k(theta_o')`` or, for ``"naive"``, one unbiased
-sample ``G1(o') (1 - R_k(theta_d))`` with ``m ~ VNDF(o')`` per layer. The sum of a path's
-contributions, times ``T_c(wi) T_c(wo) / n^2`` (the coating's transmittances and the
-compression of solid angle by refraction, as in eq 34 and :mod:`wgbragg.bsdf.layered.model`), is one
-sample of ``f``. ``mode="single"`` connects only vertices reached without a reflection and
-never samples one (a layer then transmits with probability 1, weight ``t_k`` or
-``G1 (1 - R_k)``): it estimates eq 34 exactly, deterministically for ``"ballistic"``
-spectral queries, where it reproduces :meth:`LayeredBragg.brdf` up to float32 and table
-interpolation.
-
-With ``wo=None``, the paths themselves, a particle estimator: the direction in which each
-leaves into air and its weight, so that ``E[weight g(direction)]`` is the integral of
-``f g cos`` over the hemisphere for any ``g``, the coating's Dirac reflection included (sampled
-at entry with probability ``F(wi)``, weight 1). The mean weight is the directional albedo.
-``mode="single"`` keeps the paths that reflect exactly once (the Dirac reflection counts):
-after that reflection the layers transmit with probability 1 and the coating lets the path out
-with weight ``1 - F_in``. Absorbed paths have weight 0 and direction 0.
-
-Wavelengths
------------
-A path carries :data:`PATH_WAVELENGTHS` wavelengths at once (no dispersion in the structure,
-eq 33). In spectral mode they are a group of the given ones, with the transmissivity tables
-evaluated at exactly those; up to :data:`MAX_WAVELENGTHS` are estimated in groups (the last
-padded with its last wavelength), all groups drawing the same random numbers, so their noise
-is correlated as if one path carried them all. In RGB mode they are hero wavelengths,
-stratified in the inverse cumulative distribution of the summed CIE XYZ density over
-360-830 nm (one random offset per path) and weighted by ``xyz_density / pdf`` into linear sRGB
-(D65), with the tables and the base albedo on the 1 nm grid, so that a spectrally flat ``f``
-gives ``f (1, 1, 1)`` in expectation.
-
-References
-----------
-Fourneau, Pacanowski & Barla, "Interactive Exploration of Vivid Material Iridescence using Bragg
-Mirrors", Computer Graphics Forum 43(2), 2024, sec. 4.2-4.3, eqs 17 and 28-35.
-Guo, Hasan & Zhao, "Position-Free Monte Carlo Simulation for Arbitrary Layered BSDFs", ACM
-Transactions on Graphics 37(6), 2018.
-Heitz, "Sampling the GGX Distribution of Visible Normals", JCGT 7(4), 2018.
-O'Neill, "PCG: A Family of Simple Fast Space-Efficient Statistically Good Algorithms for Random
-Number Generation", HMC-CS-2014-0905, 2014.
+The walk, the estimators and the wavelengths a path carries: ``docs/physics.md``, section 12
+and "wgbragg.bsdf.layered.simulation"; the loop budget: ``docs/design.md``, same heading.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -148,9 +70,8 @@ def walk_iterations(layers: int, max_bounces: int) -> int:
     A walk makes up to ``max_bounces + 1`` reflections, each after crossing up to ``layers``
     layers, and each crossing or reflection loops over the layers above for next-event
     estimation and over four wavelengths for Yeh's formula: ``12 + 4 layers`` iterations,
-    a bound fitted with a margin of 1.4 to 1.8 to lavapipe's longest walks (paths trapped under
-    a coating of index 10 over transparent layers and a white base, naive transmission: 23,
-    42, 88 and 216 iterations a reflection at 1, 2, 4 and 8 layers).
+    a bound fitted with a margin to lavapipe's longest walks (``docs/performance.md``,
+    "wgbragg.bsdf.layered.simulation").
 
     Parameters
     ----------
@@ -330,9 +251,9 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
 
     Notes
     -----
-    The estimators are described in the module docstring. Statistics are accumulated in
-    float32 over the paths of a GPU invocation (Welford's update; up to 64, fewer for long
-    walks) and combined in float64.
+    The estimators are described in ``docs/physics.md`` ("wgbragg.bsdf.layered.simulation").
+    Statistics are accumulated in float32 over the paths of a GPU invocation (Welford's
+    update; up to 64, fewer for long walks) and combined in float64.
 
     Examples
     --------
@@ -344,6 +265,46 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
     ...                       return_error=True)  # doctest: +SKIP
     >>> directions, weights = s.simulate(wi, paths=4096)  # doctest: +SKIP
     """
+    wi, wo, wavelength, paths, seed, max_bounces, shape = _checked(
+        structure, wi, wo, wavelength_nm, paths, mode, transmission, seed, return_error,
+        max_bounces)
+    ballistic = transmission == "ballistic"
+    next_event = wo is not None
+    lanes, channels = _lanes(wavelength, next_event)
+    if 0 in shape:  # no query: what the same call on one more query would give, empty
+        return _empty(shape, paths, channels, next_event, return_error)
+    layers = len(structure.layers)
+    groups = 1 if lanes is None else lanes.size // PATH_WAVELENGTHS
+    n = structure.host_index
+    records, tables, quads = _layers(structure, lanes, ballistic)
+    kernel = _pipeline(structure, mode, ballistic, next_event, lanes, quads)
+    # bounce_limit guarantees that one walk fits.
+    per_invocation = min(_PATHS_PER_INVOCATION if next_event else _PARTICLES_PER_INVOCATION,
+                         gpu.SAFE_LOOP_ITERATIONS // walk_iterations(layers, max_bounces))
+    walks = _Walks(paths, channels, groups, per_invocation, -(-paths // per_invocation),
+                   next_event)
+
+    wi_flat, wo_flat, up, queries = _queries(wi, wo, n)
+    params = np.zeros((), _PARAMS_DTYPE)
+    params["groups"], params["paths"] = groups, paths
+    params["seed"], params["host"] = seed, n
+    params["max_reflections"] = max_bounces - 1 if next_event else max_bounces
+    params["columns"] = colorimetry.xyz_weights()[0].size if lanes is None else lanes.size
+    params["per_invocation"] = per_invocation
+    inputs = [None, records, tables, _spectrum_rows(structure, lanes),
+              colorimetry.hero_inverse_cdf() if lanes is None else np.zeros(1, np.float32)]
+    results = _run(kernel, queries, inputs, params, walks,
+                   f"simulate on {layers} layers with max_bounces={max_bounces}")
+
+    if not next_event:
+        return _particles(results, shape, paths, channels)
+    return _brdf(results, wi_flat, wo_flat, up, n, shape, walks, return_error)
+
+
+def _checked(structure, wi, wo, wavelength_nm, paths, mode, transmission, seed, return_error,
+             max_bounces):
+    """:func:`simulate`'s arguments checked: ``wi``, ``wo`` (broadcast, or None), the
+    wavelengths (or None), ``paths``, ``seed``, ``max_bounces`` and the queries' shape."""
     if not all(hasattr(structure, name) for name in ("layers", "base_return", "host_index")):
         raise ValueError(f"structure must be a LayeredBragg, got {type(structure).__name__}")
     wi = check_directions(wi, "wi")
@@ -372,28 +333,35 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
         wi, wo = np.broadcast_to(wi, (*shape, 3)), np.broadcast_to(wo, (*shape, 3))
     else:
         shape = wi.shape[:-1]
+    return wi, wo, wavelength, paths, seed, max_bounces, shape
 
-    ballistic = transmission == "ballistic"
-    next_event = wo is not None
+
+def _lanes(wavelength, next_event: bool):
+    """The wavelengths paths carry (padded to whole groups; None for RGB) and the number of
+    channels of the result."""
     if wavelength is None:
-        lanes, channels = None, 3
-    else:
-        lanes, channels = _padded(wavelength), wavelength.size
-        if not next_event and channels > PATH_WAVELENGTHS:
-            raise ValueError(f"wavelength_nm: with wo=None a path carries at most "
-                             f"{PATH_WAVELENGTHS} wavelengths, got {channels} (call again "
-                             "with the same seed for more: the paths share random numbers)")
-    if 0 in shape:  # no query: what the same call on one more query would give, empty
-        if not next_event:
-            return np.zeros((*shape, paths, 3)), np.zeros((*shape, paths, channels))
-        empty = np.zeros((*shape, channels))
-        return (empty, empty.copy()) if return_error else empty
-    groups = 1 if lanes is None else lanes.size // PATH_WAVELENGTHS
-    n = structure.host_index
-    records, tables, quads = _layers(structure, lanes, ballistic)
-    kernel = gpu.compute_pipeline("bsdf/layered/simulation.wgsl", constants={
+        return None, 3
+    lanes, channels = _padded(wavelength), wavelength.size
+    if not next_event and channels > PATH_WAVELENGTHS:
+        raise ValueError(f"wavelength_nm: with wo=None a path carries at most "
+                         f"{PATH_WAVELENGTHS} wavelengths, got {channels} (call again "
+                         "with the same seed for more: the paths share random numbers)")
+    return lanes, channels
+
+
+def _empty(shape, paths: int, channels: int, next_event: bool, return_error: bool):
+    """:func:`simulate`'s result for no query."""
+    if not next_event:
+        return np.zeros((*shape, paths, 3)), np.zeros((*shape, paths, channels))
+    empty = np.zeros((*shape, channels))
+    return (empty, empty.copy()) if return_error else empty
+
+
+def _pipeline(structure, mode: str, ballistic: bool, next_event: bool, lanes, quads: bool):
+    """The walk kernel specialised for the structure and the call."""
+    return gpu.compute_pipeline("bsdf/layered/simulation.wgsl", constants={
         "WORKGROUP_SIZE": _WORKGROUP_SIZE,
-        "LAYERS": layers,
+        "LAYERS": len(structure.layers),
         "COATING": structure.has_coating,
         "LAMBERTIAN": not structure.absorbing_base,
         "BALLISTIC": ballistic,
@@ -404,44 +372,60 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
         # Layers share their host (LayeredBragg); Appendix D where it is not their n1.
         "HOST_MATCHED": all(layer.ballistic for layer in structure.layers),
     })
-    # bounce_limit guarantees that one walk fits.
-    per_invocation = min(_PATHS_PER_INVOCATION if next_event else _PARTICLES_PER_INVOCATION,
-                         gpu.SAFE_LOOP_ITERATIONS // walk_iterations(layers, max_bounces))
-    batches = -(-paths // per_invocation)
 
+
+def _queries(wi, wo, n: float):
+    """Flat ``wi`` and ``wo`` (+z where ``wo`` is None or below the horizon), whether ``wo``
+    is above it, and the ``queries`` buffer: ``wi`` and both directions refracted in."""
     wi_flat = wi.reshape(-1, 3)
     up = np.ones(wi_flat.shape[0], bool)
     wo_flat = np.tile([0.0, 0.0, 1.0], (wi_flat.shape[0], 1))
-    if next_event:
+    if wo is not None:
         up = wo.reshape(-1, 3)[:, 2] > 0.0
         wo_flat = np.where(up[:, None], wo.reshape(-1, 3), wo_flat)
     # Refracted here in float64: in float32, 1 - sin^2 rounds a grazing cosine to 0.
     queries = np.zeros((wi_flat.shape[0], 3, 4), np.float32)
     queries[:, 0, :3] = wi_flat
     queries[:, 1, :3], queries[:, 2, :3] = refract_in(wi_flat, n), refract_in(wo_flat, n)
+    return wi_flat, wo_flat, up, queries
 
-    params = np.zeros((), _PARAMS_DTYPE)
-    params["groups"], params["paths"] = groups, paths
-    params["seed"], params["host"] = seed, n
-    params["max_reflections"] = max_bounces - 1 if next_event else max_bounces
-    params["columns"] = colorimetry.xyz_weights()[0].size if lanes is None else lanes.size
-    params["per_invocation"] = per_invocation
-    inputs = [None, records, tables, _spectrum_rows(structure, lanes),
-              colorimetry.hero_inverse_cdf() if lanes is None else np.zeros(1, np.float32)]
 
-    if next_event:
+@dataclass(frozen=True)
+class _Walks:
+    """How a call's paths are laid out: ``batches`` invocations of up to ``per_invocation``
+    paths per query and wavelength group."""
+
+    paths: int
+    channels: int
+    groups: int
+    per_invocation: int
+    batches: int
+    next_event: bool
+
+
+def _dispatch_sizes(walks: _Walks) -> tuple[int, int]:
+    """Batches and queries per dispatch."""
+    if walks.next_event:
         # Invocations write a mean and an m2 (vec4) each: a query's batches may need several
         # dispatches, or a dispatch may hold several queries.
-        batch_step = min(batches, max(1, _MAX_INVOCATIONS // groups))
-        chunk = max(1, _MAX_INVOCATIONS // (groups * batch_step))
-    else:
-        batch_step = batches
-        limit = int(gpu.get_device().limits["max-storage-buffer-binding-size"])
-        if 16 * (paths + 1) > limit:
-            raise ValueError(f"paths={paths} take more than {limit} bytes of weights per wi: "
-                             "use fewer (and another seed for more)")
-        chunk = (limit - 16) // (16 * paths)
-    counts = np.minimum(per_invocation, paths - per_invocation * np.arange(batches))
+        batch_step = min(walks.batches, max(1, _MAX_INVOCATIONS // walks.groups))
+        chunk = max(1, _MAX_INVOCATIONS // (walks.groups * batch_step))
+        return batch_step, chunk
+    limit = int(gpu.get_device().limits["max-storage-buffer-binding-size"])
+    if 16 * (walks.paths + 1) > limit:
+        raise ValueError(f"paths={walks.paths} take more than {limit} bytes of weights per wi: "
+                         "use fewer (and another seed for more)")
+    return walks.batches, (limit - 16) // (16 * walks.paths)
+
+
+def _run(kernel, queries, inputs, params, walks: _Walks, what: str) -> list:
+    """Every dispatch: per chunk of queries, the particles ``(values, directions)`` or the
+    combined statistics ``(count, mean, spread)``."""
+    batch_step, chunk = _dispatch_sizes(walks)
+    next_event, groups, batches = walks.next_event, walks.groups, walks.batches
+    paths, channels = walks.paths, walks.channels
+    counts = np.minimum(walks.per_invocation,
+                        paths - walks.per_invocation * np.arange(batches))
     results = []
     for start in range(0, len(queries), chunk):
         part = queries[start:start + chunk]
@@ -456,8 +440,7 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
                        ((1 if next_event else rows + 1, 4), np.float32)]
             count = len(part) * groups * step if next_event else len(part) * batches
             values, directions = kernel.run(inputs, outputs, params, count=count)
-            gpu.check_loops(directions[-1:, 3],
-                            f"simulate on {layers} layers with max_bounces={max_bounces}")
+            gpu.check_loops(directions[-1:, 3], what)
             if not next_event:
                 pieces.append((values, directions[:-1]))
                 continue
@@ -469,12 +452,20 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
             np.array([piece[0] for piece in pieces]),
             np.stack([piece[1] for piece in pieces], axis=1),
             np.stack([piece[2] for piece in pieces], axis=1)))
+    return results
 
-    if not next_event:
-        directions = np.concatenate([d for _, d in results])[:, :3].astype(np.float64)
-        weights = np.concatenate([v for v, _ in results])[:, :channels].astype(np.float64)
-        return (directions.reshape(*shape, paths, 3), weights.reshape(*shape, paths, channels))
 
+def _particles(results, shape, paths: int, channels: int):
+    """The paths' exit directions and weights, in the queries' shape."""
+    directions = np.concatenate([d for _, d in results])[:, :3].astype(np.float64)
+    weights = np.concatenate([v for v, _ in results])[:, :channels].astype(np.float64)
+    return (directions.reshape(*shape, paths, 3), weights.reshape(*shape, paths, channels))
+
+
+def _brdf(results, wi_flat, wo_flat, up, n: float, shape, walks: _Walks, return_error: bool):
+    """The BRDF estimate from the paths' statistics, scaled by the coating's transmittances
+    and the compression of solid angle, with its standard error if asked."""
+    paths, channels = walks.paths, walks.channels
     mean = np.concatenate([piece[1] for piece in results])
     spread = np.concatenate([piece[2] for piece in results])
     scale = ((1.0 - coating_reflectance(wi_flat[:, 2], n))

@@ -88,7 +88,9 @@ var<private> varying_layer: vec2<f32>;
 
 const BASE_ABSORBING: u32 = 0u;
 const BASE_LAMBERTIAN: u32 = 1u;
-// Nodes of a wavelength axis: 360..830 nm at 1 nm (colorimetry.xyz_weights).
+// Nodes of a wavelength axis: 360..830 nm at 1 nm (colorimetry.xyz_weights), and the offsets of
+// the tables' header (model_gpu._header); checked by tests/test_wgsl_layouts.py, as are
+// COLOUR_REFERENCE and SUBDIVISIONS.
 const VISIBLE_NODES: u32 = 471u;
 const SRGB_MATRIX: u32 = 8u * VISIBLE_NODES;
 const RGB_WEIGHTS: u32 = SRGB_MATRIX + 12u;
@@ -312,7 +314,8 @@ fn layered_eval_spectral(s: LayeredStructure, p: LayeredPair, wavelength_nm: f32
 
 // layered_eval_spectral at the four wavelengths a path carries: the lobes and the tables' rows,
 // which do not depend on wavelength, are computed once. Yeh's angle setup is not: sharing it
-// (angle_geometry), or unrolling the wavelength loop, ran 20-30 % slower on lavapipe.
+// (angle_geometry), or unrolling the wavelength loop, is slower on lavapipe
+// (docs/performance.md, "wgbragg.bsdf.layered.model_gpu").
 fn layered_eval_spectral4(s: LayeredStructure, p: LayeredPair, wavelength_nm: vec4<f32>)
     -> vec4<f32> {
     var albedo = vec4<f32>(0.0);

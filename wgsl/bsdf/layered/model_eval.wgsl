@@ -6,8 +6,8 @@
 //   density:   pdf(wi, wo)                                             -> value
 // value holds WAVELENGTHS floats per invocation (spectral) or 3 (RGB, WAVELENGTHS = 0); cut[0]
 // becomes 1 if llvmpipe ended any invocation's loops early (wgbragg.gpu, "Loop budget"), which
-// the host refuses (one word, as bsdf/layered/simulation.wgsl: a word per invocation was 12 % of
-// sample's readback): the batching keeps the planned loops within budget, but a landmark
+// the host refuses (one word for the dispatch, as bsdf/layered/simulation.wgsl, not one per
+// invocation, which would add to the readback): the batching keeps the planned loops within budget, but a landmark
 // colour's loops grow with the mirror's thickness in a way the host does not model.
 //! include "gpu/harness.wgsl"
 //! include "gpu/numerics.wgsl"
@@ -111,8 +111,8 @@ fn node_colour(wavelength_nm: f32) -> vec4<f32> {
 
 // The colour of the spectral f at four hero wavelengths: an unbiased estimate of
 // layered_eval_rgb's INTEGRATED colour. Each wavelength's rgb weights and base albedo come in
-// one vec4 pair (scalar loads from `tables` were 8 % of the sample kernel's time on lavapipe);
-// four named values, not a private array, which lavapipe runs slower.
+// one vec4 pair rather than scalar loads from `tables`; four named values, not a private array
+// (docs/performance.md, "wgbragg.bsdf.layered.model_gpu").
 fn layered_eval_hero(s: LayeredStructure, pair: LayeredPair, offset: f32) -> vec3<f32> {
     let hero = hero_wavelengths(offset);
     let c0 = node_colour(hero.nm.x);

@@ -9,9 +9,8 @@
 //
 // A path carries four wavelengths, one vec4: a group of the given ones, or in RGB mode hero
 // wavelengths stratified in the inverse CDF of the summed XYZ density, one offset per path.
-// Groups of a query draw the same random numbers. (Private arrays of vec4 for more
-// wavelengths per path ran 2-3 times slower per wavelength on lavapipe, compiled for seconds,
-// and lost lanes past the first vec4 in some configurations.)
+// Groups of a query draw the same random numbers. (Four, not more in private arrays of vec4:
+// docs/performance.md, "wgbragg.bsdf.layered.simulation".)
 //! include "gpu/harness.wgsl"
 //! include "gpu/numerics.wgsl"
 //! include "gpu/complex.wgsl"
@@ -36,6 +35,8 @@ override QUADS: bool = true;
 // Every layer's mirror sits in its own n1 (else Appendix D: seen from the walk's medium).
 override HOST_MATCHED: bool = true;
 
+// The first node of the 1 nm tables (colorimetry.WAVELENGTH_RANGE_NM; checked by
+// tests/test_wgsl_layouts.py).
 const FIRST_NM: f32 = 360.0;
 // Russian roulette from this many reflections on: earlier vertices carry most of the estimate.
 const ROULETTE_AFTER: u32 = 3u;
