@@ -17,7 +17,7 @@ import functools
 
 import numpy as np
 
-from wgbragg.colour import reference_gpu as colour_gpu
+from wgbragg.colour import reference_gpu
 from wgbragg.colour import grid as colour_grid
 from wgbragg import gpu
 from wgbragg.optics import yeh_gpu
@@ -26,7 +26,7 @@ from wgbragg.optics.landmarks import VISIBLE_OMEGA
 
 __all__ = ["WORKGROUP_SIZE", "benchmark_grid_xyz", "grid_angle_inputs", "grid_xyz"]
 
-# As colour_gpu: one invocation integrates a whole colour.
+# As reference_gpu: one invocation integrates a whole colour.
 WORKGROUP_SIZE = 64
 
 # GridAngle.mode codes, MODE_* of wgsl/colour/grid_bragg.wgsl (tests/test_wgsl_layouts.py).
@@ -42,10 +42,10 @@ def _weight_table(nodes: int) -> gpu.DeviceArray:
 
 def grid_angle_inputs(mirror, theta, averaging_from: int, panel_nm: float) -> np.ndarray:
     """The kernel's per-angle inputs from the 1-D float64 ``theta``: float32, shape
-    ``(theta.size, 12)``: the reference kernel's (:func:`colour_gpu.angle_inputs`: geometry
+    ``(theta.size, 12)``: the reference kernel's (:func:`reference_gpu.angle_inputs`: geometry
     and split optical paths), then the mode (``MODE_*``) and three zeros."""
     out = np.zeros((theta.size, 12), np.float32)
-    out[:, :8] = colour_gpu.angle_inputs(mirror, theta)
+    out[:, :8] = reference_gpu.angle_inputs(mirror, theta)
     averaged = colour_grid.averaged_angles(mirror, theta, averaging_from, panel_nm)
     total = total_reflection(mirror, theta)
     out[:, 8] = np.where(total, MODE_TOTAL, np.where(averaged, MODE_AVERAGED, MODE_EXACT))
@@ -54,7 +54,7 @@ def grid_angle_inputs(mirror, theta, averaging_from: int, panel_nm: float) -> np
 
 def _dispatch_inputs(mirror, theta, averaging_from: int, nodes: int, panel_nm: float):
     cells, steps = colour_grid.grid_segments(nodes)
-    head, rest = colour_gpu.split_float32(VISIBLE_OMEGA[0] / (2.0 * np.pi))
+    head, rest = reference_gpu.split_float32(VISIBLE_OMEGA[0] / (2.0 * np.pi))
     step_red, step_band, step_blue = steps / (2.0 * np.pi)
     constants = {
         "GRID_NODES": nodes,

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from wgbragg.colour import colorimetry
-from wgbragg.colour import reference_gpu as colour_gpu
+from wgbragg.colour import reference_gpu
 from wgbragg.common.validation import (
     as_float_array,
     check_angle,
@@ -93,7 +93,7 @@ def integrate_xyz(material, theta, wavelength_nm, weights, backend="numpy") -> n
     if not np.all(np.isfinite(weight)):
         raise ValueError("weights must be finite")
     if backend == "gpu":
-        return colour_gpu.integrate_xyz(material, angle, wavelength, weight)
+        return reference_gpu.integrate_xyz(material, angle, wavelength, weight)
     flat = angle.ravel()
     xyz = np.empty((flat.size, 3))
     block = max(1, _BLOCK // max(wavelength.size, 1))

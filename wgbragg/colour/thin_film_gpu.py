@@ -32,7 +32,7 @@ from wgbragg.colour.thin_film import (
 
 __all__ = ["PARAMS_DTYPE", "PARAMS_FIELDS", "WORKGROUP_SIZE", "benchmark_xyz", "fourier_xyz"]
 
-# As colour_gpu: one invocation sums a whole colour, so small workgroups fill the device sooner.
+# As reference_gpu: one invocation sums a whole colour, so small workgroups fill the device sooner.
 WORKGROUP_SIZE = 64
 
 PARAMS_FIELDS = (

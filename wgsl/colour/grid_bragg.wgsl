@@ -22,7 +22,7 @@ override BAND_END: u32 = 88u;
 // N when it is below averaging_from: every angle samples the exact spectrum by the unrolled
 // recurrence (recurrence_reflectance). 0: each angle's mode says.
 override EXACT_PERIODS: u32 = 0u;
-// 1 / lambda (1/nm) at the first node, split as split_cycles reads it (colour_gpu.split_float32),
+// 1 / lambda (1/nm) at the first node, split as split_cycles reads it (reference_gpu.split_float32),
 // and its advance per cell of each segment.
 override INV_WAVELENGTH_HEAD: f32 = 0.0;
 override INV_WAVELENGTH_REST: f32 = 0.0;

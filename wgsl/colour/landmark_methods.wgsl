@@ -17,7 +17,7 @@
 // (averaged_colour) sweeps both at once: its zones lie between consecutive band edges of
 // either polarisation, so both spectra are smooth in each and share its nodes, and with them
 // the sin/cos pairs and table reads. Each zone is integrated with three-point Gauss-Legendre
-// panels in the variable u of colour_methods._zone_map, which clusters nodes quadratically at
+// panels in the variable u of landmark_methods._zone_map, which clusters nodes quadratically at
 // band edges (the square-root edge of the averaged spectrum is then smooth in u), against the
 // piecewise-linear XYZ density (colorimetry.xyz_density).
 //
@@ -37,9 +37,9 @@ const PANEL_NM: f32 = 40.0;
 const PANEL_MARGIN: f32 = 0.05;
 const PHASE_SNAP: f32 = 0.15;
 const EXACT_MIN_OSCILLATION_NM: f32 = 0.1;
-// The options of "averaged" (colour_methods.averaged_xyz): N below AVERAGING_MIN_PERIODS is
+// The options of "averaged" (landmark_methods.averaged_xyz): N below AVERAGING_MIN_PERIODS is
 // integrated exactly (the host passes 2 where averaging_from <= N < 16, so that those
-// settings share a pipeline); panels_per_oscillation. The defaults are colour_methods'.
+// settings share a pipeline); panels_per_oscillation. The defaults are landmark_methods'.
 override AVERAGING_MIN_PERIODS: u32 = 16u;
 override PANELS_PER_OSCILLATION: f32 = 3.0;
 // N compiled into the exact spectrum's recurrence (recurrence_reflectance): set by pipelines
@@ -94,7 +94,7 @@ struct DensityCell {
     slope: vec3<f32>,
 }
 
-// A cell's slope packed into one word (colour_landmarks_gpu._packed_cmf_table): X and Y in
+// A cell's slope packed into one word (landmark_methods_gpu._packed_cmf_table): X and Y in
 // 11-bit and Z in 10-bit two's complement, in steps of DENSITY_SLOPE_STEP per nm, which hold
 // the CIE 1931 x D65 slopes (|X'|, |Y'| <= 2.1e-4, |Z'| <= 7.2e-4 per nm) to within half a
 // step: the density is off by at most 1e-6 per nm (5e-5 of its peak). With the density at
@@ -144,7 +144,7 @@ fn averaged_pass_band_reflectance(m: BraggMirror, g: CellGeometry, polarization:
 }
 
 // R of one polarisation at a node of "averaged", from its frame and the node's mode_phases:
-// exact in an exact zone (colour_methods._quadrature), else averaged in pass bands; gaps:
+// exact in an exact zone (landmark_methods._quadrature), else averaged in pass bands; gaps:
 // whether the zone may hold a band gap of either polarisation (else the gap formula, which
 // a zone between band edges of both pass bands never needs, is left out). exact and gaps
 // are literals at every call, so each variant compiles only its own formulas.
@@ -205,7 +205,7 @@ fn dispersion_pair(c: ColourSetup, omega: f32) -> vec4<f32> {
 
 // Bloch phases K Lambda in [0, pi] of s and p at omega (0 or pi inside band gaps), from
 // sin^2 K Lambda, which keeps its relative accuracy at band edges where acos(x) would not. At
-// a band edge (at_edge) snapped as colour_methods._snap_edge_phases.
+// a band edge (at_edge) snapped as landmark_methods._snap_edge_phases.
 fn bloch_phases(c: ColourSetup, omega: f32, at_edge: bool) -> vec2<f32> {
     let d = dispersion_pair(c, omega);
     let phase = atan2(sqrt(max(d.zw, vec2<f32>(0.0))), d.xy);
@@ -262,7 +262,7 @@ fn approx_interval(c: ColourSetup, omega_lo: f32, omega_hi: f32, pass_band: bool
     return acc;
 }
 
-// colour_methods._zone_map: (s, ds/du) clustering the nodes at the ends that are band edges.
+// landmark_methods._zone_map: (s, ds/du) clustering the nodes at the ends that are band edges.
 fn zone_map(u: f32, lower_edge: bool, upper_edge: bool) -> vec2<f32> {
     if (lower_edge && upper_edge) {
         return vec2<f32>(u * u * (3.0 - 2.0 * u), 6.0 * u * (1.0 - u));
@@ -302,7 +302,7 @@ fn zone_node(c: ColourSetup, sums: ptr<function, ZoneSums>, n: u32, lo: f32, spa
 }
 
 // "averaged" over the zone [lo, hi] (rad/nm) between band edges or range ends, which holds
-// `share` of a pass band: the panels and exact flag of colour_methods._quadrature, three
+// `share` of a pass band: the panels and exact flag of landmark_methods._quadrature, three
 // Gauss nodes a panel. both_pass: both polarisations are in a pass band across the zone;
 // box: the density's integral over the zone, cumulative_xyz(2 pi / lo) minus
 // cumulative_xyz(2 pi / hi).
@@ -423,7 +423,7 @@ fn zones_start(c: ColourSetup) -> Zones {
 // in_gap: polarisations known to be in a gap across the zone (see evanescent_gaps).
 fn zone_close(c: ColourSetup, zones: ptr<function, Zones>, omega: f32, is_edge: bool,
               in_gap: vec2<bool>) {
-    // The share of a pass band: see colour_methods._zones.
+    // The share of a pass band: see landmark_methods._zones.
     let phases = bloch_phases(c, omega, is_edge);
     let sweep = select(abs(phases - (*zones).lo_phases), vec2<f32>(0.0), in_gap);
     let share = max(sweep.x, sweep.y) * (1.0 / PI);
@@ -441,7 +441,7 @@ fn zone_close(c: ColourSetup, zones: ptr<function, Zones>, omega: f32, is_edge: 
 }
 
 // With n2 evanescent, the polarisations in a gap at the middle of the zone ending at omega:
-// their phase changes are rounding (colour_methods._zones).
+// their phase changes are rounding (landmark_methods._zones).
 fn evanescent_gaps(c: ColourSetup, zones: ptr<function, Zones>, omega: f32) -> vec2<bool> {
     return dispersion_pair(c, 0.5 * ((*zones).lo + omega)).zw <= vec2<f32>(0.0);
 }

@@ -157,7 +157,7 @@ const EXACT_OPD_SHORT_NM: f32 = 300.0;
 const EXACT_OPD_LONG_NM: f32 = 450.0;
 
 // Bound on the tail the series leaves out, 2 T* |w|^(M+1) / (1 - |w|), of one polarisation's
-// airy_series (thin_film_colour.series_tail).
+// airy_series (wgbragg.colour.thin_film.series_tail).
 fn series_tail(c: vec3<f32>, order: u32) -> f32 {
     let size = length(c.yz);
     if (size >= 1.0) {
@@ -166,7 +166,7 @@ fn series_tail(c: vec3<f32>, order: u32) -> f32 {
     return 2.0 * c.x * pow(size, f32(order + 1u)) / (1.0 - size);
 }
 
-// Share of exact integration of a propagating film (thin_film_colour._exact_share).
+// Share of exact integration of a propagating film (wgbragg.colour.thin_film._exact_share).
 fn exact_share(p: FilmColourParams, q1: f32, q2: f32) -> f32 {
     let by_opd = clamp((EXACT_OPD_LONG_NM - 2.0 * q2 * p.d_nm)
                        / (EXACT_OPD_LONG_NM - EXACT_OPD_SHORT_NM), 0.0, 1.0);

@@ -45,7 +45,7 @@ from wgbragg.bsdf.layered.coating import (
 )
 from wgbragg.bsdf.rough_layer import RoughBraggLayer
 from wgbragg.common.sampling import ShiftedPoints
-from wgbragg.bsdf.layered import model_gpu as layered_gpu
+from wgbragg.bsdf.layered import model_gpu
 from wgbragg.colour.methods import COLOUR_METHODS
 from wgbragg.common.validation import check_angle, check_seed
 from wgbragg.bsdf.layered.simulation import simulate
@@ -513,7 +513,7 @@ class LayeredBragg:
             raise ValueError("colour_method='hero' draws its wavelengths from a sample's random "
                              "numbers: it is a colour_method of sample() only")
         if backend == "gpu":
-            return layered_gpu.brdf(self, wi, wo, wavelength, method, colour_method)
+            return model_gpu.brdf(self, wi, wo, wavelength, method, colour_method)
         return self._evaluate(wi, wo, wavelength, method, backend, colour_method)
 
     @staticmethod
@@ -588,7 +588,7 @@ class LayeredBragg:
         wo = check_directions(wo, "wo")
         check_broadcast(wi=wi.shape[:-1], wo=wo.shape[:-1])
         if check_backend(backend) == "gpu":
-            return layered_gpu.pdf(self, wi, wo)
+            return model_gpu.pdf(self, wi, wo)
         return self._pdf(wi, wo, backend)
 
     def sample(self, wi, u, wavelength_nm=None, method="single-reflection", backend="numpy",
@@ -640,7 +640,7 @@ class LayeredBragg:
         wi, u, wavelength, backend, colour_method = self._sample_arguments(
             wi, u, wavelength_nm, method, backend, colour_method)
         if backend == "gpu":
-            return layered_gpu.sample(self, wi, u, wavelength, method, colour_method)
+            return model_gpu.sample(self, wi, u, wavelength, method, colour_method)
         hero = colour_method == HERO
         shape = np.broadcast_shapes(wi.shape[:-1], u.shape[:-1])
         wi, u = np.broadcast_to(wi, (*shape, 3)), np.broadcast_to(u, (*shape, u.shape[-1]))

@@ -171,7 +171,7 @@ def _layers(structure, wavelength, ballistic: bool):
         return tables.reshape(-1, 4)
 
     key = ("simulation", None if wavelength is None else wavelength.tobytes())
-    # Kept on the device, as the model's (layered_gpu._Variant.device_tables): read-only,
+    # Kept on the device, as the model's (model_gpu._Variant.device_tables): read-only,
     # and no call needs them on the host.
     tables = structure._cached(key, lambda: gpu.DeviceArray.upload(build(), what="layer tables"))
     if quads:

@@ -26,7 +26,7 @@
 //   layers: array<RoughLayer>  one record per rough layer, top down; the structure's layers
 //                              are layers[s.first_layer .. s.first_layer + LAYERS).
 //   tables: array<f32>         float32 tables; offsets below are in floats.
-//     [0, 3768)     the CMF block of colour_landmarks_gpu: 471 vec4 (xyz, 0) of the XYZ
+//     [0, 3768)     the CMF block of landmark_methods_gpu: 471 vec4 (xyz, 0) of the XYZ
 //                   density at 360, 361, ..., 830 nm, then 471 of its cumulative integral.
 //     [3768, 3780)  XYZ -> linear sRGB: three rows, each a vec4 (xyz, 0).
 //     [3780, 5193)  the D65-weighted XYZ weights of the 1 nm nodes in linear sRGB (471 x 3,
