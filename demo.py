@@ -23,9 +23,9 @@ import time
 
 from PIL import Image
 
-from wgbragg.common.atomic import atomic_path
-from wgbragg.scene.model import MODES, PRESETS, load_preset, load_scene
 from wgbragg.app.viewer import Viewer
+from wgbragg.common.atomic import atomic_path
+from wgbragg.scene import MODES, PRESETS, load_preset, load_scene
 
 
 def _size(text: str) -> tuple[int, int]:

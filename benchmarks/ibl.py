@@ -214,8 +214,8 @@ class Lobe:
 
     @classmethod
     def at(cls, theta: np.ndarray, alpha: float, nodes: int) -> Lobe:
-        from wgbragg.lighting.ibl import reflected_light_statistics, uniform_light_statistics
         from wgbragg.bsdf.rough_thin_film import reflection_quadrature
+        from wgbragg.lighting.ibl import reflected_light_statistics, uniform_light_statistics
 
         cos_o = np.cos(theta)
         _, cos_d, weight = reflection_quadrature(cos_o, alpha, nodes)
@@ -726,8 +726,8 @@ def render_figure(config: RenderConfig, folder: Path, path: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from wgbragg.render import Renderer, display_transform
     from wgbragg.common.atomic import atomic_path
+    from wgbragg.render import Renderer, display_transform
 
     material = config.materials[0]
     modes = ("split-sum", "kneiphof", "monte-carlo")

@@ -69,8 +69,7 @@ from benchmarks.report import (
     yes_no,
 )
 from benchmarks.report import markdown_table as _table
-from wgbragg import ShiftedPoints
-from wgbragg import gpu
+from wgbragg import ShiftedPoints, gpu
 from wgbragg.colour.colorimetry import HERO_WAVELENGTHS
 from wgbragg.common.metrics import smape
 

@@ -157,11 +157,11 @@ def _time_to_smape(make_renderer, reference, limit_spp: int) -> tuple[float, int
 def run_benchmarks(cfg: Config, progress: bool = True) -> dict:
     import trimesh
 
-    from wgbragg.render.bvh import build_bvh
-    from wgbragg.scene.meshes import sphere_mesh
     from wgbragg.common.metrics import smape
+    from wgbragg.render.bvh import build_bvh
     from wgbragg.render.renderer import Renderer
     from wgbragg.scene import PRESETS, load_preset, load_scene
+    from wgbragg.scene.meshes import sphere_mesh
 
     meter = report.LoadMeter()
     results = {"presets": {}, "configurations": {}, "convergence": {}}

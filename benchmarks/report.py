@@ -261,8 +261,7 @@ def run_facts(gpu_error: str | None = None) -> dict[str, Any]:
     """
     import numpy as np
 
-    from wgbragg import __version__
-    from wgbragg import gpu
+    from wgbragg import __version__, gpu
 
     try:
         cores = len(os.sched_getaffinity(0))

@@ -328,8 +328,8 @@ def kernel_timer(method: str, options: dict[str, Any]) -> Callable | None:
     take them is not used, so a changed helper cannot silently time the wrong thing.
     """
     from wgbragg.colour import colorimetry
-    from wgbragg.colour import reference_gpu as colour_gpu
     from wgbragg.colour import reference as colour_reference
+    from wgbragg.colour import reference_gpu as colour_gpu
 
     if method in ("reference", "spectral"):
         helper = getattr(colour_gpu, "benchmark_xyz", None)
@@ -965,9 +965,8 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
                   rows)
 
     if results.settings_delta_e:
-        from wgbragg.colour.landmark_methods import AVERAGING_MIN_PERIODS, PANELS_PER_OSCILLATION
-
         from wgbragg.colour.grid import GRID_NODES
+        from wgbragg.colour.landmark_methods import AVERAGING_MIN_PERIODS, PANELS_PER_OSCILLATION
 
         out += ["", '### "averaged" settings: `quadrature`, `averaging_from`, '
                 '`panels_per_oscillation`, `grid_nodes`', ""]

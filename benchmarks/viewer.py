@@ -93,7 +93,7 @@ def _empty_cache():
 def _bragg_edits(viewer, edits: int, offset_nm: float) -> tuple[list[float], list[float]]:
     """(table ms, update ms) of ``edits`` period edits, after one uncounted. ``offset_nm``
     keeps the periods apart from another run's: renderers share the layers they have built
-    (``wgbragg.render.renderer.SHARED_LAYERS``)."""
+    (``wgbragg.render.packing.SHARED_LAYERS``)."""
     start = viewer.layers[0].period_nm + offset_nm
     tables, updates = [], []
     for k in range(edits + 1):

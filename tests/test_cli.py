@@ -103,11 +103,10 @@ def test_file_mistakes_are_clear_errors_before_any_work(argv, message, tmp_path,
     """A path that cannot be read or written: exit status 2 and one line, no traceback, no
     file left behind, and no render or bake started (they would fail the test)."""
     (tmp_path / "file.txt").write_text("in the way")
+    from wgbragg.app import maps, scatterogram
     from wgbragg.bsdf import filter_cache
     from wgbragg.colour import tables
-    from wgbragg.app import maps
     from wgbragg.render import renderer as render
-    from wgbragg.app import scatterogram
 
     def forbidden(*args, **kwargs):
         raise AssertionError("the work started before the output path was checked")

@@ -12,8 +12,8 @@ import pytest
 from conftest import load_tool
 from test_luts import fake_filter_module
 
-from wgbragg.common import luts
 from wgbragg.app.cli import DEFAULT_ALPHAS, build_parser, main
+from wgbragg.common import luts
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY = ["--resolution-deg", "10", "--psi-samples", "8", "--backend", "numpy", "--no-progress"]

@@ -20,10 +20,9 @@ import numpy as np
 import pytest
 
 from benchmarks import rgb as bench_rgb
-from wgbragg import BraggMirror
-from wgbragg.colour import landmark_methods_gpu as colour_landmarks_gpu
-from wgbragg import gpu
+from wgbragg import BraggMirror, gpu
 from wgbragg.colour import landmark_methods as cm
+from wgbragg.colour import landmark_methods_gpu as colour_landmarks_gpu
 from wgbragg.colour.colorimetry import delta_e_2000, xyz_to_linear_srgb
 from wgbragg.optics.landmarks import find_landmarks
 

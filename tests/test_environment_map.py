@@ -16,15 +16,13 @@ from __future__ import annotations
 
 import itertools
 import math
-
 from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import expected_direction_counts, pooled_chi2_pvalue
-from wgbragg import EnvironmentMap
-from wgbragg import gpu
+
+from wgbragg import EnvironmentMap, gpu
 
 KERNELS = Path(__file__).resolve().parent / "kernels"
 """The test suite's own WGSL kernels (not shipped in the wheel)."""

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +21,7 @@ import pytest
 from scipy import integrate
 
 from wgbragg import gpu
+from wgbragg.bsdf.microfacet import ggx_D, ggx_G1
 from wgbragg.lighting.environment_map import EnvironmentMap
 from wgbragg.lighting.environment_prefilter import (
     PrefilteredEnvironment,
@@ -32,7 +32,6 @@ from wgbragg.lighting.environment_prefilter import (
     resample_environment,
     window_angle,
 )
-from wgbragg.bsdf.microfacet import ggx_D, ggx_G1
 from wgbragg.lighting.procedural_environment import ProceduralEnvironment
 from wgbragg.scene.model import Environment
 

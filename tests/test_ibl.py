@@ -11,7 +11,9 @@ import numpy as np
 import pytest
 
 from wgbragg import BraggMirror, ThinFilm
+from wgbragg.bsdf.microfacet import ggx_G1, ggx_sample_visible_normal
 from wgbragg.colour.colorimetry import delta_e_2000
+from wgbragg.colour.thin_film import PREFILTER_RANGE_NM
 from wgbragg.lighting.ibl import (
     ALBEDO_TABLE_NODES,
     IBL_MODES,
@@ -27,8 +29,6 @@ from wgbragg.lighting.ibl import (
     uniform_light_statistics,
     uniform_reflected_radiance,
 )
-from wgbragg.bsdf.microfacet import ggx_G1, ggx_sample_visible_normal
-from wgbragg.colour.thin_film import PREFILTER_RANGE_NM
 
 FIG7 = ThinFilm(1.33, 550.0, n_base=2.0, k_base=0.5)
 GOLD = ThinFilm(1.45, 300.0, base="Au")

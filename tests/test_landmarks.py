@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from wgbragg import BraggMirror
-from wgbragg.optics.landmarks import KINDS, VISIBLE_OMEGA, find_landmarks
 from wgbragg.optics import bloch_dispersion
+from wgbragg.optics.landmarks import KINDS, VISIBLE_OMEGA, find_landmarks
 
 EDGE_ATOL = 1e-9  # |cos K Lambda| - 1 at a band edge found by bisection
 AIRY_ATOL = 1e-9  # cos K Lambda at an Airy point

@@ -15,11 +15,11 @@ import pytest
 from conftest import sample_chi2_pvalue
 
 from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer
-from wgbragg.colour.colorimetry import xyz_to_linear_srgb, xyz_weights
 from wgbragg.bsdf.layered.model import coating_reflectance
 from wgbragg.bsdf.microfacet import ggx_D, ggx_G1
-from wgbragg.optics import transfer_matrix_reflectance, yeh_reflectance
 from wgbragg.bsdf.transmission_filter import TransmissionFilter
+from wgbragg.colour.colorimetry import xyz_to_linear_srgb, xyz_weights
+from wgbragg.optics import transfer_matrix_reflectance, yeh_reflectance
 
 A = BraggMirror(1.0, 1.5, 250.0, 250.0, 10)        # Fig. 7 configuration A (alpha 0.1)
 B = BraggMirror(1.0, 1.5, 494.0, 494.0, 10)        # configuration B (alpha 0.05)

@@ -37,8 +37,7 @@ import math
 import numpy as np
 import pytest
 
-from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer, ShiftedPoints
-from wgbragg import gpu
+from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer, ShiftedPoints, gpu
 from wgbragg.bsdf.layered import model_gpu as layered_gpu
 from wgbragg.bsdf.layered.model import refract_in
 from wgbragg.bsdf.transmission_filter import TransmissionFilter

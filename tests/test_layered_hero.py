@@ -7,12 +7,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import unit_direction
 
 from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer
-from wgbragg.colour import colorimetry
 from wgbragg.bsdf.layered.model import HERO
-
-from conftest import unit_direction
+from wgbragg.colour import colorimetry
 
 A = BraggMirror(1.0, 1.5, 250.0, 250.0, 10)
 COATED = BraggMirror(1.35, 1.5, 250.0, 250.0, 10)

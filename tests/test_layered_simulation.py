@@ -29,13 +29,12 @@ from conftest import LAYERED_PAIRS, coating_internal_reflectance, cosine_mean
 from conftest import paper_smape as smape
 from conftest import unit_direction as direction
 
-from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer
-from wgbragg import gpu
+from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer, gpu
 from wgbragg.bsdf.layered import simulation as layered_simulation
-from wgbragg.colour.colorimetry import linear_srgb_to_xyz, xyz_to_linear_srgb, xyz_weights
 from wgbragg.bsdf.layered.model import coating_reflectance
 from wgbragg.bsdf.microfacet import ggx_G1
 from wgbragg.bsdf.transmission_filter import TransmissionFilter
+from wgbragg.colour.colorimetry import linear_srgb_to_xyz, xyz_to_linear_srgb, xyz_weights
 
 pytestmark = pytest.mark.gpu
 

@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 import trimesh
 
-from wgbragg.scene.teapot_data import TEAPOT_PATCHES, TEAPOT_POINTS
 from wgbragg.scene.meshes import (
     TriangleMesh,
     area_weighted_normals,
@@ -15,6 +14,7 @@ from wgbragg.scene.meshes import (
     sphere_mesh,
     utah_teapot,
 )
+from wgbragg.scene.teapot_data import TEAPOT_PATCHES, TEAPOT_POINTS
 
 ATOL = 1e-12
 

@@ -10,13 +10,12 @@ from __future__ import annotations
 
 import itertools
 import math
-
 from pathlib import Path
 
 import numpy as np
 import pytest
-from scipy.integrate import quad
 from conftest import expected_direction_counts, pooled_chi2_pvalue
+from scipy.integrate import quad
 
 from wgbragg import gpu
 from wgbragg.bsdf.microfacet import ggx_D, ggx_G1, ggx_sample_visible_normal, ggx_visible_normal_pdf

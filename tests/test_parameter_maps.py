@@ -10,7 +10,6 @@ float32 phase of stripes and rings, the lattice coordinates of the noise) and ``
 from __future__ import annotations
 
 import re
-
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +17,7 @@ import pytest
 from PIL import Image
 
 from wgbragg import gpu
+from wgbragg.scene.model import ParameterMap
 from wgbragg.scene.parameter_maps import (
     MAP_KINDS,
     MAP_RECORD_DTYPE,
@@ -26,7 +26,6 @@ from wgbragg.scene.parameter_maps import (
     noise_lattice,
     pack_maps,
 )
-from wgbragg.scene.model import ParameterMap
 
 KERNELS = Path(__file__).resolve().parent / "kernels"
 """The test suite's own WGSL kernels (not shipped in the wheel)."""

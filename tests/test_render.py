@@ -17,11 +17,13 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from wgbragg.render import renderer as render_module
 from wgbragg.app.cli import main
 from wgbragg.common.exr import read_exr, write_exr
-from wgbragg.render.renderer import Renderer, display_transform, save_png
-from wgbragg.scene.model import PRESETS, load_preset, load_scene
+from wgbragg.render import Renderer, display_transform, save_png
+from wgbragg.render import display as display_module
+from wgbragg.render import packing as packing_module
+from wgbragg.render import renderer as render_module
+from wgbragg.scene import PRESETS, load_preset, load_scene
 
 pytestmark = pytest.mark.gpu
 
@@ -312,7 +314,7 @@ def test_png_is_written_atomically(tmp_path, monkeypatch):
     def fail(*args, **kwargs):
         raise OSError("disk full")
 
-    monkeypatch.setattr(render_module.Image.Image, "save", fail)
+    monkeypatch.setattr(display_module.Image.Image, "save", fail)
     with pytest.raises(OSError, match="disk full"):
         save_png(image, tmp_path / "out" / "broken.png")
     # Neither the target nor a temporary file is left behind; the earlier image is intact.
@@ -555,7 +557,7 @@ def test_an_edit_rebuilds_only_the_edited_layers_tables(device, monkeypatch, mod
     from wgbragg import BraggMirror, RoughBraggLayer
     from wgbragg.scene.model import LayeredBraggMaterial
 
-    monkeypatch.setattr(render_module, "_shared_layers", collections.OrderedDict())
+    monkeypatch.setattr(packing_module, "_shared_layers", collections.OrderedDict())
     scene = load_preset("teapot")
     name, material = next((n, m) for n, m in scene.materials.items()
                           if isinstance(m, LayeredBraggMaterial) and len(m.layers) > 1)
@@ -602,10 +604,10 @@ def test_interior_nodes_carry_the_axis_that_orders_their_children():
 
     mesh = sphere_mesh(2)
     bvh = build_bvh(mesh.vertices, mesh.faces)
-    counts = render_module._node_counts(bvh)
+    counts = packing_module._node_counts(bvh)
     interior = bvh.node_count == 0
     np.testing.assert_array_equal(counts[~interior], bvh.node_count[~interior])
-    assert np.all(counts[interior] & render_module._INTERIOR)
+    assert np.all(counts[interior] & packing_module._INTERIOR)
     left = bvh.node_left[interior]
     centre = bvh.node_min + bvh.node_max
     delta = centre[left + 1] - centre[left]

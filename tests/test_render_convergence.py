@@ -38,13 +38,13 @@ import pytest
 from scipy.interpolate import RegularGridInterpolator
 from scipy.ndimage import binary_erosion, maximum_filter, minimum_filter
 
-from wgbragg.colour import colorimetry
 from wgbragg.bsdf.layered.model import LUT_RESOLUTION_DEG, coating_reflectance
+from wgbragg.colour import colorimetry
 from wgbragg.common.metrics import smape as paper_smape
 from wgbragg.lighting.procedural_environment import ProceduralEnvironment, environment_radiance
-from wgbragg.render import renderer as render_module
-from wgbragg.render.renderer import PARAMS_DTYPE, Renderer
-from wgbragg.scene.model import Camera, Environment, load_scene
+from wgbragg.render import PARAMS_DTYPE, Renderer
+from wgbragg.render import packing as packing_module
+from wgbragg.scene import Camera, Environment, load_scene
 
 SIZE = 16  # pixels a side: the sphere is about 15 pixels across
 SMAPE_LIMIT = 0.02
@@ -395,7 +395,7 @@ def _spectral(material):
 def test_twin_reads_what_the_renderer_uploads(kind):
     environment = Environment(kind, radiance=(0.2, 0.5, 0.9), intensity=1.5)
     params = np.zeros((), PARAMS_DTYPE)
-    render_module._environment(environment, params)
+    packing_module._environment(environment, params)
     twin = ProceduralEnvironment.from_scene(environment)
     for name in ("zenith", "horizon", "ground", "disc_radiance", "disc_direction"):
         np.testing.assert_allclose(getattr(twin, name), params[name], rtol=1e-6, atol=1e-7)

@@ -31,7 +31,7 @@ from wgbragg.lighting.ibl import (
     moment_statistics,
 )
 from wgbragg.lighting.procedural_environment import ProceduralEnvironment
-from wgbragg.scene.model import load_preset, load_scene
+from wgbragg.scene import load_preset, load_scene
 
 pytestmark = pytest.mark.gpu
 
@@ -192,7 +192,8 @@ def test_filtered_modes_refuse_what_they_cannot_shade(device, tmp_path):
 
 def test_a_roughness_edit_prefilters_only_the_new_roughness(device, tmp_path, monkeypatch):
     """Levels the scene keeps are reused across updates; the image is a fresh renderer's."""
-    import wgbragg.lighting.environment_prefilter as prefilter_module
+    # The renderer prefilters through wgbragg.render.packing: patch the name it looks up.
+    from wgbragg.render import packing as prefilter_module
 
     asked = []
     original = prefilter_module.prefilter_environment

@@ -13,7 +13,7 @@ from wgbragg import gpu
 
 pytestmark = pytest.mark.gpu
 
-# Layered configurations as wgbragg.render.renderer._layered_buffers sets them (LUT from the cache,
+# Layered configurations as wgbragg.render.packing.layered_buffers sets them (LUT from the cache,
 # or
 # an in-kernel colour by each factored method; period maps force in-kernel mirrors).
 LAYERED = [

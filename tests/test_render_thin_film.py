@@ -19,7 +19,7 @@ from PIL import Image
 from wgbragg import ThinFilm
 from wgbragg.bsdf.microfacet import ggx_G1, ggx_sample_visible_normal
 from wgbragg.render.renderer import Renderer
-from wgbragg.scene.model import load_scene
+from wgbragg.scene import load_scene
 
 # --------------------------------------------------------------------------------- helpers
 

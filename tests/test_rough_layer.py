@@ -15,10 +15,10 @@ import pytest
 
 from wgbragg import BraggMirror, RoughBraggLayer
 from wgbragg.bsdf import rough_layer
-from wgbragg.colour.colorimetry import xyz_weights
 from wgbragg.bsdf.microfacet import ggx_G1
-from wgbragg.optics import yeh_reflectance
 from wgbragg.bsdf.transmission_filter import TransmissionFilter, ballistic_transmission_reference
+from wgbragg.colour.colorimetry import xyz_weights
+from wgbragg.optics import yeh_reflectance
 
 IDENTITY_ATOL = 1e-3  # App. C: rows of the filter sum to G1 within this
 THETA = np.radians([0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 85.0])

@@ -15,9 +15,9 @@ import pytest
 from conftest import sample_chi2_pvalue
 
 from wgbragg import ThinFilm
-from wgbragg.colour.colorimetry import linear_srgb_to_xyz, xyz_to_linear_srgb, xyz_weights
 from wgbragg.bsdf.microfacet import ggx_D, ggx_G1
 from wgbragg.bsdf.rough_thin_film import RoughThinFilm, reflection_quadrature
+from wgbragg.colour.colorimetry import linear_srgb_to_xyz, xyz_to_linear_srgb, xyz_weights
 
 FILMS = {
     "fig7": ThinFilm(1.33, 550.0, n_base=2.0, k_base=0.5),

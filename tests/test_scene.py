@@ -7,9 +7,8 @@ from pathlib import Path
 import pytest
 
 from wgbragg import LayeredBragg
-from wgbragg.common import luts
-from wgbragg.scene import model as scene
-from wgbragg.scene.model import (
+from wgbragg.bsdf import filter_cache
+from wgbragg.scene import (
     AreaLight,
     BraggLayerSpec,
     Camera,
@@ -24,6 +23,7 @@ from wgbragg.scene.model import (
     load_preset,
     load_scene,
 )
+from wgbragg.scene import model as scene
 
 MINIMAL = """\
 [camera]
@@ -75,7 +75,7 @@ def no_filters(monkeypatch):
     def forbidden(*args, **kwargs):
         raise AssertionError("a transmission filter was baked or loaded")
 
-    monkeypatch.setattr(luts, "transmission_filter", forbidden)
+    monkeypatch.setattr(filter_cache, "transmission_filter", forbidden)
 
 
 # ------------------------------------------------------------------------------------ presets

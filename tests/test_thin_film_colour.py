@@ -12,8 +12,6 @@ import tmm
 
 from wgbragg import ThinFilm
 from wgbragg.colour.colorimetry import delta_e_2000, xyz_to_linear_srgb, xyz_weights
-from wgbragg.optics.metals import METALS, SpectralIndex
-from wgbragg.optics import thin_film_reflectance
 from wgbragg.colour.thin_film import (
     DEFAULT_ORDER,
     E_TO_D65_BRADFORD,
@@ -25,6 +23,8 @@ from wgbragg.colour.thin_film import (
     fourier_windows,
     fourier_xyz,
 )
+from wgbragg.optics import thin_film_reflectance
+from wgbragg.optics.metals import METALS, SpectralIndex
 
 SERIES_ATOL = 1e-12  # the series summed far enough against the Airy closed form
 TMM_ATOL = 1e-10  # float64 Airy against tmm

@@ -18,13 +18,13 @@ from scipy.integrate import IntegrationWarning
 from wgbragg import gpu
 from wgbragg.bsdf import transmission_filter
 from wgbragg.bsdf.microfacet import ggx_G1
-from wgbragg.optics import yeh_reflectance
 from wgbragg.bsdf.transmission_filter import (
     F_alpha,
     TransmissionFilter,
     ballistic_transmission_reference,
     difference_angle_grid,
 )
+from wgbragg.optics import yeh_reflectance
 
 ALPHAS = [0.01, 0.1, 0.4, 1.0]
 IDENTITY_ATOL = 3e-4  # |sum_d weights - G1(theta_i)|, theta_i <= 89 deg; measured <= 1.8e-4

@@ -21,12 +21,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import EXPECT_LAVAPIPE
 from PIL import Image
 
-from conftest import EXPECT_LAVAPIPE
+from wgbragg.app.viewer import DEFAULT_FILM, Viewer
 from wgbragg.render import Renderer, display_transform
 from wgbragg.scene.model import LayeredBraggMaterial, ThinFilmMaterial
-from wgbragg.app.viewer import DEFAULT_FILM, Viewer
 
 pytestmark = pytest.mark.gpu
 

@@ -35,16 +35,17 @@ from pathlib import Path
 
 import colour
 import numpy as np
+
 # Figures built without pyplot render through the Agg canvas: no display, no global backend
 # state, whatever MPLBACKEND says.
 from matplotlib.figure import Figure
 from tqdm import tqdm
 
 from wgbragg import BraggMirror, ThinFilm
-from wgbragg.common.atomic import atomic_path
 from wgbragg.colour.landmark_methods import angular_correction, envelope
-from wgbragg.optics.landmarks import VISIBLE_OMEGA
+from wgbragg.common.atomic import atomic_path
 from wgbragg.optics import bloch_dispersion, yeh_reflectance
+from wgbragg.optics.landmarks import VISIBLE_OMEGA
 
 __all__ = [
     "FIG3_MIRROR",

@@ -17,8 +17,8 @@ import warnings
 
 import numpy as np
 
-from wgbragg.common.atomic import check_output_folder, check_output_path
 from wgbragg.app.scatterogram import SIZE_RANGE
+from wgbragg.common.atomic import check_output_folder, check_output_path
 
 __all__ = ["main"]
 
@@ -59,8 +59,8 @@ def _mirror(args):
 def _info(_args) -> int:
     import wgpu
 
-    from wgbragg._version import __version__
     from wgbragg import gpu
+    from wgbragg._version import __version__
 
     print(f"wgbragg {__version__}, wgpu {wgpu.__version__}")
     info = gpu.adapter_info()
@@ -138,10 +138,10 @@ def _bake(args) -> int:
 
 
 def _scatterogram(args) -> int:
-    from wgbragg.bsdf.materials import BraggMirror
-    from wgbragg.bsdf.layered.model import LayeredBragg
-    from wgbragg.bsdf.rough_layer import RoughBraggLayer
     from wgbragg.app.scatterogram import jewel_beetle, save_scatterogram, scatterogram
+    from wgbragg.bsdf.layered.model import LayeredBragg
+    from wgbragg.bsdf.materials import BraggMirror
+    from wgbragg.bsdf.rough_layer import RoughBraggLayer
 
     check_output_path(args.output, "--output", ".png")
     theta = _radians("--theta-deg", args.theta_deg, below_high=True)

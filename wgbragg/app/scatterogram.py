@@ -15,11 +15,11 @@ import os
 
 import numpy as np
 
+from wgbragg.bsdf.layered.model import LayeredBragg
+from wgbragg.bsdf.materials import BraggMirror
+from wgbragg.bsdf.rough_layer import RoughBraggLayer
 from wgbragg.common.atomic import atomic_path, check_output_path
 from wgbragg.common.validation import as_float_array, check_angle, check_integer
-from wgbragg.bsdf.materials import BraggMirror
-from wgbragg.bsdf.layered.model import LayeredBragg
-from wgbragg.bsdf.rough_layer import RoughBraggLayer
 
 __all__ = [
     "CIRCLES_DEG",

@@ -21,6 +21,10 @@ import types
 import numpy as np
 
 from wgbragg.bsdf import filter_cache
+from wgbragg.bsdf.materials import BraggMirror
+from wgbragg.bsdf.transmission_filter import check_filter_alpha
+from wgbragg.colour.colorimetry import xyz_weights
+from wgbragg.colour.methods import COLOUR_METHODS
 from wgbragg.common.validation import (
     check_count,
     check_extinction,
@@ -28,9 +32,6 @@ from wgbragg.common.validation import (
     check_real,
     check_thickness,
 )
-from wgbragg.colour.colorimetry import xyz_weights
-from wgbragg.colour.methods import COLOUR_METHODS
-from wgbragg.bsdf.materials import BraggMirror
 from wgbragg.optics.metals import METALS
 from wgbragg.render import Renderer, display_transform, ibl_levels
 from wgbragg.scene import (
@@ -46,7 +47,6 @@ from wgbragg.scene import (
     ThinFilmMaterial,
     load_preset,
 )
-from wgbragg.bsdf.transmission_filter import check_filter_alpha
 
 __all__ = [
     "DEFAULT_FILM",

@@ -15,7 +15,6 @@ import time
 import numpy as np
 
 from wgbragg import gpu
-from wgbragg.colour.methods import COLOUR_METHODS
 from wgbragg.app.viewer import (
     FILM_COLOUR_METHOD,
     FILTER_BUDGET_S,
@@ -25,6 +24,7 @@ from wgbragg.app.viewer import (
     TABLE_BUDGET_MS,
     Viewer,
 )
+from wgbragg.colour.methods import COLOUR_METHODS
 
 __all__ = ["PANEL_WIDTH", "ViewerWindow"]
 

@@ -16,15 +16,15 @@ import weakref
 
 import numpy as np
 
-from wgbragg.colour import colorimetry
 from wgbragg import gpu
-from wgbragg.optics import pointwise_gpu, yeh_gpu
-from wgbragg.common.validation import check_angle, check_backend, check_broadcast, check_wavelength
+from wgbragg.bsdf import filter_cache
 from wgbragg.bsdf.materials import BraggMirror
 from wgbragg.bsdf.microfacet import ggx_G1
-from wgbragg.optics.yeh import cell_coefficients, yeh_reflectance
 from wgbragg.bsdf.transmission_filter import TransmissionFilter, check_filter_alpha
-from wgbragg.bsdf import filter_cache
+from wgbragg.colour import colorimetry
+from wgbragg.common.validation import check_angle, check_backend, check_broadcast, check_wavelength
+from wgbragg.optics import pointwise_gpu, yeh_gpu
+from wgbragg.optics.yeh import cell_coefficients, yeh_reflectance
 
 __all__ = ["RoughBraggLayer"]
 

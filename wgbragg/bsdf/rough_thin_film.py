@@ -15,6 +15,15 @@ import numbers
 
 import numpy as np
 
+from wgbragg.bsdf.materials import ThinFilm
+from wgbragg.bsdf.microfacet import (
+    check_alpha,
+    ggx_D_unchecked,
+    ggx_G1_over_cos,
+    ggx_sample_visible_normal,
+    half_vector,
+)
+from wgbragg.colour.thin_film import DEFAULT_ORDER, FOURIER_METHODS, check_order
 from wgbragg.common.validation import (
     as_float_array,
     check_angle,
@@ -22,16 +31,6 @@ from wgbragg.common.validation import (
     check_directions,
     check_wavelength,
 )
-from wgbragg.bsdf.materials import ThinFilm
-from wgbragg.bsdf.microfacet import (
-    ggx_D_unchecked,
-    ggx_G1_over_cos,
-    check_alpha,
-    ggx_sample_visible_normal,
-    half_vector,
-)
-from wgbragg.colour.thin_film import DEFAULT_ORDER, FOURIER_METHODS
-from wgbragg.colour.thin_film import check_order
 
 __all__ = [
     "ALPHA_MIN",

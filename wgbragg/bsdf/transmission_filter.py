@@ -19,6 +19,7 @@ from collections.abc import Callable
 import numpy as np
 
 from wgbragg import gpu
+from wgbragg.bsdf.microfacet import check_alpha, ggx_D_unchecked, ggx_G1_over_cos
 from wgbragg.common.validation import (
     as_float_array,
     check_angle,
@@ -26,7 +27,6 @@ from wgbragg.common.validation import (
     check_broadcast,
     check_count,
 )
-from wgbragg.bsdf.microfacet import ggx_D_unchecked, ggx_G1_over_cos, check_alpha
 
 __all__ = [
     "BAKE_PARAMS_DTYPE",

@@ -17,11 +17,11 @@ import functools
 
 import numpy as np
 
-from wgbragg.colour import reference_gpu
-from wgbragg.colour import grid as colour_grid
 from wgbragg import gpu
-from wgbragg.optics import yeh_gpu
+from wgbragg.colour import grid as colour_grid
+from wgbragg.colour import reference_gpu
 from wgbragg.colour.landmark_methods import total_reflection
+from wgbragg.optics import yeh_gpu
 from wgbragg.optics.landmarks import VISIBLE_OMEGA
 
 __all__ = ["WORKGROUP_SIZE", "benchmark_grid_xyz", "grid_angle_inputs", "grid_xyz"]

@@ -14,9 +14,9 @@ import numpy as np
 
 from wgbragg.colour import colorimetry
 from wgbragg.colour import grid as colour_grid
-from wgbragg.common.validation import check_angle, check_integer
 from wgbragg.colour.grid import GRID_NODES
-from wgbragg.optics.landmarks import VISIBLE_OMEGA, integer_ranges, find_landmarks_many
+from wgbragg.common.validation import check_angle, check_integer
+from wgbragg.optics.landmarks import VISIBLE_OMEGA, find_landmarks_many, integer_ranges
 from wgbragg.optics.yeh import cell_coefficients, yeh_reflectance
 
 __all__ = [

@@ -14,11 +14,10 @@ import functools
 
 import numpy as np
 
+from wgbragg import gpu
 from wgbragg.colour import colorimetry
 from wgbragg.colour import grid as colour_grid
 from wgbragg.colour import grid_gpu as colour_grid_gpu
-from wgbragg import gpu
-from wgbragg.optics import yeh_gpu
 from wgbragg.colour.grid import GRID_NODES
 from wgbragg.colour.landmark_methods import (
     AVERAGING_MIN_PERIODS,
@@ -29,8 +28,9 @@ from wgbragg.colour.landmark_methods import (
     check_quadrature,
     check_subdivisions,
 )
-from wgbragg.optics.stacks import BraggStack
+from wgbragg.optics import yeh_gpu
 from wgbragg.optics.landmarks import KINDS
+from wgbragg.optics.stacks import BraggStack
 
 __all__ = [
     "DENSITY_SLOPE_BITS",

@@ -16,8 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wgbragg.colour import colorimetry
-from wgbragg.colour import reference_gpu
+from wgbragg.colour import colorimetry, reference_gpu
 from wgbragg.common.validation import (
     as_float_array,
     check_angle,

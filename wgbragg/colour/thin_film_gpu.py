@@ -18,17 +18,17 @@ import functools
 import numpy as np
 
 from wgbragg import gpu
-from wgbragg.common.validation import check_angle
 from wgbragg.colour.thin_film import (
     E_TO_D65_BRADFORD,
     FOURIER_METHODS,
     PREFILTER_STEP_NM,
     TABLE_STEP_NM,
-    evanescent_nodes,
     check_order,
     check_thickness_std,
+    evanescent_nodes,
     fourier_windows,
 )
+from wgbragg.common.validation import check_angle
 
 __all__ = ["PARAMS_DTYPE", "PARAMS_FIELDS", "WORKGROUP_SIZE", "benchmark_xyz", "fourier_xyz"]
 

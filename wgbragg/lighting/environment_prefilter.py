@@ -20,9 +20,9 @@ import numpy as np
 from tqdm import tqdm
 
 from wgbragg import gpu
+from wgbragg.bsdf.microfacet import ggx_D, ggx_G1
 from wgbragg.common.validation import as_float_array, check_backend, check_integer
 from wgbragg.lighting.environment_map import LUMINANCE_WEIGHTS, EnvironmentMap
-from wgbragg.bsdf.microfacet import ggx_D, ggx_G1
 from wgbragg.lighting.procedural_environment import ProceduralEnvironment
 
 __all__ = [

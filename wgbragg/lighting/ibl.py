@@ -17,18 +17,18 @@ from collections.abc import Callable
 
 import numpy as np
 
-from wgbragg.colour import colorimetry
-from wgbragg.common.validation import as_float_array, check_broadcast, check_directions
 from wgbragg.bsdf.materials import ThinFilm
 from wgbragg.bsdf.microfacet import check_alpha
 from wgbragg.bsdf.rough_thin_film import QUADRATURE_NODES, reflection_quadrature
+from wgbragg.colour import colorimetry
 from wgbragg.colour.thin_film import (
     DEFAULT_ORDER,
-    fourier_xyz_flat,
     FOURIER_METHODS,
     PREFILTER_RANGE_NM,
     check_order,
+    fourier_xyz_flat,
 )
+from wgbragg.common.validation import as_float_array, check_broadcast, check_directions
 
 __all__ = [
     "ALBEDO_TABLE_NODES",

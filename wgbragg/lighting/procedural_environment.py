@@ -15,7 +15,6 @@ import math
 
 import numpy as np
 
-
 __all__ = ["PALETTES", "PROCEDURAL_TYPES", "ProceduralEnvironment", "environment_radiance"]
 
 PALETTES = {

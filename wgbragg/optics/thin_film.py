@@ -6,8 +6,8 @@ import numpy as np
 
 from wgbragg.common.validation import check_broadcast, check_index, check_thickness
 from wgbragg.optics.checks import check_complex_index, check_light
-from wgbragg.optics.series import sinc, sinhc
 from wgbragg.optics.fresnel import normal_component
+from wgbragg.optics.series import sinc, sinhc
 
 __all__ = ["airy_amplitude", "thin_film_reflectance"]
 

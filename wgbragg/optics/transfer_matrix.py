@@ -6,8 +6,8 @@ import numpy as np
 
 from wgbragg.common.validation import MAX_THICKNESS_NM, as_float_array
 from wgbragg.optics.checks import check_complex_index, check_light
-from wgbragg.optics.series import sinc
 from wgbragg.optics.fresnel import normal_component
+from wgbragg.optics.series import sinc
 
 __all__ = ["transfer_matrix_reflectance"]
 

@@ -13,8 +13,8 @@ import numpy as np
 
 from wgbragg.common.validation import check_count, check_index, check_thickness
 from wgbragg.optics.checks import check_light
-from wgbragg.optics.series import sinc, sinhc
 from wgbragg.optics.fresnel import fresnel_r, normal_component
+from wgbragg.optics.series import sinc, sinhc
 
 __all__ = ["YEH_METHODS", "bloch_dispersion", "cell_coefficients", "yeh_reflectance"]
 

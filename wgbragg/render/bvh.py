@@ -122,18 +122,8 @@ class BVH:
             Barycentric coordinates of the hit (weights of the face's second and third
             vertex); NaN for a miss.
         """
-        origins, directions = np.broadcast_arrays(
-            _as_points("origins", origins), _as_points("directions", directions)
-        )
-        if np.any(np.all(directions == 0.0, axis=1)):
-            raise ValueError("directions must be non-zero vectors")
+        origins, directions, t_max = _check_rays(origins, directions, t_max)
         rays = len(origins)
-        t_max = np.asarray(t_max, dtype=np.float64)
-        if t_max.ndim > 1 or (t_max.ndim == 1 and len(t_max) != rays):
-            raise ValueError(f"t_max must be a scalar or have shape ({rays},)")
-        if np.isnan(t_max).any() or np.any(t_max <= 0.0):
-            raise ValueError("t_max must be > 0")
-
         best_t = np.broadcast_to(t_max, (rays,)).copy()
         best_face = np.full(rays, -1, dtype=np.int64)
         best_u = np.full(rays, np.nan)
@@ -192,6 +182,22 @@ class BVH:
             best_face[r] = face[closer]
             best_u[r] = u[closer]
             best_v[r] = v[closer]
+
+
+def _check_rays(origins, directions, t_max) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:meth:`BVH.intersect`'s rays as float64 arrays of shape (R, 3), and ``t_max``, checked."""
+    origins, directions = np.broadcast_arrays(
+        _as_points("origins", origins), _as_points("directions", directions)
+    )
+    if np.any(np.all(directions == 0.0, axis=1)):
+        raise ValueError("directions must be non-zero vectors")
+    rays = len(origins)
+    t_max = np.asarray(t_max, dtype=np.float64)
+    if t_max.ndim > 1 or (t_max.ndim == 1 and len(t_max) != rays):
+        raise ValueError(f"t_max must be a scalar or have shape ({rays},)")
+    if np.isnan(t_max).any() or np.any(t_max <= 0.0):
+        raise ValueError("t_max must be > 0")
+    return origins, directions, t_max
 
 
 def _moller_trumbore(origins, directions, v0, v1, v2):
@@ -314,127 +320,222 @@ def build_bvh(vertices, faces, leaf_size: int = 4, bins: int = 16, progress: boo
     if progress is None:
         progress = triangles >= _PROGRESS_THRESHOLD
 
-    corners = vertices[faces]
-    low = corners.min(axis=1)
-    high = corners.max(axis=1)
-    del corners
-    centroid = 0.5 * (low + high)
-    # Component arrays keep the per-level gathers and ufunc.at reductions one-dimensional,
-    # which numpy runs far faster than their (n, 3) forms.
-    low_c = [np.ascontiguousarray(low[:, k]) for k in range(3)]
-    high_c = [np.ascontiguousarray(high[:, k]) for k in range(3)]
-    centroid_c = [np.ascontiguousarray(centroid[:, k]) for k in range(3)]
-
-    capacity = 2 * triangles - 1
-    node_low = np.empty((capacity, 3))
-    node_high = np.empty((capacity, 3))
-    node_child = np.full(capacity, -1, dtype=np.int64)
-    node_first = np.zeros(capacity, dtype=np.int64)
-    node_count = np.zeros(capacity, dtype=np.int64)
-    node_low[0] = low.min(axis=0)
-    node_high[0] = high.max(axis=0)
-    node_count[0] = triangles
-    nodes = 1
-    order = np.arange(triangles, dtype=np.int64)
+    bounds = _Bounds.of(vertices, faces)
+    nodes = _Nodes.root(bounds, triangles)
     levels = [np.array([0])]
     active = levels[0] if triangles > leaf_size else levels[0][:0]
 
     bar = tqdm(total=triangles, desc="BVH", unit="tri", disable=not progress)
-    bar.update(triangles - int(node_count[active].sum()))
+    bar.update(triangles - int(nodes.count[active].sum()))
     while active.size:
-        count = node_count[active]
-        start = node_first[active]
+        level = _Level.of(nodes, active)
+        children = nodes.split(active, level, _best_splits(level, bounds, bins))
+        levels.append(children)
+        active = children[nodes.count[children] > leaf_size]
+        bar.update(len(level.tris) - int(nodes.count[active].sum()))
+    bar.close()
+    return _flatten(nodes, levels, vertices, faces)
+
+
+@dataclass(frozen=True)
+class _Bounds:
+    """Per-triangle bounding boxes and centroids, one array per axis: component arrays keep
+    the per-level gathers and ufunc.at reductions one-dimensional, which numpy runs far faster
+    than their (n, 3) forms."""
+
+    low: list[np.ndarray]
+    high: list[np.ndarray]
+    centroid: list[np.ndarray]
+
+    @classmethod
+    def of(cls, vertices: np.ndarray, faces: np.ndarray) -> _Bounds:
+        corners = vertices[faces]
+        low = corners.min(axis=1)
+        high = corners.max(axis=1)
+        del corners
+        centroid = 0.5 * (low + high)
+        return cls(*([np.ascontiguousarray(a[:, k]) for k in range(3)]
+                     for a in (low, high, centroid)))
+
+    def total(self) -> tuple[np.ndarray, np.ndarray]:
+        """The box around every triangle."""
+        return (np.array([a.min() for a in self.low]), np.array([a.max() for a in self.high]))
+
+
+@dataclass(frozen=True)
+class _Level:
+    """The triangles of a level's active nodes, gathered node after node."""
+
+    count: np.ndarray  # per node: its triangles
+    start: np.ndarray  # per node: its first slot in the triangle order
+    offset: np.ndarray  # per node: its first triangle in ``tris``
+    segment: np.ndarray  # per triangle: its node (0 .. active - 1)
+    local: np.ndarray  # per triangle: its rank within its node
+    tris: np.ndarray  # per triangle: its face index
+
+    @classmethod
+    def of(cls, nodes: _Nodes, active: np.ndarray) -> _Level:
+        count = nodes.count[active]
+        start = nodes.first[active]
         offset = np.concatenate(([0], np.cumsum(count)[:-1]))
         total = int(count.sum())
         segment = np.repeat(np.arange(len(active)), count)
         local = np.arange(total) - offset[segment]
-        tris = order[start[segment] + local]
+        tris = nodes.order[start[segment] + local]
+        return cls(count, start, offset, segment, local, tris)
 
-        cmin = np.stack([np.minimum.reduceat(centroid_c[k][tris], offset) for k in range(3)], 1)
-        cmax = np.stack([np.maximum.reduceat(centroid_c[k][tris], offset) for k in range(3)], 1)
-        extent = cmax - cmin
-        axis = np.argmax(extent, axis=1)
-        rows = np.arange(len(active))
-        span = extent[rows, axis]
-        splittable = span > 0.0
-        with np.errstate(divide="ignore"):
-            scale = np.where(splittable, bins / span, 0.0)
-        axis_t = axis[segment]
-        value = np.choose(axis_t, [centroid_c[k][tris] for k in range(3)])
-        bin_index = ((value - cmin[rows, axis][segment]) * scale[segment]).astype(np.int64)
-        np.clip(bin_index, 0, bins - 1, out=bin_index)
-        key = segment * bins + bin_index
 
-        cells = len(active) * bins
-        bin_count = np.bincount(key, minlength=cells).reshape(-1, bins)
-        bin_low = np.full((3, cells), np.inf)
-        bin_high = np.full((3, cells), -np.inf)
-        for k in range(3):
-            np.minimum.at(bin_low[k], key, low_c[k][tris])
-            np.maximum.at(bin_high[k], key, high_c[k][tris])
-        bin_low = bin_low.reshape(3, -1, bins).transpose(1, 2, 0)
-        bin_high = bin_high.reshape(3, -1, bins).transpose(1, 2, 0)
+@dataclass(frozen=True)
+class _Split:
+    """Each active node's split: which of its triangles go left, how many, and the children's
+    boxes (``splittable`` False: split in half by position, both children in the parent's)."""
 
-        left_low = np.minimum.accumulate(bin_low, axis=1)[:, :-1]
-        left_high = np.maximum.accumulate(bin_high, axis=1)[:, :-1]
-        right_low = np.minimum.accumulate(bin_low[:, ::-1], axis=1)[:, ::-1][:, 1:]
-        right_high = np.maximum.accumulate(bin_high[:, ::-1], axis=1)[:, ::-1][:, 1:]
-        left_n = np.cumsum(bin_count, axis=1)[:, :-1]
-        right_n = count[:, None] - left_n
-        with np.errstate(invalid="ignore"):
-            cost = _half_area(left_low, left_high) * left_n
-            cost += _half_area(right_low, right_high) * right_n
-        # A boundary with an empty side is no split; unsplittable nodes have only those.
-        cost[(left_n == 0) | (right_n == 0)] = np.inf
-        best = np.argmin(cost, axis=1)
+    goes_left: np.ndarray  # per triangle
+    n_left: np.ndarray
+    splittable: np.ndarray
+    left_low: np.ndarray
+    left_high: np.ndarray
+    right_low: np.ndarray
+    right_high: np.ndarray
 
-        goes_left = np.where(
-            splittable[segment],
-            bin_index <= best[segment],
-            local < (count // 2)[segment],
-        )
-        n_left = np.where(splittable, left_n[rows, best], count // 2)
-        taken = np.cumsum(goes_left)
-        before = taken[offset] - goes_left[offset]
+
+def _binned(level: _Level, bounds: _Bounds, bins: int):
+    """Each triangle's SAH bin along its node's axis of largest centroid extent, whether the
+    node can be split there (its centroids do not coincide), and per node and bin the triangle
+    count and box, shapes (nodes, bins) and (nodes, bins, 3)."""
+    nodes = len(level.count)
+    tris, offset, segment = level.tris, level.offset, level.segment
+    cmin = np.stack([np.minimum.reduceat(bounds.centroid[k][tris], offset) for k in range(3)], 1)
+    cmax = np.stack([np.maximum.reduceat(bounds.centroid[k][tris], offset) for k in range(3)], 1)
+    extent = cmax - cmin
+    axis = np.argmax(extent, axis=1)
+    rows = np.arange(nodes)
+    span = extent[rows, axis]
+    splittable = span > 0.0
+    with np.errstate(divide="ignore"):
+        scale = np.where(splittable, bins / span, 0.0)
+    axis_t = axis[segment]
+    value = np.choose(axis_t, [bounds.centroid[k][tris] for k in range(3)])
+    bin_index = ((value - cmin[rows, axis][segment]) * scale[segment]).astype(np.int64)
+    np.clip(bin_index, 0, bins - 1, out=bin_index)
+    key = segment * bins + bin_index
+
+    cells = nodes * bins
+    bin_count = np.bincount(key, minlength=cells).reshape(-1, bins)
+    bin_low = np.full((3, cells), np.inf)
+    bin_high = np.full((3, cells), -np.inf)
+    for k in range(3):
+        np.minimum.at(bin_low[k], key, bounds.low[k][tris])
+        np.maximum.at(bin_high[k], key, bounds.high[k][tris])
+    bin_low = bin_low.reshape(3, -1, bins).transpose(1, 2, 0)
+    bin_high = bin_high.reshape(3, -1, bins).transpose(1, 2, 0)
+    return bin_index, splittable, bin_count, bin_low, bin_high
+
+
+def _best_splits(level: _Level, bounds: _Bounds, bins: int) -> _Split:
+    """The split of each active node at the bin boundary of least surface area cost [1]_."""
+    bin_index, splittable, bin_count, bin_low, bin_high = _binned(level, bounds, bins)
+    count, segment = level.count, level.segment
+    left_low = np.minimum.accumulate(bin_low, axis=1)[:, :-1]
+    left_high = np.maximum.accumulate(bin_high, axis=1)[:, :-1]
+    right_low = np.minimum.accumulate(bin_low[:, ::-1], axis=1)[:, ::-1][:, 1:]
+    right_high = np.maximum.accumulate(bin_high[:, ::-1], axis=1)[:, ::-1][:, 1:]
+    left_n = np.cumsum(bin_count, axis=1)[:, :-1]
+    right_n = count[:, None] - left_n
+    with np.errstate(invalid="ignore"):
+        cost = _half_area(left_low, left_high) * left_n
+        cost += _half_area(right_low, right_high) * right_n
+    # A boundary with an empty side is no split; unsplittable nodes have only those.
+    cost[(left_n == 0) | (right_n == 0)] = np.inf
+    best = np.argmin(cost, axis=1)
+    rows = np.arange(len(count))
+    return _Split(
+        goes_left=np.where(splittable[segment], bin_index <= best[segment],
+                           level.local < (count // 2)[segment]),
+        n_left=np.where(splittable, left_n[rows, best], count // 2),
+        splittable=splittable,
+        left_low=left_low[rows, best],
+        left_high=left_high[rows, best],
+        right_low=right_low[rows, best],
+        right_high=right_high[rows, best],
+    )
+
+
+@dataclass
+class _Nodes:
+    """The tree under construction, in creation order: a node's two children are adjacent,
+    ``child`` the left one's index (-1 for a leaf)."""
+
+    low: np.ndarray
+    high: np.ndarray
+    child: np.ndarray
+    first: np.ndarray
+    count: np.ndarray
+    order: np.ndarray  # face indices, grouped by node
+    total: int  # nodes made so far
+
+    @classmethod
+    def root(cls, bounds: _Bounds, triangles: int) -> _Nodes:
+        """Room for the largest tree (``2 F - 1`` nodes), holding the root."""
+        capacity = 2 * triangles - 1
+        nodes = cls(low=np.empty((capacity, 3)), high=np.empty((capacity, 3)),
+                    child=np.full(capacity, -1, dtype=np.int64),
+                    first=np.zeros(capacity, dtype=np.int64),
+                    count=np.zeros(capacity, dtype=np.int64),
+                    order=np.arange(triangles, dtype=np.int64), total=1)
+        nodes.low[0], nodes.high[0] = bounds.total()
+        nodes.count[0] = triangles
+        return nodes
+
+    def split(self, active: np.ndarray, level: _Level, split: _Split) -> np.ndarray:
+        """Reorder each active node's triangles left side first and give it two children;
+        returns the children, left and right of each node in turn."""
+        segment, local, start, count = level.segment, level.local, level.start, level.count
+        n_left = split.n_left
+        taken = np.cumsum(split.goes_left)
+        before = taken[level.offset] - split.goes_left[level.offset]
         rank_left = taken - 1 - before[segment]
         rank_right = local - (taken - before[segment])
-        position = start[segment] + np.where(goes_left, rank_left, n_left[segment] + rank_right)
-        order[position] = tris
+        position = start[segment] + np.where(split.goes_left, rank_left,
+                                             n_left[segment] + rank_right)
+        self.order[position] = level.tris
 
-        left = nodes + 2 * rows
+        rows = np.arange(len(active))
+        left = self.total + 2 * rows
         right = left + 1
-        nodes += 2 * len(active)
-        node_child[active] = left
-        node_first[left] = start
-        node_count[left] = n_left
-        node_first[right] = start + n_left
-        node_count[right] = count - n_left
-        node_low[left] = np.where(splittable[:, None], left_low[rows, best], node_low[active])
-        node_high[left] = np.where(splittable[:, None], left_high[rows, best], node_high[active])
-        node_low[right] = np.where(splittable[:, None], right_low[rows, best], node_low[active])
-        node_high[right] = np.where(splittable[:, None], right_high[rows, best], node_high[active])
-        node_first[active] = 0
-        node_count[active] = 0
+        self.total += 2 * len(active)
+        self.child[active] = left
+        self.first[left] = start
+        self.count[left] = n_left
+        self.first[right] = start + n_left
+        self.count[right] = count - n_left
+        keep = split.splittable[:, None]
+        self.low[left] = np.where(keep, split.left_low, self.low[active])
+        self.high[left] = np.where(keep, split.left_high, self.high[active])
+        self.low[right] = np.where(keep, split.right_low, self.low[active])
+        self.high[right] = np.where(keep, split.right_high, self.high[active])
+        self.first[active] = 0
+        self.count[active] = 0
+        return np.stack([left, right], axis=1).ravel()
 
-        children = np.stack([left, right], axis=1).ravel()
-        levels.append(children)
-        active = children[node_count[children] > leaf_size]
-        bar.update(total - int(node_count[active].sum()))
-    bar.close()
 
-    position = _depth_first_positions(levels, node_child[:nodes])
-    node_min, node_max = _outward_float32(node_low[:nodes], node_high[:nodes])
-    new = np.empty(nodes, dtype=np.int64)
-    new[position] = np.arange(nodes)
-    child = node_child[new]
+def _flatten(nodes: _Nodes, levels: list[np.ndarray], vertices: np.ndarray,
+             faces: np.ndarray) -> BVH:
+    """The finished tree in the depth-first, sibling-pair layout (see the module docstring)."""
+    total = nodes.total
+    position = _depth_first_positions(levels, nodes.child[:total])
+    node_min, node_max = _outward_float32(nodes.low[:total], nodes.high[:total])
+    new = np.empty(total, dtype=np.int64)
+    new[position] = np.arange(total)
+    child = nodes.child[new]
     node_left = np.where(child >= 0, position[np.maximum(child, 0)], -1)
     return BVH(
         node_min=_readonly(node_min[new]),
         node_max=_readonly(node_max[new]),
         node_left=_readonly(node_left.astype(np.int32)),
-        node_first=_readonly(node_first[new].astype(np.int32)),
-        node_count=_readonly(node_count[new].astype(np.int32)),
-        triangle_order=_readonly(order.astype(np.int32)),
+        node_first=_readonly(nodes.first[new].astype(np.int32)),
+        node_count=_readonly(nodes.count[new].astype(np.int32)),
+        triangle_order=_readonly(nodes.order.astype(np.int32)),
         vertices=_readonly(vertices),
         faces=_readonly(faces),
         depth=len(levels) - 1,

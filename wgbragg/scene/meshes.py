@@ -220,6 +220,24 @@ def load_mesh(path: str | os.PathLike) -> TriangleMesh:
         )
     if not path.is_file():
         raise ValueError(f"mesh file {path}: does not exist or is not a file")
+    parts = [_placed_part(path, transform, part) for transform, part in _read_parts(path, suffix)]
+    vertices, faces, normals, uvs = zip(*parts, strict=True)
+    # Each part's faces index its own vertices: shift them past the parts before it.
+    bases = np.cumsum([0, *map(len, vertices[:-1])])
+    try:
+        return TriangleMesh(
+            vertices=np.concatenate(vertices),
+            faces=np.concatenate([f + base for f, base in zip(faces, bases, strict=True)]),
+            normals=np.concatenate(normals),
+            uv=None if any(uv is None for uv in uvs) else np.concatenate(uvs),
+        )
+    except ValueError as error:
+        raise ValueError(f"mesh file {path}: {error}") from error
+
+
+def _read_parts(path: Path, suffix: str) -> list:
+    """The file's (node transform, trimesh.Trimesh) pairs of every mesh instance with
+    triangles; a file that cannot be read, or holds no triangles, is refused naming it."""
     try:
         scene = trimesh.load_scene(_mesh_source(path, suffix), file_type=suffix[1:],
                                    allow_remote=False)
@@ -234,47 +252,36 @@ def load_mesh(path: str | os.PathLike) -> TriangleMesh:
         raise ValueError(f"mesh file {path}: cannot be read ({error})") from error
     if not parts:
         raise ValueError(f"mesh file {path}: contains no triangles")
+    return parts
 
-    vertices, faces, normals, uvs = [], [], [], []
-    base = 0
-    for transform, part in parts:
-        linear = transform[:3, :3]
-        determinant = np.linalg.det(linear)
-        if not determinant != 0.0:
-            raise ValueError(f"mesh file {path}: a node transform is singular")
-        part_vertices = np.asarray(part.vertices, dtype=np.float64) @ linear.T + transform[:3, 3]
-        part_faces = np.asarray(part.faces, dtype=np.int64)
-        if determinant < 0.0:
-            # A mirroring transform turns counter-clockwise faces clockwise.
-            part_faces = part_faces[:, ::-1]
-        # trimesh has no public flag for "normals came from the file"; its cache holds
-        # vertex normals only when a loader set them (Scene.dump would drop them, hence
-        # the transforms applied here), and the normals trimesh computes itself are
-        # angle-weighted, not area-weighted.
-        part_normals = area_weighted_normals(part_vertices, part_faces)
-        if "vertex_normals" in part._cache:
-            stored = np.asarray(part.vertex_normals, dtype=np.float64) @ np.linalg.inv(linear)
-            usable = np.linalg.norm(stored, axis=1) > 0.0
-            part_normals[usable] = stored[usable]
-        part_uv = getattr(part.visual, "uv", None)
-        if part_uv is not None:
-            part_uv = np.asarray(part_uv, dtype=np.float64)
-            if part_uv.shape != (len(part_vertices), 2) or not np.isfinite(part_uv).all():
-                part_uv = None
-        vertices.append(part_vertices)
-        faces.append(part_faces + base)
-        normals.append(part_normals)
-        uvs.append(part_uv)
-        base += len(part_vertices)
-    try:
-        return TriangleMesh(
-            vertices=np.concatenate(vertices),
-            faces=np.concatenate(faces),
-            normals=np.concatenate(normals),
-            uv=None if any(uv is None for uv in uvs) else np.concatenate(uvs),
-        )
-    except ValueError as error:
-        raise ValueError(f"mesh file {path}: {error}") from error
+
+def _placed_part(path: Path, transform: np.ndarray, part):
+    """Vertices, faces (counter-clockwise), normals and uv (None when unusable) of one mesh
+    instance, moved by its node transform."""
+    linear = transform[:3, :3]
+    determinant = np.linalg.det(linear)
+    if not determinant != 0.0:
+        raise ValueError(f"mesh file {path}: a node transform is singular")
+    vertices = np.asarray(part.vertices, dtype=np.float64) @ linear.T + transform[:3, 3]
+    faces = np.asarray(part.faces, dtype=np.int64)
+    if determinant < 0.0:
+        # A mirroring transform turns counter-clockwise faces clockwise.
+        faces = faces[:, ::-1]
+    # trimesh has no public flag for "normals came from the file"; its cache holds
+    # vertex normals only when a loader set them (Scene.dump would drop them, hence
+    # the transforms applied here), and the normals trimesh computes itself are
+    # angle-weighted, not area-weighted.
+    normals = area_weighted_normals(vertices, faces)
+    if "vertex_normals" in part._cache:
+        stored = np.asarray(part.vertex_normals, dtype=np.float64) @ np.linalg.inv(linear)
+        usable = np.linalg.norm(stored, axis=1) > 0.0
+        normals[usable] = stored[usable]
+    uv = getattr(part.visual, "uv", None)
+    if uv is not None:
+        uv = np.asarray(uv, dtype=np.float64)
+        if uv.shape != (len(vertices), 2) or not np.isfinite(uv).all():
+            uv = None
+    return vertices, faces, normals, uv
 
 
 def sphere_mesh(subdivisions: int = 4) -> TriangleMesh:
@@ -387,9 +394,29 @@ def utah_teapot(subdivisions: int = 8) -> TriangleMesh:
     if not 1 <= subdivisions <= 64:
         raise ValueError(f"subdivisions must be an integer from 1 to 64, got {subdivisions}")
     n = subdivisions
+    parameter = np.linspace(0.0, 1.0, n + 1)
+    points, unit, defined = _teapot_surface(parameter)
+    label = _weld(points, unit, defined)
+    welded = int(label.max()) + 1
+    vertices = _sum_by_label(label, points, welded)
+    vertices /= np.bincount(label, minlength=welded)[:, None]
+    faces, corner_points = _teapot_faces(n, label, vertices)
+
+    normals = _sum_by_label(label, unit, welded)
+    fallback = ~(np.linalg.norm(normals, axis=1) > 1e-6)
+    normals[fallback] = area_weighted_normals(vertices, faces)[fallback]
+    # Point k of a patch sits at (s, t) = (parameter[k // (n + 1)], parameter[k % (n + 1)]).
+    local = corner_points % ((n + 1) ** 2)
+    corner_uv = np.stack([parameter[local // (n + 1)], parameter[local % (n + 1)]], axis=-1)
+    return _split_by_corner(vertices, normals, faces, corner_uv)
+
+
+def _teapot_surface(parameter: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every patch evaluated on the grid ``parameter`` x ``parameter``: points (patch after
+    patch, row-major), their unit normals, and whether the normal is defined (the patch
+    derivatives do not vanish there, as they do at the poles)."""
     control = np.asarray(TEAPOT_POINTS, dtype=np.float64)[np.asarray(TEAPOT_PATCHES)]
     control = control.reshape(-1, 4, 4, 3)
-    parameter = np.linspace(0.0, 1.0, n + 1)
     value, slope = _bernstein(parameter)
     points = np.einsum("ui,pijc,vj->puvc", value, control, value).reshape(-1, 3)
     d_u = np.einsum("ui,pijc,vj->puvc", slope, control, value).reshape(-1, 3)
@@ -401,12 +428,13 @@ def utah_teapot(subdivisions: int = 8) -> TriangleMesh:
     defined = length > 1e-9 * np.linalg.norm(np.ptp(points, axis=0)) ** 2
     unit = np.zeros_like(patch_normals)
     unit[defined] = patch_normals[defined] / length[defined, None]
+    return points, unit, defined
 
-    label = _weld(points, unit, defined)
-    welded = int(label.max()) + 1
-    vertices = _sum_by_label(label, points, welded)
-    vertices /= np.bincount(label, minlength=welded)[:, None]
 
+def _teapot_faces(n: int, label: np.ndarray,
+                  vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two triangles per grid quad of every patch, as welded vertex indices, less those that
+    collapse (at the poles); and the patch grid points at their corners."""
     grid = np.arange((n + 1) * (n + 1)).reshape(n + 1, n + 1)
     a = grid[:-1, :-1].ravel()
     b = grid[1:, :-1].ravel()
@@ -414,7 +442,7 @@ def utah_teapot(subdivisions: int = 8) -> TriangleMesh:
     d = grid[:-1, 1:].ravel()
     # Stepping along v then u turns counter-clockwise about d_v x d_u, the outward normal.
     quad_faces = np.concatenate([np.stack([a, d, c], 1), np.stack([a, c, b], 1)])
-    patch_offset = (np.arange(len(control)) * (n + 1) ** 2)[:, None, None]
+    patch_offset = (np.arange(len(TEAPOT_PATCHES)) * (n + 1) ** 2)[:, None, None]
     corner_points = (quad_faces[None] + patch_offset).reshape(-1, 3)
     faces = label[corner_points]
     corners = vertices[faces]
@@ -425,15 +453,7 @@ def utah_teapot(subdivisions: int = 8) -> TriangleMesh:
         (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 2] != faces[:, 0])
     )
     kept = distinct & (area2 > 0.0)
-    faces = faces[kept]
-
-    normals = _sum_by_label(label, unit, welded)
-    fallback = ~(np.linalg.norm(normals, axis=1) > 1e-6)
-    normals[fallback] = area_weighted_normals(vertices, faces)[fallback]
-    # Point k of a patch sits at (s, t) = (parameter[k // (n + 1)], parameter[k % (n + 1)]).
-    local = corner_points[kept] % ((n + 1) ** 2)
-    corner_uv = np.stack([parameter[local // (n + 1)], parameter[local % (n + 1)]], axis=-1)
-    return _split_by_corner(vertices, normals, faces, corner_uv)
+    return faces[kept], corner_points[kept]
 
 
 def _split_by_corner(

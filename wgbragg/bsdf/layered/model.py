@@ -20,21 +20,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from wgbragg.colour import colorimetry
-from wgbragg.common.validation import (
-    as_float_array,
-    check_backend,
-    check_broadcast,
-    check_directions,
-    check_wavelength,
-)
-from wgbragg.bsdf.microfacet import (
-    ggx_D_unchecked,
-    ggx_G1_over_cos,
-    ggx_sample_visible_normal,
-    half_vector,
-)
-from wgbragg.optics.yeh import yeh_reflectance
+from wgbragg.bsdf.layered import model_gpu
 from wgbragg.bsdf.layered.coating import (
     HERO,
     INTEGRATED,
@@ -43,12 +29,27 @@ from wgbragg.bsdf.layered.coating import (
     refract_in,
     refract_out,
 )
-from wgbragg.bsdf.rough_layer import RoughBraggLayer
-from wgbragg.common.sampling import ShiftedPoints
-from wgbragg.bsdf.layered import model_gpu
-from wgbragg.colour.methods import COLOUR_METHODS
-from wgbragg.common.validation import check_angle, check_seed
 from wgbragg.bsdf.layered.simulation import simulate
+from wgbragg.bsdf.microfacet import (
+    ggx_D_unchecked,
+    ggx_G1_over_cos,
+    ggx_sample_visible_normal,
+    half_vector,
+)
+from wgbragg.bsdf.rough_layer import RoughBraggLayer
+from wgbragg.colour import colorimetry
+from wgbragg.colour.methods import COLOUR_METHODS
+from wgbragg.common.sampling import ShiftedPoints
+from wgbragg.common.validation import (
+    as_float_array,
+    check_angle,
+    check_backend,
+    check_broadcast,
+    check_directions,
+    check_seed,
+    check_wavelength,
+)
+from wgbragg.optics.yeh import yeh_reflectance
 
 __all__ = ["BRDF_METHODS", "HERO", "INTEGRATED", "LayeredBragg", "coating_reflectance"]
 

@@ -14,12 +14,12 @@ import dataclasses
 
 import numpy as np
 
-from wgbragg.colour import colorimetry
 from wgbragg import gpu
-from wgbragg.optics import yeh_gpu
-from wgbragg.colour.landmark_methods_gpu import GPU_LANDMARK_METHODS, check_mirror, cmf_table
 from wgbragg.bsdf.layered.coating import HERO, INTEGRATED
+from wgbragg.colour import colorimetry
+from wgbragg.colour.landmark_methods_gpu import GPU_LANDMARK_METHODS, check_mirror, cmf_table
 from wgbragg.common.sampling import ShiftedPoints
+from wgbragg.optics import yeh_gpu
 
 __all__ = [
     "FACTORED_COLOUR_METHODS",

@@ -16,16 +16,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wgbragg.colour import colorimetry
 from wgbragg import gpu
-from wgbragg.optics import yeh_gpu
+from wgbragg.bsdf.layered.coating import coating_reflectance, refract_in
+from wgbragg.colour import colorimetry
 from wgbragg.common.validation import (
     check_broadcast,
     check_directions,
     check_integer,
     check_wavelength,
 )
-from wgbragg.bsdf.layered.coating import coating_reflectance, refract_in
+from wgbragg.optics import yeh_gpu
 
 __all__ = ["MAX_WAVELENGTHS", "MODES", "PATH_WAVELENGTHS", "TRANSMISSIONS", "bounce_limit",
            "simulate", "walk_iterations"]
