@@ -13,6 +13,7 @@ from conftest import load_tool
 from test_luts import fake_filter_module
 
 from wgbragg.app.cli import DEFAULT_ALPHAS, build_parser, main
+from wgbragg.bsdf import filter_cache
 from wgbragg.common import luts
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -22,7 +23,7 @@ TINY = ["--resolution-deg", "10", "--psi-samples", "8", "--backend", "numpy", "-
 @pytest.fixture
 def fake_filter(monkeypatch):
     module = fake_filter_module()
-    monkeypatch.setitem(sys.modules, "wgbragg.bsdf.transmission_filter", module)
+    monkeypatch.setattr(filter_cache, "TransmissionFilter", module.TransmissionFilter)
     return module
 
 

@@ -24,6 +24,8 @@ from wgbragg import BraggMirror, gpu
 from wgbragg.colour import landmark_methods as cm
 from wgbragg.colour import landmark_methods_gpu as colour_landmarks_gpu
 from wgbragg.colour.colorimetry import delta_e_2000, xyz_to_linear_srgb
+from wgbragg.colour.methods import GPU_COLOUR_METHODS
+from wgbragg.optics import landmarks_gpu
 from wgbragg.optics.landmarks import find_landmarks
 
 pytestmark = pytest.mark.gpu
@@ -142,7 +144,7 @@ LANDMARK_MIRRORS = [
 ], ids=lambda value: repr(value) if isinstance(value, BraggMirror) else f"{value.size}-angles")
 @pytest.mark.parametrize("pol", ["s", "p"])
 def test_landmarks_match_numpy(mirror, theta, pol):
-    found = colour_landmarks_gpu.find_landmarks_gpu(mirror, theta, pol)
+    found = landmarks_gpu.find_landmarks_gpu(mirror, theta, pol)
     total = 0
     for angle, (omega, kind) in zip(theta, found, strict=True):
         # The kernel sees the float32 angle.
@@ -249,7 +251,7 @@ def test_backend_dispatch_and_theta_shapes(method):
     assert mirror.xyz(0.25, method=method, backend="gpu").shape == (3,)
     assert mirror.xyz(np.zeros((0, 4)), method=method, backend="gpu").shape == (0, 4, 3)
     assert mirror.rgb([0.1], method=method, backend="gpu").shape == (1, 3)
-    assert method in cm.GPU_COLOUR_METHODS
+    assert method in GPU_COLOUR_METHODS
 
 
 def test_subdivided_options():

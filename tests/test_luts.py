@@ -456,7 +456,7 @@ def fake_filter_module() -> types.ModuleType:
 @pytest.fixture
 def fake_filter(monkeypatch) -> types.ModuleType:
     module = fake_filter_module()
-    monkeypatch.setitem(sys.modules, "wgbragg.bsdf.transmission_filter", module)
+    monkeypatch.setattr(filter_cache, "TransmissionFilter", module.TransmissionFilter)
     return module
 
 

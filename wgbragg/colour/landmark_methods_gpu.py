@@ -29,7 +29,6 @@ from wgbragg.colour.landmark_methods import (
     check_subdivisions,
 )
 from wgbragg.optics import yeh_gpu
-from wgbragg.optics.landmarks import KINDS
 from wgbragg.optics.stacks import BraggStack
 
 __all__ = [
@@ -40,7 +39,6 @@ __all__ = [
     "approx_xyz",
     "averaged_xyz",
     "benchmark_xyz",
-    "find_landmarks_gpu",
     "landmark_xyz",
     "pack_density_slopes",
     "subdivided_xyz",
@@ -53,9 +51,6 @@ GPU_LANDMARK_METHODS = {"approx": 0, "subdivided": 1, "averaged": 2}
 # device sooner (docs/performance.md, "wgbragg.colour.landmark_methods_gpu").
 WORKGROUP_SIZE = 64
 
-
-LANDMARK_CAPACITY = 128
-"""Landmarks per angle returned by :func:`find_landmarks_gpu` (a test aid)."""
 
 PARAMS_DTYPE = gpu.struct_dtype([
     ("n1", "f32"), ("n2", "f32"), ("d1_nm", "f32"), ("d2_nm", "f32"),
@@ -276,40 +271,3 @@ def averaged_xyz(mirror, theta, averaging_from=AVERAGING_MIN_PERIODS,
         return colour_grid_gpu.grid_xyz(mirror, theta, *grid, PANEL_NM)
     return landmark_xyz(mirror, theta, "averaged", averaging_from=averaging_from,
                         panels_per_oscillation=panels_per_oscillation)
-
-
-def find_landmarks_gpu(mirror: BraggStack, theta, polarization: str = "s"):
-    """Landmarks found by the float32 kernel (``wgsl/optics/landmarks_eval.wgsl``).
-
-    A test aid mirroring :func:`wgbragg.optics.landmarks.find_landmarks`.
-
-    Parameters
-    ----------
-    mirror : BraggMirror
-    theta : array_like
-        Angles in the host, radians, any shape.
-    polarization : {"s", "p"}
-
-    Returns
-    -------
-    list of (omega, kind) per angle (flattened order)
-        ``omega`` float64 rad/nm increasing, ``kind`` strings of ``landmarks.KINDS``; at most
-        :data:`LANDMARK_CAPACITY` each.
-    """
-    if polarization not in ("s", "p"):
-        raise ValueError(f"polarization must be 's' or 'p', got {polarization!r}")
-    params = yeh_gpu.bragg_params(mirror.n1, mirror.n2, mirror.d1, mirror.d2, mirror.N, mirror.host)
-    kernel = gpu.compute_pipeline(
-        "optics/landmarks_eval.wgsl",
-        constants={"POLARIZATION": int(polarization == "p"), "CAPACITY": LANDMARK_CAPACITY,
-                   "WORKGROUP_SIZE": WORKGROUP_SIZE},
-    )
-    flat = np.ascontiguousarray(np.asarray(theta, np.float64), np.float32).ravel()
-    found, count = kernel.run(
-        [flat], [((flat.size * LANDMARK_CAPACITY, 4), np.float32), (flat.size, np.uint32)],
-        params, count=flat.size,
-    )
-    found = found.reshape(flat.size, LANDMARK_CAPACITY, 4)
-    kinds = np.array(KINDS)
-    return [(found[i, : count[i], 0].astype(np.float64), kinds[found[i, : count[i], 1].astype(int)])
-            for i in range(flat.size)]
