@@ -8,7 +8,9 @@ import pytest
 
 from wgbragg import LayeredBragg
 from wgbragg.bsdf import filter_cache
-from wgbragg.scene import (
+from wgbragg.scene import load_preset, load_scene
+from wgbragg.scene import model as scene
+from wgbragg.scene.model import (
     AreaLight,
     BraggLayerSpec,
     Camera,
@@ -20,10 +22,7 @@ from wgbragg.scene import (
     Scene,
     SceneObject,
     Settings,
-    load_preset,
-    load_scene,
 )
-from wgbragg.scene import model as scene
 
 MINIMAL = """\
 [camera]

@@ -34,7 +34,8 @@ from wgbragg.common.validation import (
 )
 from wgbragg.optics.metals import METALS
 from wgbragg.render import Renderer, display_transform, ibl_levels
-from wgbragg.scene import (
+from wgbragg.scene import load_preset
+from wgbragg.scene.model import (
     ENVIRONMENT_TYPES,
     MAX_EXPOSURE,
     MAX_IMAGE_SIDE,
@@ -45,7 +46,6 @@ from wgbragg.scene import (
     ParameterMap,
     Scene,
     ThinFilmMaterial,
-    load_preset,
 )
 
 __all__ = [

@@ -1,64 +1,8 @@
-"""Scenes: the scene model (:mod:`~wgbragg.scene.model`) and its TOML reader
-(:mod:`~wgbragg.scene.reader`), meshes, spatially varying parameter maps and the shipped
-presets (``presets/*.toml``)."""
+"""Scenes: the scene model (:mod:`~wgbragg.scene.model`, where every scene class lives) and its
+TOML reader (:mod:`~wgbragg.scene.reader`), meshes, spatially varying parameter maps and the
+shipped presets (``presets/*.toml``). The package exports what a user of scene files needs."""
 
-from wgbragg.scene.model import (
-    ENVIRONMENT_TYPES,
-    IBL_MODES,
-    MAX_EXPOSURE,
-    MAX_IMAGE_PIXELS,
-    MAX_IMAGE_SIDE,
-    MAX_MAP_SCALE,
-    MAX_OBJECT_SCALE,
-    MAX_RADIANCE,
-    MESH_SUFFIXES,
-    MODES,
-    PRESETS,
-    PROCEDURAL_MAPS,
-    SHAPES,
-    TEXTURE_SUFFIXES,
-    AreaLight,
-    BraggLayerSpec,
-    Camera,
-    Environment,
-    LambertianMaterial,
-    LayeredBraggMaterial,
-    ParameterMap,
-    PointLight,
-    Scene,
-    SceneObject,
-    Settings,
-    ThinFilmMaterial,
-)
+from wgbragg.scene.model import MODES, PRESETS, Camera, Environment, Scene
 from wgbragg.scene.reader import load_preset, load_scene
 
-__all__ = [
-    "ENVIRONMENT_TYPES",
-    "IBL_MODES",
-    "MAX_EXPOSURE",
-    "MAX_IMAGE_PIXELS",
-    "MAX_IMAGE_SIDE",
-    "MAX_MAP_SCALE",
-    "MAX_OBJECT_SCALE",
-    "MAX_RADIANCE",
-    "MESH_SUFFIXES",
-    "MODES",
-    "PRESETS",
-    "PROCEDURAL_MAPS",
-    "SHAPES",
-    "TEXTURE_SUFFIXES",
-    "AreaLight",
-    "BraggLayerSpec",
-    "Camera",
-    "Environment",
-    "LambertianMaterial",
-    "LayeredBraggMaterial",
-    "ParameterMap",
-    "PointLight",
-    "Scene",
-    "SceneObject",
-    "Settings",
-    "ThinFilmMaterial",
-    "load_preset",
-    "load_scene",
-]
+__all__ = ["MODES", "PRESETS", "Camera", "Environment", "Scene", "load_preset", "load_scene"]
