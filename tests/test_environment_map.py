@@ -1,15 +1,18 @@
-"""EnvironmentMap: the convention, the sampling density (normalised, matched by the sampler in a
-chi-square test), lookups, n-dimensional input and refusals; then the float32 WGSL twin
-(wgsl/lighting/environment_map.wgsl) against it on the GPU.
+"""EnvironmentMap: the convention (Mitsuba 3's equirectangular orientation; the marked
+panorama of tests/test_environment_panorama.py checks it end to end), the bilinear lookups, the
+sampling density (normalised, matched by the sampler in a chi-square test), n-dimensional input
+and refusals; then the float32 WGSL twin (wgsl/lighting/environment_map.wgsl) against it on the
+GPU.
 
 GPU tolerances. The kernel sees the same float32 u and directions as numpy; it differs in its
 float32 arithmetic and CDFs, rounded by up to 2**-25 each, which moves u within its CDF step by
 up to ``CDF_ERROR``. So a sampled direction may differ from numpy's as much as numpy's moves
 when u moves by ``CDF_ERROR`` (into the neighbouring texel, at a CDF step), plus
-``DIRECTION_ATOL`` of float32 trigonometry. Densities agree to ``PDF_RTOL`` and radiance exactly
-(the texel's float32 value times the float32 intensity), except for directions within
-``EDGE_MARGIN`` texels of a texel edge, which may see the neighbour and are only checked to be
-finite.
+``DIRECTION_ATOL`` of float32 trigonometry. Densities agree to ``PDF_RTOL``, except for
+directions within ``EDGE_MARGIN`` texels of a texel edge, which may lie in the neighbour and
+are only checked to be finite. Radiance is continuous (bilinear): it agrees within
+``RADIANCE_RTOL`` of the largest of the four texels blended (float32 image coordinates,
+~1e-6 of a texel, times the step between neighbours, plus float32 rounding).
 """
 
 from __future__ import annotations
@@ -32,6 +35,7 @@ PDF_RTOL = 1e-4
 EDGE_MARGIN = 1e-5
 CDF_ERROR = 4 * 2.0**-24
 DIRECTION_ATOL = 1e-6
+RADIANCE_RTOL = 1e-4
 
 
 def sky(height, width, seed, sun=1e4):
@@ -58,17 +62,18 @@ def environment(request):
 
 
 def direction(theta, phi):
-    """The convention's direction of polar angle ``theta`` (from +y) and azimuth ``phi``."""
+    """The convention's direction of polar angle ``theta = pi v`` (from +y) and azimuth
+    ``phi = 2 pi u`` (Mitsuba 3's ``uv_to_direction``)."""
     theta, phi = np.broadcast_arrays(theta, phi)
     return np.stack(
-        [np.sin(theta) * np.sin(phi), np.cos(theta), np.sin(theta) * np.cos(phi)], axis=-1
+        [np.sin(theta) * np.sin(phi), np.cos(theta), -np.sin(theta) * np.cos(phi)], axis=-1
     )
 
 
 def texel_centres(environment):
     h, w = environment.height, environment.width
     theta = np.pi * (np.arange(h) + 0.5) / h
-    phi = 2.0 * np.pi * (np.arange(w) + 0.5) / w - np.pi
+    phi = 2.0 * np.pi * (np.arange(w) + 0.5) / w
     return direction(theta[:, None], phi[None, :])
 
 
@@ -94,9 +99,76 @@ def test_texel_centres_see_their_texels(environment):
     h, w = environment.height, environment.width
     np.testing.assert_array_equal(y, np.broadcast_to(np.arange(h)[:, None], (h, w)))
     np.testing.assert_array_equal(x, np.broadcast_to(np.arange(w)[None, :], (h, w)))
-    np.testing.assert_array_equal(
-        environment.radiance_at(centres), environment.radiance * environment.intensity
+    # Bilinear weights of 0 and 1 at the centres, up to the rounding of the angles.
+    np.testing.assert_allclose(
+        environment.radiance_at(centres), environment.radiance * environment.intensity,
+        rtol=1e-9, atol=1e-9 * environment.radiance.max() * environment.intensity,
     )
+
+
+def test_mitsuba_uv_mapping():
+    """u = atan2(d_x, -d_z) / (2 pi) wrapped to [0, 1) and v = acos(d_y) / pi pick the texel,
+    as Mitsuba 3's envmap maps directions to its image."""
+    environment = EnvironmentMap(sky(12, 20, seed=11))
+    d = random_directions(5000, seed=12)
+    u = np.mod(np.arctan2(d[:, 0], -d[:, 2]) / (2.0 * np.pi), 1.0)
+    v = np.arccos(d[:, 1]) / np.pi
+    x, y = environment.direction_to_texel(d)
+    np.testing.assert_array_equal(x, np.floor(u * 20).astype(int))
+    np.testing.assert_array_equal(y, np.floor(v * 12).astype(int))
+    # Named directions: -z at the left edge (the seam), +x a quarter across, +z at the centre,
+    # -x three quarters across.
+    x, _ = environment.direction_to_texel([[1e-9, 0, -1], [1, 0, 0], [0, 0, 1], [-1, 0, 0]])
+    np.testing.assert_array_equal(x, [0, 5, 10, 15])
+
+
+def test_bilinear_between_texel_centres():
+    radiance = np.zeros((4, 8, 3))
+    radiance[1, 2] = [8.0, 4.0, 2.0]
+    environment = EnvironmentMap(radiance, intensity=0.5)
+    centre = radiance[1, 2] * 0.5
+    # A quarter of a texel right of the centre (u + 1/4 texel) and a quarter above it.
+    u, v = (2.5 + 0.25) / 8, (1.5 - 0.25) / 4
+    d = direction(np.pi * v, 2.0 * np.pi * u)
+    np.testing.assert_allclose(environment.radiance_at(d), 0.75 * 0.75 * centre, rtol=1e-12)
+    # Halfway to the next centre in u, on the row's centre line.
+    d = direction(np.pi * 1.5 / 4, 2.0 * np.pi * 3.0 / 8)
+    np.testing.assert_allclose(environment.radiance_at(d), 0.5 * centre, rtol=1e-12)
+    # The density stays the texel's: the same anywhere inside it.
+    inside = direction(np.pi * np.array([1.05, 1.5, 1.95]) / 4,
+                       2.0 * np.pi * np.array([2.05, 2.5, 2.95]) / 8)
+    assert np.ptp(environment.pdf(inside)) == 0.0
+
+
+def test_bilinear_wraps_in_u_and_clamps_in_v():
+    radiance = np.zeros((3, 6, 3))
+    radiance[:, 0] = 1.0  # the first column: u in [0, 1/6]
+    radiance[0] += [0.0, 2.0, 0.0]  # the top row
+    environment = EnvironmentMap(radiance)
+    theta = np.pi * 1.5 / 3
+    # On the seam (-z), midway between the last column's centre and the first's.
+    for x in (0.0, -0.0, 1e-12, -1e-12):
+        seam = [x, math.cos(theta), -math.sin(theta)]
+        np.testing.assert_allclose(environment.radiance_at(seam), [0.5, 0.5, 0.5], rtol=1e-9)
+    # Above the first row's centres only u is interpolated: row 0 alone, up to +y.
+    for theta in (1e-9, np.pi / 6 * 0.999):
+        d = direction(theta, 2.0 * np.pi * 0.5 / 6)  # column 0's centre line
+        np.testing.assert_allclose(environment.radiance_at(d), [1.0, 3.0, 1.0], rtol=1e-9)
+    # Below the last row's centres, to -y: row 2 alone.
+    d = direction(np.pi * 0.999, 2.0 * np.pi * 0.5 / 6)
+    np.testing.assert_allclose(environment.radiance_at(d), [1.0, 1.0, 1.0], rtol=1e-9)
+    # The poles themselves are at u = 1/2, between columns 2 and 3.
+    np.testing.assert_array_equal(environment.radiance_at([0.0, 1.0, 0.0]), [0.0, 2.0, 0.0])
+    np.testing.assert_array_equal(environment.radiance_at([0.0, -1.0, -0.0]), 0.0)
+
+
+def test_one_row_map_interpolates_only_in_u():
+    radiance = np.zeros((1, 4, 3))
+    radiance[0, 1] = 4.0
+    environment = EnvironmentMap(radiance)
+    for theta in (1e-9, 0.3, np.pi / 2, 3.0, np.pi - 1e-9):
+        d = direction(theta, 2.0 * np.pi * 1.25 / 4)
+        np.testing.assert_allclose(environment.radiance_at(d), 3.0, rtol=1e-9)
 
 
 def test_image_centre_looks_along_plus_z_and_row_0_up():
@@ -107,7 +179,8 @@ def test_image_centre_looks_along_plus_z_and_row_0_up():
     np.testing.assert_array_equal(environment.radiance_at([0.0, 0.0, 1.0]), radiance[4, 8])
     np.testing.assert_array_equal(environment.radiance_at([0.0, 1.0, 0.0]), radiance[0, 0])
     d = environment.sample(np.random.default_rng(0).random((20_000, 2)))
-    in_centre = np.all(environment.radiance_at(d) == radiance[4, 8], axis=-1)
+    x, y = environment.direction_to_texel(d)
+    in_centre = (x == 8) & (y == 4)
     in_row_0 = d[:, 1] >= math.cos(math.pi / 9)
     assert in_centre.mean() > 0.97
     assert in_row_0.mean() > 0.01
@@ -118,6 +191,8 @@ def test_image_centre_looks_along_plus_z_and_row_0_up():
 
 
 def test_sun_direction_convention():
+    # A sun at azimuth az from +z towards +x (the scenes' procedural suns) lies at
+    # u = 1/2 - az / 360 degrees.
     environment = EnvironmentMap(np.ones((18, 36, 3)))
     azimuth, elevation = np.radians(125.0), np.radians(32.0)
     sun = [
@@ -126,7 +201,7 @@ def test_sun_direction_convention():
         math.cos(elevation) * math.cos(azimuth),
     ]
     x, y = environment.direction_to_texel(sun)
-    assert (int(x), int(y)) == (30, 5)  # 125 + 180 degrees of 360 by 10; 90 - 32 by 10
+    assert (int(x), int(y)) == (5, 5)  # 180 - 125 degrees of 360 by 10; 90 - 32 by 10
 
 
 def test_seam_and_poles():
@@ -141,7 +216,9 @@ def test_seam_and_poles():
             [0.0, -1.0, 0.0],
         ]
     )
-    np.testing.assert_array_equal(x, [0, 0, 7, 0, 4, 4])
+    # The seam: -z itself and u just above 0 (+x side) in column 0, just below 1 in column 7;
+    # the poles at u = 1/2.
+    np.testing.assert_array_equal(x, [0, 0, 0, 7, 4, 4])
     np.testing.assert_array_equal(y, [2, 2, 2, 2, 0, 3])
 
 
@@ -154,7 +231,7 @@ def test_pdf_integrates_to_one(environment):
     h, w = environment.height, environment.width
     n_theta, n_phi = h * -(-512 // h), 8 * w
     theta = np.pi * (np.arange(n_theta) + 0.5) / n_theta
-    phi = 2.0 * np.pi * (np.arange(n_phi) + 0.5) / n_phi - np.pi
+    phi = 2.0 * np.pi * (np.arange(n_phi) + 0.5) / n_phi
     pdf = environment.pdf(direction(theta[:, None], phi[None, :]))
     integral = np.sum(pdf * np.sin(theta)[:, None]) * (np.pi / n_theta) * (2.0 * np.pi / n_phi)
     assert integral == pytest.approx(1.0, rel=1e-5)
@@ -243,7 +320,7 @@ def chi2_pvalue(environment, directions, split=2):
         bins=[cos_edges, phi_edges],
     )
     # conftest's cells have z as the polar axis and phi from +x towards +y; ours are y and
-    # (from +z towards +x).
+    # atan2(x, z) = pi - 2 pi u, whose uniform bins are the texels' columns, split.
     expected = expected_direction_counts(
         lambda cells: environment.pdf(cells[..., [1, 2, 0]]),
         cos_edges,
@@ -442,12 +519,24 @@ def gpu_inputs(n, seed):
 
 def near_edge(environment, d):
     """Whether a direction lies within EDGE_MARGIN texels of a texel edge (the seam counted)."""
-    azimuth = (np.arctan2(d[:, 0], d[:, 2]) / (2 * np.pi) + 0.5) * environment.width
+    azimuth = (0.5 - np.arctan2(d[:, 0], d[:, 2]) / (2 * np.pi)) * environment.width
     polar = np.arctan2(np.hypot(d[:, 0], d[:, 2]), d[:, 1]) / np.pi * environment.height
     interior = (polar > 0.5) & (polar < environment.height - 0.5)
     return (np.abs(azimuth - np.round(azimuth)) < EDGE_MARGIN) | (
         interior & (np.abs(polar - np.round(polar)) < EDGE_MARGIN)
     )
+
+
+def radiance_scale(environment, d):
+    """The largest channel of the (up to 9) texels around each direction's texel, times the
+    intensity: a bound on the radiance its bilinear lookup blends."""
+    x, y = environment.direction_to_texel(d)
+    h, w = environment.height, environment.width
+    largest = environment.radiance.max(axis=-1)
+    scale = np.zeros(len(d))
+    for dy, dx in itertools.product((-1, 0, 1), repeat=2):
+        scale = np.maximum(scale, largest[np.clip(y + dy, 0, h - 1), (x + dx) % w])
+    return scale * environment.intensity
 
 
 def sample_spread(environment, u):
@@ -474,16 +563,17 @@ def test_gpu_matches_numpy(environment):
     np.testing.assert_allclose(np.linalg.norm(sampled, axis=-1), 1.0, atol=1e-6)
     u64, d64 = u.astype(np.float64), directions.astype(np.float64)
 
-    # Lookups: exactly the texel, its density to float32 accuracy.
-    packed = environment.packed()
-    x, y = environment.direction_to_texel(d64)
-    texel = packed[2 + environment.height + y * environment.width + x, :3]
+    # Lookups: bilinear radiance within RADIANCE_RTOL of the texels it blends (all of them,
+    # the seam and the poles included), the density to float32 accuracy.
+    expected_radiance = environment.radiance_at(d64)
+    scale = radiance_scale(environment, d64)
+    error = np.abs(radiance - expected_radiance).max(axis=-1)
+    print(f"radiance: max |gpu - numpy| / largest texel blended "
+          f"{(error / np.maximum(scale, 1e-300)).max():.2e}")
+    np.testing.assert_array_less(error, RADIANCE_RTOL * scale + 1e-30)
     compare = ~near_edge(environment, d64)
     compare[:n_special] = True
     assert compare.mean() > 0.99
-    np.testing.assert_array_equal(
-        radiance[compare], texel[compare] * np.float32(environment.intensity)
-    )
     np.testing.assert_allclose(pdf[compare], environment.pdf(d64[compare]), rtol=PDF_RTOL)
 
     # Samples: within what the float32 CDFs allow (the neighbour's, at a step).

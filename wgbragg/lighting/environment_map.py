@@ -3,14 +3,28 @@
 Float64 numpy twin of ``wgsl/lighting/environment_map.wgsl``, which reads
 :meth:`EnvironmentMap.packed`.
 
-Convention, stated once: +y is up. Texel column ``x`` in ``[0, W)`` covers the azimuths
-``phi`` in ``[2 pi x / W - pi, 2 pi (x + 1) / W - pi]``, measured from +z towards +x; row ``y``
-in ``[0, H)``, row 0 at the top of the image, covers the polar angles ``theta`` in
-``[pi y / H, pi (y + 1) / H]`` from +y. A direction is
-``d = (sin theta sin phi, cos theta, sin theta cos phi)``, so the image centre looks along +z
-and the seam ``phi = -pi`` belongs to column 0. Angles are in radians, densities per
-steradian, radiance in the map's unit (linear sRGB). Radiance is piecewise constant per texel,
-and so is the sampling density (``docs/physics.md``, "wgbragg.lighting.environment_map").
+Convention, stated once: the standard equirectangular (latitude-longitude) orientation, the
+one of Mitsuba 3's ``envmap`` and of a panorama viewed from inside it. +y is up. A direction
+``d`` has the image coordinates
+
+    ``u = atan2(d_x, -d_z) / (2 pi)`` wrapped to ``[0, 1)``, ``v = acos(d_y) / pi``,
+
+``u`` across the image from its left edge and ``v`` down from its top row; conversely
+``d = (sin theta sin phi, cos theta, -sin theta cos phi)`` with ``phi = 2 pi u`` and
+``theta = pi v``. Texel column ``x`` in ``[0, W)`` covers ``u`` in ``[x / W, (x + 1) / W]``
+and row ``y`` in ``[0, H)`` covers ``v`` in ``[y / H, (y + 1) / H]``, row 0 at +y. So the
+left and right edges look along -z (the seam, which belongs to column 0), ``u = 1/4`` along
++x, the image centre along +z and ``u = 3/4`` along -x: looking at the centre, the image's
+right is the viewer's right (+y up, right-handed). At the poles (``d_x = d_z = 0``) ``u`` is
+taken as 1/2. Angles are in radians, densities per steradian, radiance in the map's unit
+(linear sRGB).
+
+Radiance lookups are bilinear between texel centres (wrapping in ``u`` across the seam,
+clamped in ``v`` above the first row's centres and below the last's), while importance
+sampling follows the texels' luminance: the sampling density is piecewise constant per texel
+(``docs/physics.md``, "wgbragg.lighting.environment_map"), and :meth:`EnvironmentMap.pdf` is
+exactly the density :meth:`EnvironmentMap.sample` draws from, which keeps the estimators that
+combine them unbiased.
 """
 
 from __future__ import annotations
@@ -38,7 +52,8 @@ class EnvironmentMap:
     ----------
     radiance : array_like, shape (H, W, 3)
         Linear sRGB radiance (e.g. from :func:`wgbragg.common.exr.read_exr`), finite and >= 0,
-        ``H >= 1`` rows, ``W >= 2`` columns, in the module's convention.
+        ``H >= 1`` rows, ``W >= 2`` columns, in the module's convention (an equirectangular
+        image as Mitsuba 3 and panorama viewers read it, row 0 at the top).
     intensity : float
         Finite scale >= 0 applied to the returned radiance (its product with the largest
         radiance must be finite in float64); sampling ignores it.
@@ -116,7 +131,7 @@ class EnvironmentMap:
         self._density = (relative + floor) / total
 
     def direction_to_texel(self, directions) -> tuple[np.ndarray, np.ndarray]:
-        """The texel each direction sees.
+        """The texel holding each direction: the one whose luminance :meth:`pdf` uses.
 
         Parameters
         ----------
@@ -126,18 +141,25 @@ class EnvironmentMap:
         Returns
         -------
         x, y : numpy.ndarray of int, shape (...)
-            Column in ``[0, W)`` and row in ``[0, H)``. The seam ``phi = +-pi`` is column 0,
-            the pole -y row ``H - 1``.
+            Column ``floor(u W)`` in ``[0, W)`` and row ``floor(v H)`` in ``[0, H)``. The seam
+            ``u = 0`` (-z) is column 0, the pole -y row ``H - 1``.
 
         Raises
         ------
         ValueError
             If ``directions`` are not unit vectors with a trailing axis of 3.
         """
-        return self._texel(check_directions(directions, "directions"))
+        u, v = _image_coordinates(check_directions(directions, "directions"))
+        return self._texel(u, v)
 
     def radiance_at(self, directions) -> np.ndarray:
-        """Radiance arriving from ``directions``: their texel times ``intensity``.
+        """Radiance arriving from ``directions``, bilinear between texel centres, times
+        ``intensity``.
+
+        Texel ``(x, y)`` holds the radiance at its centre ``u = (x + 1/2) / W``,
+        ``v = (y + 1/2) / H``. A direction blends the four centres around it, wrapping in
+        ``u`` (the last column's neighbour is column 0) and clamping in ``v`` (above the
+        first row's centres and below the last's only ``u`` is interpolated).
 
         Parameters
         ----------
@@ -149,11 +171,24 @@ class EnvironmentMap:
         numpy.ndarray, shape (..., 3)
             Linear sRGB radiance, float64.
         """
-        x, y = self.direction_to_texel(directions)
-        return self.radiance[y, x] * self.intensity
+        u, v = _image_coordinates(check_directions(directions, "directions"))
+        s = u * self.width - 0.5  # in [-1/2, W - 1/2]
+        column = np.floor(s)
+        fx = (s - column)[..., None]
+        x0 = column.astype(np.intp) % self.width
+        x1 = (x0 + 1) % self.width
+        t = np.clip(v * self.height - 0.5, 0.0, self.height - 1.0)
+        y0 = np.minimum(t.astype(np.intp), max(self.height, 2) - 2)
+        fy = (t - y0)[..., None]
+        y1 = np.minimum(y0 + 1, self.height - 1)
+        r = self.radiance
+        top = r[y0, x0] + fx * (r[y0, x1] - r[y0, x0])
+        bottom = r[y1, x0] + fx * (r[y1, x1] - r[y1, x0])
+        return (top + fy * (bottom - top)) * self.intensity
 
     def pdf(self, directions) -> np.ndarray:
-        """Density of :meth:`sample` per steradian at ``directions``.
+        """Density of :meth:`sample` per steradian at ``directions``: constant over each
+        texel (:meth:`direction_to_texel`), proportional to its luminance plus a floor.
 
         Parameters
         ----------
@@ -201,9 +236,13 @@ class EnvironmentMap:
         sin2_half = sin2_top + v * band
         cos2_half = cos2_bottom + (1.0 - v) * band
         sin_theta = 2.0 * np.sqrt(sin2_half * cos2_half)
-        phi = 2.0 * np.pi * ((x + w) / self.width - 0.5)
+        # Uniform in u across the column. With the angle from the image centre (+z),
+        # phi - pi = 2 pi (u - 1/2) in [-pi, pi], sin phi = -sin(phi - pi) and likewise cos.
+        from_centre = 2.0 * np.pi * ((x + w) / self.width - 0.5)
         return np.stack(
-            [sin_theta * np.sin(phi), cos2_half - sin2_half, sin_theta * np.cos(phi)], axis=-1
+            [-sin_theta * np.sin(from_centre), cos2_half - sin2_half,
+             sin_theta * np.cos(from_centre)],
+            axis=-1,
         )
 
     def packed(self) -> np.ndarray:
@@ -243,14 +282,22 @@ class EnvironmentMap:
             raise ValueError("radiance is out of the float32 range of the packed layout")
         return packed
 
-    def _texel(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        x, y, z = d[..., 0], d[..., 1], d[..., 2]
-        azimuth = np.arctan2(x, z) / (2.0 * np.pi) + 0.5  # in [0, 1]
-        polar = np.arctan2(np.hypot(x, z), y) / np.pi  # in [0, 1]
-        # phi = +pi (azimuth 1) is the seam, where column 0 starts.
-        column = np.floor(azimuth * self.width).astype(np.intp) % self.width
-        row = np.minimum(np.floor(polar * self.height).astype(np.intp), self.height - 1)
+    def _texel(self, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        # u = 1 (the seam approached from the right edge) wraps to column 0.
+        column = np.floor(u * self.width).astype(np.intp) % self.width
+        row = np.minimum(np.floor(v * self.height).astype(np.intp), self.height - 1)
         return column, row
+
+
+def _image_coordinates(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(u, v)`` of unit directions, both in [0, 1]: ``u = atan2(x, -z) / (2 pi)``, computed
+    as ``1/2 - atan2(x, z) / (2 pi)`` (the same angle, wrapped to [0, 1] and accurate near the
+    image centre), 1/2 at the poles; ``v = acos(y) / pi``, accurate near the poles."""
+    x, y, z = d[..., 0], d[..., 1], d[..., 2]
+    pole = (x == 0.0) & (z == 0.0)
+    u = np.where(pole, 0.5, 0.5 - np.arctan2(x, z) / (2.0 * np.pi))
+    v = np.arctan2(np.hypot(x, z), y) / np.pi
+    return u, v
 
 
 def _invert(cdf: np.ndarray, row: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

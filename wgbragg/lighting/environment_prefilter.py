@@ -195,9 +195,11 @@ def _check_sizes(sizes) -> tuple[tuple[int, int], tuple[int, int]]:
 
 
 def _directions(sin_theta, cos_theta, sin_phi, cos_phi) -> np.ndarray:
-    """(rows, columns, 3) directions of the convention from per-row and per-column values."""
+    """(rows, columns, 3) directions of the convention, ``(sin theta sin phi, cos theta,
+    -sin theta cos phi)`` with ``phi = 2 pi u``, from per-row and per-column values."""
     s = sin_theta[:, None]
-    return np.stack(np.broadcast_arrays(s * sin_phi, cos_theta[:, None], s * cos_phi), axis=-1)
+    return np.stack(np.broadcast_arrays(s * sin_phi, cos_theta[:, None], -s * cos_phi),
+                    axis=-1)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -213,7 +215,8 @@ class _Grid:
 
     @property
     def phi(self) -> np.ndarray:
-        return 2.0 * np.pi * (np.arange(self.width) + 0.5) / self.width - np.pi
+        """2 pi u of the column centres."""
+        return 2.0 * np.pi * (np.arange(self.width) + 0.5) / self.width
 
     @property
     def half_edges_sin2(self) -> np.ndarray:
@@ -273,12 +276,12 @@ def _subsample_directions(grid: _Grid, rows: np.ndarray, columns: np.ndarray,
     z_edges = grid.half_edges_sin2
     fraction = (np.arange(n) + 0.5) / n
     z = z_edges[rows][:, None] + fraction[None, :] * (z_edges[rows + 1] - z_edges[rows])[:, None]
-    phi = 2.0 * np.pi * (columns[:, None] + fraction[None, :]) / grid.width - np.pi
+    phi = 2.0 * np.pi * (columns[:, None] + fraction[None, :]) / grid.width
     sin_theta = 2.0 * np.sqrt(z * (1.0 - z))
     cos_theta = 1.0 - 2.0 * z
     s = sin_theta[:, :, None]
     directions = np.stack(np.broadcast_arrays(
-        s * np.sin(phi)[:, None, :], cos_theta[:, :, None], s * np.cos(phi)[:, None, :]),
+        s * np.sin(phi)[:, None, :], cos_theta[:, :, None], -s * np.cos(phi)[:, None, :]),
         axis=-1)
     return directions.reshape(len(rows), n * n, 3)
 
@@ -331,8 +334,8 @@ def resample_environment(source, width: int, height: int) -> np.ndarray:
     Parameters
     ----------
     source : EnvironmentMap or ProceduralEnvironment
-        An image is averaged exactly (its piecewise constant radiance, weighted by solid
-        angle, ``intensity`` applied); a procedural environment is rasterised with regular
+        An image is averaged exactly (its texels as piecewise constant radiance, weighted
+        by solid angle, ``intensity`` applied); a procedural environment is rasterised with regular
         subsamples and its disc's energy kept exact (``docs/physics.md``,
         "wgbragg.lighting.environment_prefilter").
     width, height : int
@@ -573,9 +576,12 @@ def prefilter_environment(source, levels, backend: str = "gpu", sizes=None,
 
 
 def _azimuth_polar(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """phi / (2 pi) + 1/2 in [0, 1] and theta / pi in [0, 1] of unit directions."""
+    """The image coordinates ``u`` and ``v`` in [0, 1] of unit directions
+    (:mod:`wgbragg.lighting.environment_map`: ``u = atan2(x, -z) / (2 pi)`` wrapped, as
+    ``1/2 - atan2(x, z) / (2 pi)``, and 1/2 at the poles)."""
     x, y, z = d[..., 0], d[..., 1], d[..., 2]
-    return np.arctan2(x, z) / (2.0 * np.pi) + 0.5, np.arctan2(np.hypot(x, z), y) / np.pi
+    u = np.where((x == 0.0) & (z == 0.0), 0.5, 0.5 - np.arctan2(x, z) / (2.0 * np.pi))
+    return u, np.arctan2(np.hypot(x, z), y) / np.pi
 
 
 class PrefilteredEnvironment:

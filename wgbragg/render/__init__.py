@@ -8,6 +8,7 @@ from wgbragg.render.renderer import (
     MAX_BOUNCES,
     PATHS_PER_DISPATCH,
     Renderer,
+    WorldGeometry,
     check_size,
     max_lights,
 )
@@ -18,6 +19,7 @@ __all__ = [
     "PATHS_PER_DISPATCH",
     "SHARED_LAYERS",
     "Renderer",
+    "WorldGeometry",
     "check_size",
     "display_transform",
     "ibl_levels",

@@ -4,7 +4,8 @@
 (:mod:`wgbragg.render.packing`: world-space triangles, one BVH, materials, lights), uploads them
 once, compiles the pipeline specialised for the scene, and accumulates paths per pixel in a
 float32 buffer on the device. :mod:`wgbragg.render.display` turns the image into a PNG.
-Scenes are +y up (the built-in shapes' placement: :mod:`wgbragg.render.packing`).
+Scenes are +y up (the built-in shapes' placement: :mod:`wgbragg.render.packing`);
+:meth:`Renderer.world_geometry` returns the world-space triangles it traces.
 
 Light transport: next-event estimation towards the environment, combined with BRDF sampling
 by the power heuristic; point and area lights by shadow rays only (they are not geometry, so
@@ -75,6 +76,7 @@ wrong image: render fewer lights, fewer bounces or a coarser mesh.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import numbers
 import time
@@ -111,7 +113,8 @@ from wgbragg.scene.model import (
     Scene,
 )
 
-__all__ = ["MAX_BOUNCES", "PATHS_PER_DISPATCH", "Renderer", "check_size", "max_lights"]
+__all__ = ["MAX_BOUNCES", "PATHS_PER_DISPATCH", "Renderer", "WorldGeometry", "check_size",
+           "max_lights"]
 
 WORKGROUP_SIZE = 64
 MAX_BOUNCES = 8
@@ -124,6 +127,43 @@ _SECONDS_BAR = "{desc}: {n:.1f}/{total:.1f} s |{bar}| {postfix}"
 _IBL_CODES = {"monte-carlo": 0, "split-sum": 1, "kneiphof": 2}
 # The accumulation buffer's vec4<f32> a pixel: the largest per-pixel storage buffer.
 _PIXEL_BYTES = 16
+
+
+@dataclasses.dataclass(frozen=True)
+class WorldGeometry:
+    """The triangles a :class:`Renderer` traces, in world space (scene units, +y up).
+
+    Triangle ``t`` is the scene's face ``t``: the objects' faces in the scene's order, each
+    object's in its mesh's order (the numbering of :meth:`Renderer.primary_hits`'s ``face``).
+    Positions and normals are the float32 values on the GPU, widened to float64. The arrays
+    are read-only.
+
+    Attributes
+    ----------
+    vertices : numpy.ndarray, shape (T, 3, 3), float64
+        The corners of each triangle; ``cross(v1 - v0, v2 - v0)`` is its front-facing normal
+        for the built-in shapes (the winding is each mesh file's own).
+    normals : numpy.ndarray, shape (T, 3, 3), float64
+        Unit shading normals at the corners, which the renderer interpolates across the face.
+    uv : numpy.ndarray, shape (T, 3, 2), float64
+        Texture coordinates at the corners (zeros for a mesh file without them).
+    material : numpy.ndarray, shape (T,), int64
+        Index of each triangle's material in :attr:`material_names`.
+    material_names : tuple of str
+        The scene's material names, in the scene's order.
+    """
+
+    vertices: np.ndarray
+    normals: np.ndarray
+    uv: np.ndarray
+    material: np.ndarray
+    material_names: tuple[str, ...]
+
+    @property
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The smallest and largest coordinates of :attr:`vertices`, each shape (3,)."""
+        points = self.vertices.reshape(-1, 3)
+        return points.min(axis=0), points.max(axis=0)
 
 
 def _convex_alone(scene: Scene) -> bool:
@@ -260,6 +300,7 @@ class Renderer:
         # vec3 in a storage array: 16 bytes a path.
         self._paths = gpu.DeviceArray.empty((width * height * self._batch, 4), np.float32)
         self._geometry_of = None
+        self._world = None
         # id -> (material, its LayeredBragg): a material left unchanged by update() keeps its
         # structure, and with it the tables cached there, so only edited materials re-bake.
         self._structures = {}
@@ -299,7 +340,7 @@ class Renderer:
         if geometry_key != self._geometry_of:
             geometry = self._geometry(scene)
             self._geometry_of = geometry_key
-            self._geometry_inputs, self._extent = geometry
+            self._geometry_inputs, self._extent, self._world = geometry
         inputs, constants, environment_map, self._structures, self.table_seconds = shading
         self.scene, self.mode, self.environment_map = scene, mode, environment_map
         self.colour_method, self.ibl = colour_method, ibl
@@ -340,7 +381,8 @@ class Renderer:
         self.passes = 0
 
     def _geometry(self, scene: Scene):
-        """Vertex, normal, face and BVH node buffers, and the scene's extent."""
+        """Vertex, normal, face and BVH node buffers, the scene's extent, and its packed
+        geometry with the material names (for :meth:`world_geometry`)."""
         packed = pack_geometry(scene)
         self.bvh = packed.bvh
         self.triangles = len(packed.faces)
@@ -350,7 +392,34 @@ class Renderer:
             gpu.DeviceArray.upload(packed.faces),
             gpu.DeviceArray.upload(packed.nodes),
         ]
-        return inputs, packed.extent
+        return inputs, packed.extent, (packed, tuple(scene.materials))
+
+    def world_geometry(self) -> WorldGeometry:
+        """The triangles this renderer traces, in world space, with their materials.
+
+        What a comparison with another renderer needs to set up the same scene: the built-in
+        shapes tessellated and placed (:mod:`wgbragg.render.packing`), mesh files transformed,
+        exactly as uploaded for the current scene (:meth:`update` replaces them when the
+        objects or material names change).
+
+        Returns
+        -------
+        WorldGeometry
+            Its triangles in the scene's face order.
+        """
+        packed, names = self._world
+        # The GPU's faces are in BVH order; face triangle_order[i] of the scene is its i-th.
+        faces = np.empty_like(packed.faces)
+        faces[packed.bvh.triangle_order] = packed.faces
+        corners = faces[:, :3].astype(np.intp)
+        vertices = packed.vertices[corners, :3].astype(np.float64)
+        normals = packed.normals[corners, :3].astype(np.float64)
+        uv = np.stack([packed.vertices[corners, 3], packed.normals[corners, 3]],
+                      axis=-1).astype(np.float64)
+        material = faces[:, 3].astype(np.int64)
+        for array in (vertices, normals, uv, material):
+            array.flags.writeable = False
+        return WorldGeometry(vertices, normals, uv, material, names)
 
     def _shading(self, scene: Scene, mode: str, colour_method: str, ibl: str):
         """Buffers after the geometry's, the pipeline's constants, the EXR environment, the

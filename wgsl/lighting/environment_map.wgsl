@@ -1,8 +1,11 @@
 // Equirectangular environment map in float32: the twin of EnvironmentMap.radiance_at, .pdf and
-// .sample (wgbragg/lighting/environment_map.py, which states the convention: +y up, the image centre
-// along +z, row 0 at +y, phi from +z towards +x, the seam phi = +-pi in column 0).
-//   environment_map_radiance(d) -> vec3<f32>   radiance of d's texel times the intensity
-//   environment_map_pdf(d) -> f32              density of environment_map_sample (1/sr)
+// .sample (wgbragg/lighting/environment_map.py, which states the convention, Mitsuba 3's:
+// u = atan2(d.x, -d.z) / (2 pi) in [0, 1), v = acos(d.y) / pi, +y up, row 0 at +y, the image
+// centre along +z, u = 1/4 along +x, the seam u = 0 (-z) in column 0, u = 1/2 at the poles).
+//   environment_map_radiance(d) -> vec3<f32>   radiance at d, bilinear between texel centres
+//                                              (u wraps, v clamps), times the intensity
+//   environment_map_pdf(d) -> f32              density of environment_map_sample (1/sr):
+//                                              constant over d's texel, from its luminance
 //   environment_map_sample(u) -> vec3<f32>     a unit direction drawn with that density
 // d is a unit vector towards the environment; u is in [0, 1)^2 (1 is clamped just below).
 // Never NaN or infinite for such inputs, the poles and the seam included.
@@ -35,29 +38,56 @@ fn environment_map_size() -> vec2<u32> {
     return vec2<u32>(environment_texels[0].xy);
 }
 
-// Index in environment_texels of the texel that d sees. atan2 in cycles from gpu/numerics.wgsl
-// (lavapipe's built-in is off by 2e-5 rad, which would move texel edges).
-fn environment_map_texel(d: vec3<f32>) -> u32 {
-    let size = environment_map_size();
-    // Angles from the nearer axis, in [0, 1/4] turn. The azimuth of a pole is 0; the test is
-    // on d.xz itself because length(d.xz) underflows to 0 beside the poles.
+// (u, v) of d, both in [0, 1]: u = 1/2 - atan2(d.x, d.z) / (2 pi), the convention's
+// atan2(d.x, -d.z) / (2 pi) wrapped (1 only across the seam from d.x < 0), and v = acos(d.y) / pi.
+// atan2 in cycles from gpu/numerics.wgsl (lavapipe's built-in is off by 2e-5 rad, which would
+// move texel edges), folded from the nearer axis.
+fn environment_map_coordinates(d: vec3<f32>) -> vec2<f32> {
+    // Angles from the nearer axis, in [0, 1/4] turn. The azimuth of a pole is 0 (u = 1/2);
+    // the test is on d.xz itself because length(d.xz) underflows to 0 beside the poles.
     var azimuth = 0.0;
     if (any(d.xz != vec2<f32>(0.0))) {
         azimuth = atan2_cycles_positive(abs(d.x), abs(d.z));
     }
     var polar = atan2_cycles_positive(length(d.xz), abs(d.y));
     polar = select(polar, 0.5 - polar, d.y < 0.0);
-    azimuth = select(azimuth, 0.5 - azimuth, d.z < 0.0);
-    azimuth = select(azimuth, -azimuth, d.x < 0.0);
-    let row = min(u32(2.0 * polar * f32(size.y)), size.y - 1u);
-    // phi = +pi (azimuth 1/2) is the seam, where column 0 starts.
-    var column = u32((azimuth + 0.5) * f32(size.x));
+    azimuth = select(azimuth, 0.5 - azimuth, d.z < 0.0);   // atan2(d.x, d.z) in cycles,
+    azimuth = select(azimuth, -azimuth, d.x < 0.0);        // in [-1/2, 1/2]
+    return vec2<f32>(0.5 - azimuth, 2.0 * polar);
+}
+
+// Index in environment_texels of the texel holding d (whose luminance the density uses).
+fn environment_map_texel(d: vec3<f32>) -> u32 {
+    let size = environment_map_size();
+    let uv = environment_map_coordinates(d);
+    let row = min(u32(uv.y * f32(size.y)), size.y - 1u);
+    // u = 1 (the seam approached from the right edge) wraps to column 0.
+    var column = u32(uv.x * f32(size.x));
     column = select(column, 0u, column >= size.x);
     return ENVIRONMENT_ROWS + size.y + row * size.x + column;
 }
 
 fn environment_map_radiance(d: vec3<f32>) -> vec3<f32> {
-    return environment_texels[environment_map_texel(d)].xyz * environment_texels[0].z;
+    let size = environment_map_size();
+    let uv = environment_map_coordinates(d);
+    // Texel centres sit at integer coordinates: u = (x + 1/2) / W, v = (y + 1/2) / H.
+    let s = uv.x * f32(size.x) - 0.5;   // in [-1/2, W - 1/2]
+    let column = floor(s);
+    let fx = s - column;
+    // column >= -1 wraps to the last column across the seam.
+    let x0 = u32(i32(column) + i32(size.x)) % size.x;
+    let x1 = select(x0 + 1u, 0u, x0 + 1u == size.x);
+    let t = clamp(uv.y * f32(size.y) - 0.5, 0.0, f32(size.y - 1u));
+    let y0 = min(u32(t), max(size.y, 2u) - 2u);
+    let fy = t - f32(y0);
+    let y1 = min(y0 + 1u, size.y - 1u);
+    let top = ENVIRONMENT_ROWS + size.y + y0 * size.x;
+    let bottom = ENVIRONMENT_ROWS + size.y + y1 * size.x;
+    let a = environment_texels[top + x0].xyz;
+    let b = environment_texels[bottom + x0].xyz;
+    let upper = a + fx * (environment_texels[top + x1].xyz - a);
+    let lower = b + fx * (environment_texels[bottom + x1].xyz - b);
+    return (upper + fy * (lower - upper)) * environment_texels[0].z;
 }
 
 fn environment_map_pdf(d: vec3<f32>) -> f32 {
@@ -99,7 +129,9 @@ fn environment_map_sample(u: vec2<f32>) -> vec3<f32> {
     let sin2_half = ring.y + row.residual * ring.z;
     let cos2_half = ring.w + (1.0 - row.residual) * ring.z;
     let sin_theta = 2.0 * sqrt(sin2_half * cos2_half);
-    let azimuth = (f32(column.index) + column.residual) / f32(size.x) - 0.5;   // phi / (2 pi)
-    return vec3<f32>(sin_theta * sin_cycles(azimuth), cos2_half - sin2_half,
-                     sin_theta * sin_cycles(azimuth + 0.25));
+    // Uniform in u across the column; from the image centre (+z), u - 1/2 in [-1/2, 1/2]
+    // cycles, d = (-sin theta sin, cos theta, sin theta cos) of that angle.
+    let from_centre = (f32(column.index) + column.residual) / f32(size.x) - 0.5;
+    return vec3<f32>(-sin_theta * sin_cycles(from_centre), cos2_half - sin2_half,
+                     sin_theta * sin_cycles(from_centre + 0.25));
 }

@@ -78,8 +78,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
     }
     let row = output_rows[y_out];
     let column = output_columns[x_out];
+    // The convention's direction (lighting/environment_map.wgsl), phi = 2 pi u.
     let r = vec3<f32>(row.sin_theta * column.sin_phi, row.cos_theta,
-                      row.sin_theta * column.cos_phi);
+                      -row.sin_theta * column.cos_phi);
     let width = params.in_width;
     // (radiance sum, K sum), (w l sum, w sum), w l l diagonal and off-diagonal sums.
     var total0 = sums[4u * index];
@@ -105,7 +106,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
         var row3 = vec3<f32>(0.0);
         for (var k = 0u; k < count; k++) {
             let sc = input_columns[x];
-            let l = vec3<f32>(ring.x * sc.x, ring.y, ring.x * sc.y);
+            let l = vec3<f32>(ring.x * sc.x, ring.y, -ring.x * sc.y);
             let e = r - l;
             let q = 0.5 * dot(e, e);
             // Clamped so that the kernel stays finite where the window discards it.

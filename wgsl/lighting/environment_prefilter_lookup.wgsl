@@ -33,8 +33,10 @@ struct Prefiltered {
     second_off: vec3<f32>,        // (xy, yz, zx)
 }
 
-// (phi / (2 pi) + 1/2, theta / pi) of d, both in [0, 1]. atan2 in cycles from gpu/numerics.wgsl
-// (lavapipe's built-in is off by 2e-5 rad), folded as environment_map_texel does.
+// The image coordinates (u, v) of d, both in [0, 1] (lighting/environment_map.wgsl's convention:
+// u = 1/2 - atan2(d.x, d.z) / (2 pi), 1/2 at the poles; v = theta / pi). atan2 in cycles from
+// gpu/numerics.wgsl (lavapipe's built-in is off by 2e-5 rad), folded as
+// environment_map_coordinates does.
 fn prefiltered_angles(d: vec3<f32>) -> vec2<f32> {
     // The azimuth of a pole is 0; the test is on d.xz itself because length(d.xz) underflows
     // to 0 beside the poles.
@@ -46,7 +48,7 @@ fn prefiltered_angles(d: vec3<f32>) -> vec2<f32> {
     polar = select(polar, 0.5 - polar, d.y < 0.0);
     azimuth = select(azimuth, 0.5 - azimuth, d.z < 0.0);
     azimuth = select(azimuth, -azimuth, d.x < 0.0);
-    return vec2<f32>(azimuth + 0.5, 2.0 * polar);
+    return vec2<f32>(0.5 - azimuth, 2.0 * polar);
 }
 
 fn prefiltered_texel(index: u32) -> Prefiltered {
