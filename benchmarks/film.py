@@ -402,7 +402,8 @@ def render_section(results: Results, command: str) -> str:
     out.append(
         "2. The largest errors are at grazing angles, where |r12 r23| approaches 1 and the "
         "truncated series converges slowly. Films of small OPD are integrated exactly there "
-        "(`thin_film_colour.TAIL_RANGE`): the free-standing film (base 1.0) at d = 0, which "
+        "(`wgbragg.colour.thin_film.TAIL_RANGE`): the free-standing film (base 1.0) at d = 0, "
+        "which "
         "the exact Airy sum makes black, was 82 dE2000 off at M = 3 before.")
     out.append(
         "3. GPU times: median of the timestamps around one dispatch of "

@@ -4,7 +4,7 @@ Measures, in one run on the same device:
 
 - **samples per second** of every built-in preset (:data:`wgbragg.scene.model.PRESETS`) at 512 x 512
   in RGB and in spectral mode, and the GPU memory each scene holds
-  (:attr:`wgbragg.render.renderer.Renderer.gpu_bytes`);
+  (:attr:`wgbragg.Renderer.gpu_bytes`);
 - **time to SMAPE 0.05**: for the ``teapot`` preset, wall-clock time until the running image is
   within SMAPE 0.05 (:func:`wgbragg.common.metrics.smape`) of a high-spp reference of the same mode,
   in RGB and in spectral mode (samples doubling from 1 spp; the SMAPE checks not counted), and

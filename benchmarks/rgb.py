@@ -914,7 +914,8 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
             "converged integral", ""]
     out += ["Outside the issue's grid: n2 evanescent (a dense medium or host), where the modes "
             "are those of q1 d1 and each π of the n1 phase holds one pass band, found on either "
-            "side of its zero of cos KΛ (README, 'Evanescent n2'). Angles from 0.5° past n2's "
+            "side of its zero of cos KΛ (docs/physics.md, 'Evanescent n2'). Angles from 0.5° "
+            "past n2's "
             f"critical angle to 89° (or 0.5° before n1's); dE2000 over {cfg.dense_angles} of them, "
             f"times over {cfg.timing_angles:,}.", ""]
     out += _dense_table(results)
@@ -976,7 +977,8 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
                 f"panels per oscillation (defaults {AVERAGING_MIN_PERIODS} and "
                 f"{PANELS_PER_OSCILLATION}). With `quadrature=\"grid\"`: `grid_nodes` "
                 f"(default {GRID_NODES}) fixed wavelengths instead of panels between each "
-                "angle's band edges (README, 'Grid quadrature'). dE2000 mean / p95 / max on "
+                f""
+                "angle's band edges (docs/performance.md, 'The grid quadrature'). dE2000 mean / p95 / max on "
                 f"the grid above, pooled over N >= {TARGET_AVERAGED_MIN_N} and over all N.", ""]
         out += _settings_table(results)
 
@@ -1006,7 +1008,7 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
         "angles and mirrors of the column.")
     out.append(
         "4. numpy against GPU: at N = 100 next to sharp transmission resonances one float32 "
-        "ulp of a phase moves R by up to ~3e-2 (README, 'Accuracy of the float32 kernel'), and "
+        "ulp of a phase moves R by up to ~3e-2 (docs/design.md, 'Float32 numerics'), and "
         "with few spectral nodes each node carries a large weight. The reference/spectral "
         "kernel therefore takes each angle's geometry and its layer phases split into "
         "float32 pairs from the host in float64, so that float32 rounds only fractions of a "
