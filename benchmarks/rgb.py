@@ -977,8 +977,8 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
                 f"panels per oscillation (defaults {AVERAGING_MIN_PERIODS} and "
                 f"{PANELS_PER_OSCILLATION}). With `quadrature=\"grid\"`: `grid_nodes` "
                 f"(default {GRID_NODES}) fixed wavelengths instead of panels between each "
-                f""
-                "angle's band edges (docs/performance.md, 'The grid quadrature'). dE2000 mean / p95 / max on "
+                "angle's band edges (docs/performance.md, 'The grid quadrature'). dE2000 mean / "
+                "p95 / max on "
                 f"the grid above, pooled over N >= {TARGET_AVERAGED_MIN_N} and over all N.", ""]
         out += _settings_table(results)
 
