@@ -68,7 +68,7 @@ BASES: dict[str, dict[str, Any]] = {
 TIMING_BASES = ("1.5", "Au")
 PREFILTER_FILM_INDEX = 1.3  # not 1.5: a film index-matched to base 1.5 would be invisible
 
-TARGET_TABLE_MEAN = 1.0  # mean dE2000 of "fourier-table" against "reference" (issue 9)
+TARGET_TABLE_MEAN = 1.0  # mean dE2000 of "fourier-table" against "reference"
 TARGET_GPU_AGREEMENT = 0.1  # max dE2000, numpy vs GPU of the same method
 WHITE_TOLERANCE = 2e-3  # perfect reflector in linear sRGB, as the reference's own
 

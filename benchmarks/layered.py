@@ -1,5 +1,5 @@
-"""Efficiency of the single-reflection model against Monte Carlo simulations (issue 6, item 5;
-the Bragg paper's Table 2).
+"""Efficiency of the single-reflection model against Monte Carlo simulations (the Bragg
+paper's Table 2).
 
 A sphere (orthographic, ``size`` x ``size`` pixels) of a layered Bragg structure under a
 procedural environment (a sky, a warm ground and two small bright lamps) is rendered, per pixel
@@ -534,9 +534,8 @@ def render_section(results: Results, command: str) -> str:
         f"absorbing base, as large as the errors measured at {PAPER_SPP} spp, and at 131072 "
         f"still half the models' errors there, hence {cfg.gt_spp} here. The SR "
         "simulation and the model estimate the same single-reflection image. The factored RGB "
-        "of model-LUT adds its colour bias over a Lambertian base (docs/performance.md, layered "
-        "Bragg "
-        "structures: median 2-4 % of the brightest channel). That the model and the SR "
+        "of model-LUT adds its colour bias over a Lambertian base (docs/physics.md, sec. 11: "
+        "median 2-4 % of the brightest channel). That the model and the SR "
         "simulation agree is tested without noise in tests/test_layered_simulation.py "
         "(next-event estimates at fixed directions: SMAPE <= 0.001). \"+ base IR\" removes "
         "most of that bias over a Lambertian base (an absorbing base has none to remove). "

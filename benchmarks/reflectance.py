@@ -66,7 +66,7 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 MODULE = "benchmarks.reflectance"
 BEGIN_MARKER, END_MARKER = report.markers("bench_reflectance")
 
-# The mirror of the issue: index-matched host (host = n1), n1 substrate.
+# The benchmark mirror: index-matched host (host = n1), n1 substrate.
 N1, N2, D1_NM, D2_NM = 1.0, 1.5, 125.0, 375.0
 N_VALUES = (1, 20, 200, 2000, 1_000_000)
 # O(N) methods stop here: at N = 10^6 one tmm call alone would take hours.

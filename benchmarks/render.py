@@ -1,4 +1,4 @@
-"""Throughput of the GPU renderer (issue 7, items 3 and 6).
+"""Throughput of the GPU renderer.
 
 Measures, in one run on the same device:
 

@@ -18,7 +18,7 @@ run:
 - **CIE dE2000 against a converged integral** (trapezoid rule with at least
   :data:`FINE_NODES_PER_OSCILLATION` nodes per spectral oscillation): at N = 100 the 1 nm
   "reference" undersamples the spectrum itself, and this shows by how much;
-- **short periods** (``Lambda`` in {30, 60, 120} nm, outside the issue's grid), dE2000 of every
+- **short periods** (``Lambda`` in {30, 60, 120} nm, outside the benchmark grid), dE2000 of every
   method against the converged integral: only a few wide oscillations lie in view there;
 - **numpy against GPU** (max dE2000) for every method that has a GPU kernel;
 - the **"spectral" curve**: K = 4 ... 128 stratified samples, time and dE;
@@ -636,10 +636,10 @@ def _timing_rows(results: Results) -> list[tuple[str, tuple[str, str]]]:
 
 def _accuracy_targets(results: Results, name: str, against_reference: np.ndarray,
                       against_converged: np.ndarray) -> list[list[str]]:
-    """The issue's dE2000 bounds for one variant of "averaged" (``name``), against the 1 nm
-    "reference" (the issue's bar), then against the converged integral, since at N = 100 the
+    """The target dE2000 bounds for one variant of "averaged" (``name``), against the 1 nm
+    "reference" (the target's reference), then against the converged integral, since at N = 100 the
     1 nm reference has an error of its own (see its table). Met: pooled over N >= 10, as the
-    issue's "over all N" for its second bound; the worst single N is reported beside."""
+    target's "over all N" for its second bound; the worst single N is reported beside."""
     cfg, rows = results.config, []
     counts_hi = [n for n in cfg.counts if n >= TARGET_AVERAGED_MIN_N]
     for values, against in ((against_reference, '"reference"'),
@@ -904,7 +904,7 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
     out += _delta_e_table(results, results.fine_delta_e)
     out += ["", "### Short periods: dE2000 against the converged integral: mean / p95 / max", ""]
     short = ", ".join(f"{p:g}" for p in cfg.short_periods_nm)
-    out += [f"Outside the issue's grid: Λ in {{{short}}} nm, the same d1/Λ, angles and "
+    out += [f"Outside the benchmark grid: Λ in {{{short}}} nm, the same d1/Λ, angles and "
             "indices. The visible range then holds a small part of the first pass band, "
             "and even N = 100 only a handful of oscillations, each tens of nm wide: "
             "`averaged` integrates such zones through the exact spectrum.", ""]
@@ -912,7 +912,7 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
 
     out += ["", "### Past n2's critical angle: GPU kernel time and dE2000 against the "
             "converged integral", ""]
-    out += ["Outside the issue's grid: n2 evanescent (a dense medium or host), where the modes "
+    out += ["Outside the benchmark grid: n2 evanescent (a dense medium or host), where the modes "
             "are those of q1 d1 and each π of the n1 phase holds one pass band, found on either "
             "side of its zero of cos KΛ (docs/physics.md, 'Evanescent n2'). Angles from 0.5° "
             "past n2's "
@@ -995,8 +995,8 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
         "pipeline compilation excluded, best of "
         f"{cfg.gpu_passes} pass(es). GPU kernel: GPU timestamp queries around the dispatch "
         f"alone (median of {cfg.kernel_repeats}, best of the passes), where a timing helper "
-        "exists (`benchmark_xyz` of `colour_gpu` for reference and spectral, of "
-        "`colour_landmarks_gpu` for the landmark methods).")
+        "exists (`benchmark_xyz` of `wgbragg.colour.reference_gpu` for reference and spectral, of "
+        "`wgbragg.colour.landmark_methods_gpu` for the landmark methods).")
     out.append(
         "2. A speed-up compares a method with `reference` on the same backend and with the same "
         f"kind of timing; each Λ column averages the {len(cfg.ratios) * len(cfg.counts)} "
@@ -1014,7 +1014,7 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
         "float32 pairs from the host in float64, so that float32 rounds only fractions of a "
         "turn; a node next to a band edge can still move a colour by a few tenths of a dE2000.")
     out.append(
-        "5. Targets: the issue's dE2000 bounds for N >= 10 are judged on all mirrors and angles "
+        "5. Targets: the target dE2000 bounds for N >= 10 are judged on all mirrors and angles "
         "with N >= 10 taken together, as its bound for all N is; the worst single N is shown "
         "beside. Judged per N, no method within the bounds of the converged integral meets them "
         'against `reference` at N = 100, where the 1 nm `reference` is itself off the converged '

@@ -1,5 +1,5 @@
 """Speed and size of the rough-Bragg-layer tables: the filter bake and the integrated
-transmissivity (issue 5, item 6).
+transmissivity.
 
 Measures, side by side in one run:
 
@@ -20,7 +20,7 @@ Measures, side by side in one run:
 - **table sizes** as float32 (the filter's values, n_i x n_d, and the transmissivity table,
   n_i x n_lambda) beside the paper's "approx. 1.4 MB" and "approx. 620KB" (sec. 4.2.2), and
   the size of the LUT file the cache writes;
-- the **targets** of the issue on lavapipe, 2 cores: bake <= 0.25 s, transmissivity table
+- the **targets** on lavapipe, 2 cores: bake <= 0.25 s, transmissivity table
   <= 20 ms (GPU kernel time and end-to-end, separately).
 
 It prints a markdown section and writes it into ``docs/benchmarks.md`` between

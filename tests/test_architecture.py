@@ -20,8 +20,8 @@ SHADERS = ROOT / "wgsl"
 MODULES = sorted(PACKAGE.rglob("*.py"))
 
 LAZY_IMPORTS_ALLOWED = {PACKAGE / "app" / "cli.py"}
-"""Modules that import our own modules inside functions: the CLI, so that ``wgbragg --help``
-never loads wgpu, matplotlib or the colour tables."""
+"""Modules that import our own modules inside functions: the CLI, whose commands import what
+they run when they run."""
 
 HELPER_SHADERS = {"gpu/harness.wgsl", "gpu/numerics.wgsl", "gpu/complex.wgsl", "optics/layer.wgsl"}
 """WGSL libraries of float32 helpers with no numpy twin."""

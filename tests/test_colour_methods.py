@@ -27,7 +27,7 @@ GRID = [(period, fraction, N) for period, fraction in itertools.product((244.0, 
                                                                      (0.25, 0.5, 0.75))
         for N in (5, 20, 100)]
 
-# Documented bounds (README, docs/benchmarks.md): mean dE2000 over this grid.
+# Documented bounds (docs/benchmarks.md): mean dE2000 over this grid.
 AVERAGED_MEAN_N10 = 0.5  # the issue's target for "averaged", N >= 10
 AVERAGED_P95_N10 = 1.5
 AVERAGED_MEAN_ALL = 1.0
@@ -199,9 +199,10 @@ def test_averaged_options_set_the_exact_zones_and_their_panels():
 
 
 def test_averaged_speed_options_trade_accuracy_within_the_issue_bounds():
-    """The quickest setting README documents (averaging_from=10, panels_per_oscillation=1)
-    stays within the issue's bounds for N >= 10 against "reference" (measured on this grid:
-    mean 0.28, p95 0.66, max 1.7), and cost accuracy (defaults: 0.13 / 0.52 / 1.2)."""
+    """The quickest setting that docs/performance.md documents (averaging_from=10,
+    panels_per_oscillation=1) stays within the documented bounds for N >= 10 against
+    "reference" (measured on this grid: mean 0.28, p95 0.66, max 1.7), and costs accuracy
+    (defaults: 0.13 / 0.52 / 1.2)."""
     theta = np.radians(np.arange(0.0, 90.0, 7.0))
     fast, default = [], []
     for period, N in itertools.product((244.0, 500.0, 988.0), (10, 20)):

@@ -268,7 +268,8 @@ def test_factored_rgb_is_exact_for_one_layer_over_an_absorbing_base(structures):
 
 def test_factored_rgb_error_between_stacked_layers_is_bounded(structures):
     """Stacked mirrors: the colour of a product is not the product of colours. Measured here
-    (relative to the largest channel of the exact colour) and documented in the README."""
+    (relative to the largest channel of the exact colour) and documented in docs/physics.md,
+    sec. 11."""
     s = structures["two-layers"]
     wi, wo = random_directions(40, 11), random_directions(40, 12)
     exact = s.brdf(wi, wo)

@@ -445,3 +445,10 @@ def test_plain_rgb_tables_give_the_quads_results(structures, monkeypatch):
     assert layered_simulation._layers(plain, None, True)[2] is False
     np.testing.assert_allclose(got, expected, rtol=1e-6, atol=1e-7)
     assert np.all(np.isfinite(expected)) and np.any(expected != 0.0)
+
+
+
+@pytest.mark.parametrize("structure", [object(), BraggMirror(1.0, 1.5, 250.0, 250.0, 10)])
+def test_simulate_refuses_what_is_not_a_layered_structure(structure):
+    with pytest.raises(ValueError, match=r"structure must be a LayeredBragg"):
+        layered_simulation.simulate(structure, [0.0, 0.0, 1.0], paths=16)

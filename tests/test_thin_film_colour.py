@@ -32,7 +32,7 @@ WHITE_ATOL = 2e-3  # perfect reflector in linear sRGB (the reference's own offse
 TRANSFORM_ATOL = 2e-4  # interpolated table against the direct 1 nm sum (F(0) ~ 1)
 PREFILTERED_ATOL = 5e-3  # the same along the prefiltering axis (linear in s, 10 nm steps)
 
-# Documented bounds (README, docs/benchmarks.md), dE2000 on GRID at the default order.
+# Documented bounds (docs/benchmarks.md), dE2000 on GRID at the default order.
 TABLE_MEAN = 1.0  # the target; measured 0.26
 GAUSSIAN_MEAN = 4.0  # measured 3.2 (Cu 9.5: one Fresnel value per lobe)
 CONSTANT_INDEX_MAX = 0.1  # table, dielectric base 1.5: exact up to truncation; measured 0.05

@@ -1,7 +1,7 @@
 """Dispatch of the float32 grid quadrature of "averaged" (``wgsl/colour/grid_bragg.wgsl``): the
 GPU twin of :func:`wgbragg.colour.grid.grid_xyz`.
 
-One invocation per angle sums R times the product weights (:func:`colour_grid.grid_weights`,
+One invocation per angle sums R times the product weights (:func:`wgbragg.colour.grid.grid_weights`,
 uploaded once per node count) over the grid. The host forms each angle's inputs in float64
 as for the reference kernel (geometry and split optical paths, :func:`grid_angle_inputs`) and
 says whether the angle averages; the kernel forms the half layer phases at the first node and
@@ -77,7 +77,7 @@ def _dispatch_inputs(mirror, theta, averaging_from: int, nodes: int, panel_nm: f
 
 
 def grid_xyz(mirror, theta, averaging_from: int, nodes: int, panel_nm: float) -> np.ndarray:
-    """float32 GPU XYZ of ``mirror`` (one that :func:`colour_grid.grid_applies` accepts) at
+    """float32 GPU XYZ of ``mirror`` (one that :func:`wgbragg.colour.grid.grid_applies` accepts) at
     the angles ``theta`` (radians in [0, pi/2], validated by the caller, any shape), shape
     ``theta.shape + (3,)``."""
     kernel, inputs, outputs, params, shape = _dispatch_inputs(mirror, theta, averaging_from,

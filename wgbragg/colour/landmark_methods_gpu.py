@@ -241,12 +241,13 @@ def benchmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3
 
 
 def approx_xyz(mirror, theta) -> np.ndarray:
-    """GPU twin of ``colour_methods.approx_xyz(mirror, theta)`` (method "approx")."""
+    """GPU twin of :func:`wgbragg.colour.landmark_methods.approx_xyz` (method "approx")."""
     return landmark_xyz(mirror, theta, "approx")
 
 
 def subdivided_xyz(mirror, theta, s=3) -> np.ndarray:
-    """GPU twin of ``colour_methods.approx_xyz(mirror, theta, subdivisions=s)``."""
+    """GPU twin of :func:`wgbragg.colour.landmark_methods.approx_xyz` with ``subdivisions=s``
+    (method "subdivided")."""
     return landmark_xyz(mirror, theta, "subdivided", s)
 
 
@@ -265,7 +266,8 @@ def _grid_setting(mirror, averaging_from, panels_per_oscillation, quadrature, gr
 def averaged_xyz(mirror, theta, averaging_from=AVERAGING_MIN_PERIODS,
                  panels_per_oscillation=PANELS_PER_OSCILLATION, quadrature="landmarks",
                  grid_nodes=GRID_NODES) -> np.ndarray:
-    """GPU twin of ``colour_methods.averaged_xyz`` (method "averaged"), same options."""
+    """GPU twin of :func:`wgbragg.colour.landmark_methods.averaged_xyz` (method "averaged"),
+    same options."""
     grid = _grid_setting(mirror, averaging_from, panels_per_oscillation, quadrature, grid_nodes)
     if grid is not None:
         return colour_grid_gpu.grid_xyz(mirror, theta, *grid, PANEL_NM)

@@ -26,7 +26,7 @@ def check_complex_index(name: str, value) -> np.ndarray:
         raw = np.asarray(value)
     except (TypeError, ValueError) as error:
         raise ValueError(f"{name} must be a number n + i k or an array of them") from error
-    if raw.dtype.kind not in "iufc":  # as _validation: no strings ("1.5"), no booleans
+    if raw.dtype.kind not in "iufc":  # as common.validation: no strings ("1.5"), no booleans
         raise ValueError(f"{name} must be a number n + i k or an array of them, "
                          f"got dtype {raw.dtype}")
     index = raw.astype(np.complex128)

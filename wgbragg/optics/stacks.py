@@ -172,7 +172,7 @@ class ThinFilmStack:
         return np.full(shape, complex(self.n_base, self.k_base))
 
     def reflectance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy"):
-        """Specular reflectance in [0, 1]; arguments as :meth:`BraggMirror.reflectance`."""
+        """Specular reflectance in [0, 1]; arguments as :meth:`BraggStack.reflectance`."""
         wavelength, angle = _checked_inputs(wavelength_nm, theta, polarization, backend)
         if backend == "gpu":
             base = None if self.base is None else self.base_index(wavelength)

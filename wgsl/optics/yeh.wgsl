@@ -82,8 +82,8 @@ fn geometry_at(m: BraggMirror, angle: CellGeometry, wavelength_nm: f32) -> CellG
 // head x head is exact in float32, so its fraction is, and the other three products are below
 // 2^-10 of the phase, so their rounding is too. The fraction then carries float32's rounding of
 // a number below 1 + 2^-10 phase instead of that of the phase: at N = 100 one ulp of a 2-cycle
-// phase moved R by 1e-2 next to a transmission resonance (README, 'Accuracy of the float32
-// kernel'). Nothing here cancels algebraically: a reassociating driver cannot fold it away.
+// phase moved R by 1e-2 next to a transmission resonance (docs/design.md, 'Float32
+// numerics'). Nothing here cancels algebraically: a reassociating driver cannot fold it away.
 fn split_cycles(path: vec2<f32>, inv_wavelength: vec2<f32>) -> f32 {
     let head = path.x * inv_wavelength.x;
     return (head - floor(head))

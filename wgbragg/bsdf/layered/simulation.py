@@ -305,8 +305,10 @@ def _checked(structure, wi, wo, wavelength_nm, paths, mode, transmission, seed, 
              max_bounces):
     """:func:`simulate`'s arguments checked: ``wi``, ``wo`` (broadcast, or None), the
     wavelengths (or None), ``paths``, ``seed``, ``max_bounces`` and the queries' shape."""
+    # Duck-typed: the model (wgbragg.bsdf.layered.model) sits above this module.
     if not all(hasattr(structure, name) for name in ("layers", "base_return", "host_index")):
-        raise ValueError(f"structure must be a LayeredBragg, got {type(structure).__name__}")
+        raise ValueError("structure must be a LayeredBragg (layers, base_return, host_index), "
+                         f"got {type(structure).__name__}")
     wi = check_directions(wi, "wi")
     if np.any(wi[..., 2] <= 0.0):
         raise ValueError("wi must lie strictly above the horizon: wi[..., 2] in (0, 1]")
