@@ -3,8 +3,7 @@ direction, as an imaging scatterometer records it (Bragg paper Fig. 9).
 
 An azimuthal equidistant projection of ``f(wi, wo) cos(theta_i)`` as linear sRGB, saved as a
 PNG on a white surround with circles at 5, 30, 60 and 90 degrees; the presets are the
-jewel-beetle cuticles of the paper's Table 3. Details: ``docs/physics.md``, section 11 and
-"wgbragg.app.scatterogram".
+jewel-beetle cuticles of the paper's Table 3. Details: ``docs/physics.md``, section 11.
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ settings; :meth:`Viewer.frame` adds one sample per pixel and every edit restarts
 accumulation. It keeps the interactive budgets (:attr:`Viewer.budgets`), a low-resolution or
 filtered-lighting preview while :attr:`Viewer.interacting` is set, and the side panel's data.
 It has no window of its own (:mod:`wgbragg.app.viewer_window` draws it); an example and the
-preview's rules: ``docs/design.md``, "The demo" and "wgbragg.app.viewer".
+preview's rules: ``docs/design.md``, "The demo".
 """
 
 from __future__ import annotations
@@ -93,7 +93,8 @@ FILM_COLOUR_METHOD = "fourier-table"
 # Share of a preview frame's time left to the window's own drawing when choosing the scale.
 _PREVIEW_HEADROOM = 0.75
 # A filtered-lighting pixel's cost relative to a path's, the guess until one is measured:
-# camera rays and shadow rays only (docs/performance.md, "wgbragg.app.viewer").
+# camera rays and shadow rays to the lights, no bounces (docs/performance.md, "The demo's
+# budgets").
 _FILTERED_PIXEL_COST_SHARE = 0.3
 # Weight of the newest frame in the running frame-time averages.
 _SMOOTHING = 0.2
@@ -724,7 +725,8 @@ class Viewer:
             # The window has shown full-resolution paths before any interaction.
             pixel_seconds = paths * _FILTERED_PIXEL_COST_SHARE
         if pixel_seconds is None:
-            # Filtered lighting traces camera rays only: full resolution until measured.
+            # Filtered lighting traces camera rays and light shadow rays only, no bounces: full
+            # resolution until measured.
             return 1 if lighting != "monte-carlo" else 2
         budget = _PREVIEW_HEADROOM / PREVIEW_BUDGET_FPS
         width, height = self.size

@@ -4,7 +4,7 @@ The picture is the viewer's progressive render (``wgsl/app/viewer_window.wgsl``)
 ImGui side panel of budgets, rendering controls, the material's parameters, and the selected
 layer's or film's spectrum and colour strip. ``offscreen=True`` renders the same window
 without a display. GUI packages are imported when a window is made. Layout and controls:
-``docs/design.md``, "The demo" and "wgbragg.app.viewer_window".
+``docs/design.md``, "The demo".
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ directions are unit vectors with a trailing axis of 3 pointing away from the sur
 are in radians and ``alpha`` is the GGX roughness (the slope scale: ``alpha = 1`` is very
 rough), at least :data:`ALPHA_MIN`. The distribution and masking are written in cosines,
 without tangents, so that they stay finite at grazing angles. Why ``alpha = 0`` is refused,
-and references: ``docs/physics.md``, "wgbragg.bsdf.microfacet".
+and references: ``docs/physics.md``, section 9.
 """
 
 from __future__ import annotations

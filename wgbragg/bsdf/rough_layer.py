@@ -5,7 +5,7 @@ undeviated, with its mirror's transmittance filtered over the difference angle b
 roughness alone (eq 28). With the filter baked once per ``alpha``, a layer's table over
 (theta_i, wavelength) is one matrix product, computed on the GPU by
 ``wgsl/bsdf/rough_layer_transmissivity.wgsl``. Angles are in ``n1``, radians; wavelengths in
-nm. Details: ``docs/physics.md``, section 10 and "wgbragg.bsdf.rough_layer".
+nm. Details: ``docs/physics.md``, section 10.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ __all__ = ["RoughBraggLayer"]
 
 # The product pass (bsdf/rough_layer_transmissivity.wgsl): filter rows per workgroup (ROWS),
 # wavelengths per invocation (SPAN), WORKGROUP_SIZE; the fastest blocks on lavapipe
-# (docs/performance.md, "wgbragg.bsdf.rough_layer"). Eight invocations keep the padding of the
+# (docs/performance.md, "Rough Bragg layers"). Eight invocations keep the padding of the
 # wavelength blocks small: 96 per workgroup, 480 for the 471 of 1 nm. ROWS and SPAN are
 # written out in the kernel, so tests/test_wgsl_layouts.py checks them instead of passing them
 # as override constants.

@@ -5,7 +5,7 @@ reflectance at the microfacet incidence, both polarisations averaged: the float6
 ``film_eval`` / ``film_pdf`` in ``wgsl/render/renderer.wgsl``. Conventions are those of
 :mod:`wgbragg.bsdf.layered.model`, in the film's host medium. :func:`reflection_quadrature`,
 shared with :mod:`wgbragg.lighting.ibl`, integrates the reflected lobe deterministically.
-Details: ``docs/physics.md``, "wgbragg.bsdf.rough_thin_film".
+Details: ``docs/physics.md``, section 9.
 """
 
 from __future__ import annotations

@@ -5,8 +5,8 @@ filtered over the difference angle, ``f_t cos = int T(theta_d) F_alpha(theta_i, 
 dtheta_d`` (Fourneau, Pacanowski & Barla 2024, eqs 28-29). The filter depends on the roughness
 alone, so it is baked once per ``alpha`` into a table of quadrature weights
 (:class:`TransmissionFilter`). :func:`F_alpha` is the float64 twin of
-``wgsl/bsdf/transmission_filter.wgsl``. Derivation: ``docs/physics.md``, section 10 and
-"wgbragg.bsdf.transmission_filter".
+``wgsl/bsdf/transmission_filter.wgsl``. Derivation: ``docs/physics.md``, "Integrated
+transmissivity and the filter".
 """
 
 from __future__ import annotations
@@ -53,10 +53,10 @@ PSI_SAMPLES_PER_DISPATCH = 1024
 psi loop is the kernel's only loop, so this must stay within :data:`gpu.SAFE_LOOP_ITERATIONS`
 (llvmpipe silently ends longer loops, see :mod:`wgbragg.gpu`, "Loop budget"); it is smaller
 because the float32 error of the kernel's sum and half-angle rotation grows with the part's
-length (``docs/performance.md``, "wgbragg.bsdf.transmission_filter")."""
+length (``docs/performance.md``, "Rough Bragg layers")."""
 
 # Gauss-Legendre panels along theta_d (see difference_angle_grid): how well the App. C identity
-# holds with them is in docs/performance.md, "wgbragg.bsdf.transmission_filter".
+# holds with them is in docs/performance.md, "Rough Bragg layers".
 _GAUSS_ORDER = 6
 _PANEL_WIDTH_PER_ALPHA = 2.0
 _MIN_PANELS = 24
@@ -243,7 +243,7 @@ def _bake_values_gpu(theta_i: np.ndarray, theta_d: np.ndarray, alpha: float,
     params = np.zeros((), BAKE_PARAMS_DTYPE)
     params["alpha"], params["psi_samples"] = alpha, psi_samples
     # The harness's default workgroup size
-    # (docs/performance.md, "wgbragg.bsdf.transmission_filter").
+    # (docs/performance.md, "Rough Bragg layers").
     kernel = gpu.compute_pipeline("bsdf/transmission_filter_bake.wgsl")
     inputs = [gpu.DeviceArray.upload(_angle_terms(theta).astype(np.float32))
               for theta in (theta_i, theta_d)]

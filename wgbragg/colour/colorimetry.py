@@ -4,7 +4,7 @@ The reference quadrature is the 1 nm sum over 360-830 nm (:func:`xyz_weights`), 
 that a perfect reflector has ``Y = 1``; all spectral data come from colour-science. Units:
 wavelengths in nm; XYZ with ``Y = 1`` for the perfect reflector; linear sRGB with the perfect
 reflector at about ``(1, 1, 1)``. The integral and references: ``docs/physics.md``,
-"Colorimetry" and "wgbragg.colour.colorimetry".
+"Colorimetry".
 """
 
 from __future__ import annotations

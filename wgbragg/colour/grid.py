@@ -4,7 +4,7 @@ The same spectrum as the landmark quadrature, evaluated at ``grid_nodes`` wavele
 for every mirror and angle and integrated with precomputed product weights
 (:func:`grid_weights`), where it applies (:func:`grid_applies`); the float32 twin is
 ``wgsl/colour/grid_bragg.wgsl``. How it works and where it applies: ``docs/physics.md``,
-"wgbragg.colour.grid"; what it costs in accuracy: ``docs/performance.md``, "The grid
+"Colour methods of a Bragg mirror"; what it costs in accuracy: ``docs/performance.md``, "The grid
 quadrature".
 """
 
@@ -38,7 +38,7 @@ __all__ = [
 
 GRID_NODES = 96
 """Default nodes of the grid (its accuracy at 96 and 128 nodes: ``docs/performance.md``,
-"wgbragg.colour.grid")."""
+'The "averaged" settings')."""
 
 GRID_BAND_NM = (410.0, 690.0)
 """Where the grid is finest (nm): outside it the CMF x D65 density is below ~5 % of its peaks,
@@ -65,7 +65,7 @@ GRID_MIN_CELLS_PER_BAND = 24
 incidence: each band gap's square-root edges cost the grid accuracy, so cells thick enough to
 put many gaps in view keep the landmark quadrature. The benchmark's thickest cells (Lambda =
 988 nm) have 29 at 96 nodes (the grid's error against the number of cells per band:
-``docs/performance.md``, "wgbragg.colour.grid")."""
+``docs/performance.md``, "The grid quadrature")."""
 
 _GAUSS_POINTS = 5
 

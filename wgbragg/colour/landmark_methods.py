@@ -5,7 +5,7 @@
 (Fourneau, Pacanowski & Barla 2024, sec. 3.2.2, App. B) with cumulative CMF tables (eq 15);
 ``"averaged"`` (ours) integrates the phase-averaged spectrum in pass bands and the exact one
 in gaps, by Gauss panels between the band edges. The methods: ``docs/physics.md``, "Colour
-methods of a Bragg mirror" and "wgbragg.colour.landmark_methods".
+methods of a Bragg mirror".
 """
 
 from __future__ import annotations
@@ -267,7 +267,7 @@ def _zones(mirror, theta):
     (float32 from ``kappa ~ 16``, float64 from ~37), and the gaps on either side would take a
     share of up to 1, with N x 3 panels, from rounding. Propagating n2 has no such bands, and
     there the check is left out for speed (``docs/performance.md``,
-    "wgbragg.colour.landmark_methods").
+    "Past n2's critical angle").
     """
     edges = [np.sort(np.concatenate([s_found.omega[s_found.kind == "edge"],
                                      p_found.omega[p_found.kind == "edge"]]))
@@ -454,8 +454,7 @@ def averaged_xyz(mirror, theta, averaging_from=AVERAGING_MIN_PERIODS,
     -----
     The two options trade accuracy for speed where the exact spectrum is integrated, which
     is where "averaged" spends most of its time below N = 16; what each setting costs and
-    gains: ``docs/performance.md``, 'The "averaged" settings' and
-    "wgbragg.colour.landmark_methods".
+    gains: ``docs/performance.md``, 'The "averaged" settings'.
 
     Raises
     ------

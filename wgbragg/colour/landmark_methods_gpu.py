@@ -5,7 +5,7 @@ and :func:`wgbragg.colour.landmark_methods.averaged_xyz` ("averaged").
 One invocation per angle finds the landmarks of each polarisation and integrates each
 landmark interval as it is reached: O(1) in N, no per-angle storage. The pipelines'
 specialisation and the packed colour-matching table: ``docs/design.md``,
-"wgbragg.colour.landmark_methods_gpu".
+"Specialisation" and "What the kernels are given".
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ GPU_LANDMARK_METHODS = {"approx": 0, "subdivided": 1, "averaged": 2}
 """Method names and their ``METHOD`` override codes."""
 
 # As reference_gpu: one invocation integrates a whole colour, so small workgroups fill the
-# device sooner (docs/performance.md, "wgbragg.colour.landmark_methods_gpu").
+# device sooner (docs/performance.md, "Summary").
 WORKGROUP_SIZE = 64
 
 

@@ -5,7 +5,7 @@ One invocation per angle sums ``R * weight`` over the quadrature nodes it is giv
 of at most :data:`CHUNK_NODES` nodes per dispatch (llvmpipe's loop budget) added on the host
 in float64. The Bragg kernel takes each angle's geometry and split optical paths from the host
 (:func:`angle_inputs`, :func:`split_float32`): ``docs/design.md``,
-"wgbragg.colour.reference_gpu".
+"Float32 numerics" and "What the kernels are given".
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ __all__ = [
 
 # One invocation evaluates a whole spectrum (471 reflectances for the reference), so even a few
 # hundred angles should fill several workgroups: 64 rather than the reflectance kernels' 256
-# (docs/performance.md, "wgbragg.colour.reference_gpu").
+# (docs/performance.md, "Summary").
 WORKGROUP_SIZE = 64
 
 CHUNK_NODES = gpu.SAFE_LOOP_ITERATIONS

@@ -4,8 +4,7 @@ The methods ``"fourier-table"`` and ``"fourier-gaussian"`` (:data:`FOURIER_METHO
 Airy reflectance's Fourier series in the optical path difference against the transform of a
 colour-matching sensitivity, truncated at ``order=``, optionally prefiltered over a Gaussian
 distribution of thicknesses (``thickness_std_nm=``); evanescent and near-critical films are
-integrated exactly. The derivation: ``docs/physics.md``, "Thin-film colour in Fourier space"
-and "wgbragg.colour.thin_film".
+integrated exactly. The derivation: ``docs/physics.md``, "Thin-film colour in Fourier space".
 """
 
 from __future__ import annotations
@@ -276,7 +275,7 @@ def _spline_nodes(count: int) -> tuple[np.ndarray, np.ndarray]:
 
     Natural cubic spline cardinal functions: ``sum_b f(lambda_b) h_b`` is the spline through
     the nodes, and ``sum_b h_b = 1``. They need fewer nodes than linear hats for the same
-    colour error over metals (``docs/performance.md``, "wgbragg.colour.thin_film").
+    colour error over metals (``docs/performance.md``, "Thin-film colour").
     """
     wavelength = colorimetry.xyz_weights()[0]
     nodes = np.linspace(*colorimetry.WAVELENGTH_RANGE_NM, count)

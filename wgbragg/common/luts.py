@@ -5,7 +5,7 @@ checksum; :func:`load_lut` never unpickles and refuses any mismatch with a :clas
 and :func:`cached` keeps one file per (kind, parameters) in :func:`cache_dir`, re-baking an
 invalid one. Its kinds are baked by :func:`wgbragg.bsdf.filter_cache.transmission_filter` and
 :func:`wgbragg.colour.tables.colour_tables`. The format: ``docs/design.md``, "Look-up tables
-and the cache" and "wgbragg.common.luts".
+and the cache".
 """
 
 from __future__ import annotations

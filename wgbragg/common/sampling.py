@@ -2,7 +2,7 @@
 
 :class:`ShiftedPoints` describes a renderer's uniform numbers in a few kilobytes, ``n`` points
 shared by every group (a pixel's samples) and one random digital shift per group, instead of
-16 bytes per sample uploaded (``docs/design.md``, "wgbragg.common.sampling").
+16 bytes per sample uploaded (``docs/design.md``, "What the kernels are given").
 
 Convention, stated once: a number is a 32-bit binary fraction (``uint32`` digits ``b`` stand
 for ``b / 2**32``), shifted by XOR, and read as the float32 of its top 23 bits,

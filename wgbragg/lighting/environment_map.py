@@ -22,7 +22,7 @@ taken as 1/2. Angles are in radians, densities per steradian, radiance in the ma
 Radiance lookups are bilinear between texel centres (wrapping in ``u`` across the seam,
 clamped in ``v`` above the first row's centres and below the last's), while importance
 sampling follows the texels' luminance: the sampling density is piecewise constant per texel
-(``docs/physics.md``, "wgbragg.lighting.environment_map"), and :meth:`EnvironmentMap.pdf` is
+(``docs/physics.md``, "Environment maps"), and :meth:`EnvironmentMap.pdf` is
 exactly the density :meth:`EnvironmentMap.sample` draws from, which keeps the estimators that
 combine them unbiased.
 """

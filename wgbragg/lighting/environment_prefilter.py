@@ -5,8 +5,8 @@ moments of Kneiphof et al. 2019, baked per roughness into small equirectangular 
 GPU in float32 or with the float64 numpy twin; :class:`PrefilteredEnvironment` looks levels up
 and packs them for the renderer. Directions follow :mod:`wgbragg.lighting.environment_map`;
 radiance is in the source's unit. The prefiltered quantities, resolutions and windows:
-``docs/physics.md``, "wgbragg.lighting.environment_prefilter"; the GPU's blocks and the loop
-budget: ``docs/design.md``, same heading.
+``docs/physics.md``, "Prefiltered environments"; the GPU's blocks and the loop budget:
+``docs/design.md``, "llvmpipe's loop budget" and "What the kernels are given".
 """
 
 from __future__ import annotations
@@ -119,7 +119,7 @@ def _check_levels(levels) -> tuple:
 
 def level_sizes(level) -> tuple[tuple[int, int], tuple[int, int]]:
     """Input and output resolutions of a level (``docs/physics.md``,
-    "wgbragg.lighting.environment_prefilter").
+    "Prefiltered environments").
 
     Parameters
     ----------
@@ -337,7 +337,7 @@ def resample_environment(source, width: int, height: int) -> np.ndarray:
         An image is averaged exactly (its texels as piecewise constant radiance, weighted
         by solid angle, ``intensity`` applied); a procedural environment is rasterised with regular
         subsamples and its disc's energy kept exact (``docs/physics.md``,
-        "wgbragg.lighting.environment_prefilter").
+        "Prefiltered environments").
     width, height : int
         Texels across (``phi``) and down (``theta``), in [2, 4096] and [1, 2048].
 

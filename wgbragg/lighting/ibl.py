@@ -6,7 +6,7 @@ prefiltered radiance at the ideal reflection (:mod:`wgbragg.lighting.environment
 the lobe's albedo with ``R = 1`` (:func:`microfacet_albedo`) and a reflectance term per mode
 (:data:`IBL_MODES`). The notation and the derivation (Kneiphof et al. 2019 eqs 20-29; our
 Gauss-Hermite analogue for Bragg layers): ``docs/physics.md``, "Split-sum and Kneiphof
-shading" and "wgbragg.lighting.ibl".
+shading".
 """
 
 from __future__ import annotations

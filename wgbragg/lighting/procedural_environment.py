@@ -4,8 +4,7 @@
 ``"uniform"``, ``"sky"`` and ``"studio"`` (:data:`PROCEDURAL_TYPES`): a constant, or a gradient
 from horizon to zenith over a ground colour with a disc source, in the scene's relative
 radiance units (+y up). The renderer uploads the same parameters
-(:meth:`ProceduralEnvironment.from_scene`). Details: ``docs/physics.md``, "Environment maps"
-and "wgbragg.lighting.procedural_environment".
+(:meth:`ProceduralEnvironment.from_scene`). Details: ``docs/physics.md``, "Environment maps".
 """
 
 from __future__ import annotations
@@ -140,7 +139,7 @@ def environment_radiance(environment, directions) -> np.ndarray:
 
     The twin of ``environment_radiance`` in ``wgsl/render/renderer_scene.wgsl``, with the
     parameters :mod:`wgbragg.render` uploads for the environment (``docs/physics.md``,
-    "wgbragg.lighting.procedural_environment").
+    "Environment maps").
 
     Parameters
     ----------

@@ -112,7 +112,7 @@ def _evanescent_landmarks(mirror, s, polarization, omega_range):
     gap with the sign of App. A) and the zeros of ``h`` the Airy points: the limits, as
     ``q2 -> 0``, of the propagating landmarks, so that landmark colours are continuous at n2's
     critical angle (how far they jumped with only the edges: ``docs/performance.md``,
-    "wgbragg.optics.landmarks").
+    "Past n2's critical angle").
     ``h`` has exactly one zero per branch: ``h = 0`` reads ``cot(pi tau) + c tanh(kappa) = 0``
     with ``c = (|eta2| / eta1 - eta1 / |eta2|) / 2``, which decreases everywhere if
     ``c <= 0``; if ``c > 0``, rising through a zero would need ``rho > sinh(2 kappa)``, while

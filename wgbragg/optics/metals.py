@@ -2,7 +2,7 @@
 
 Verbatim excerpts of the refractiveindex.info database (public domain, CC0) for Ag, Al, Au and
 Cu, interpolated linearly in wavelength; a :class:`SpectralIndex` refuses to extrapolate. The
-sources: ``docs/physics.md``, "wgbragg.optics.metals".
+sources: ``docs/physics.md``, section 1.
 """
 
 from __future__ import annotations

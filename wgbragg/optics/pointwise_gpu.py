@@ -16,7 +16,7 @@ __all__ = ["POLARIZATION_CODE", "WORKGROUP_SIZE", "evaluate_pointwise", "pointwi
 
 WORKGROUP_SIZE = 256
 """Workgroup size of the reflectance kernels, the fastest on lavapipe (``docs/performance.md``,
-"wgbragg.optics.pointwise_gpu")."""
+"Reflectance")."""
 
 POLARIZATION_CODE = {"s": 0, "p": 1, "unpolarized": 2}
 """``POLARIZATION`` override constant of the kernels, by polarisation name."""

@@ -4,7 +4,7 @@ The stack is ``host | (n1 d1, n2 d2) x N | n1``: N cells, each a layer of index 
 of ``n2``, below a host medium (``host = n1`` is the paper's index-matched top) and above an
 ``n1`` substrate. Conventions are those of :mod:`wgbragg.optics.fresnel`. How the float64
 code and its twin ``wgsl/optics/yeh.wgsl`` stay accurate at band edges and in deep gaps:
-``docs/design.md``, "Float32 numerics" and "wgbragg.optics.yeh".
+``docs/design.md``, "Float32 numerics".
 """
 
 from __future__ import annotations

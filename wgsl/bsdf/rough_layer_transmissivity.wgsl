@@ -10,7 +10,7 @@
 // multiply-adds. The weights are a texture because a texel fetch reads a whole vec4 per lane
 // at once, which makes it cheaper there than a storage load. The block is written out: as
 // arrays indexed by loop counters, lavapipe keeps the sums in memory, which is slower
-// (docs/performance.md, "wgbragg.bsdf.rough_layer").
+// (docs/performance.md, "Rough Bragg layers").
 //! include "gpu/harness.wgsl"
 
 // Rows per workgroup and wavelengths per invocation: written out below (four weight matrices,

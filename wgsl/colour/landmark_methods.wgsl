@@ -28,7 +28,7 @@
 // gap formula); below N = 16 the exact R comes from an unrolled recurrence (EXACT_PERIODS)
 // instead of matched_reflectance's three branches. A panel's three Gauss points are one per
 // iteration, not written out in one: the loop's bookkeeping costs next to nothing, a larger
-// body does (docs/performance.md, "wgbragg.colour.landmark_methods_gpu").
+// body does (docs/performance.md, "How the landmark kernel was made fast").
 
 // wgbragg.colour.landmark_methods.PANEL_NM, PANEL_MARGIN, PHASE_SNAP and
 // EXACT_MIN_OSCILLATION_NM; these constants and the override defaults below are checked against
@@ -99,7 +99,7 @@ struct DensityCell {
 // the CIE 1931 x D65 slopes (|X'|, |Y'| <= 2.1e-4, |Z'| <= 7.2e-4 per nm) to within half a
 // step: the density is off by at most 1e-6 per nm (5e-5 of its peak). With the density at
 // the lower node in float32, a node reads one vec4 instead of two (docs/performance.md,
-// "wgbragg.colour.landmark_methods_gpu").
+// "How the landmark kernel was made fast").
 const DENSITY_SLOPE_STEP: vec3<f32> = vec3<f32>(2.384185791015625e-7, 2.384185791015625e-7,
                                                 1.9073486328125e-6);  // 2^-22, 2^-22, 2^-19
 

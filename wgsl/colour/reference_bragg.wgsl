@@ -8,7 +8,8 @@
 // keep float32's accuracy whatever the phase, which matters with a few heavily weighted nodes
 // ("spectral") at a sharp resonance. Plain float32 sum: its rounding (bound 470 ulp relative)
 // is far below the reflectance's own float32 error, and a Kahan carry would be folded away by
-// the driver's float reassociation (docs/performance.md, "wgbragg.colour.reference_gpu").
+// the driver's float reassociation (docs/performance.md, '"spectral": samples against
+// error').
 //! include "gpu/harness.wgsl"
 //! include "gpu/numerics.wgsl"
 //! include "gpu/complex.wgsl"

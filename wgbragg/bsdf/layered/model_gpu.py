@@ -5,7 +5,7 @@ the GPU twins of :meth:`LayeredBragg.brdf` (eq 34), :meth:`LayeredBragg.sample` 
 This module builds the buffers of ``wgsl/bsdf/layered/model.wgsl`` once per structure and kind
 and runs one invocation per pair ``(wi, wo)`` or sample ``(wi, u)``. The buffers, the
 pipelines' specialisation, the wavelength tables, the loop budget and the RGB modes:
-``docs/design.md``, "wgbragg.bsdf.layered.model_gpu".
+``docs/design.md``, "What the kernels are given".
 """
 
 from __future__ import annotations
@@ -82,7 +82,7 @@ def wavelengths_per_invocation(layers: int) -> int:
     An invocation plans for :data:`gpu.SAFE_LOOP_ITERATIONS` loop iterations (llvmpipe's
     budget), and each wavelength takes one of the wavelength loop and ``layers + 1`` of the
     layer loop (its exit test counts; a single layer is unrolled), as lavapipe's cuts confirm
-    (``docs/performance.md``, "wgbragg.bsdf.layered.model_gpu").
+    (``docs/performance.md``, "Layered structures").
 
     Parameters
     ----------

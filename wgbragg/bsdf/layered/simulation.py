@@ -6,8 +6,8 @@ ignores lateral positions and lets a path reflect any number of times. It valida
 single-reflection model (eq 34). :func:`simulate` estimates the BRDF by next-event estimation
 (``wo`` given) or returns the paths' exit directions and weights (``wo=None``).
 
-The walk, the estimators and the wavelengths a path carries: ``docs/physics.md``, section 12
-and "wgbragg.bsdf.layered.simulation"; the loop budget: ``docs/design.md``, same heading.
+The walk, the estimators and the wavelengths a path carries: ``docs/physics.md``, section 12;
+the loop budget: ``docs/design.md``, "llvmpipe's loop budget".
 """
 
 from __future__ import annotations
@@ -71,7 +71,7 @@ def walk_iterations(layers: int, max_bounces: int) -> int:
     layers, and each crossing or reflection loops over the layers above for next-event
     estimation and over four wavelengths for Yeh's formula: ``12 + 4 layers`` iterations,
     a bound fitted with a margin to lavapipe's longest walks (``docs/performance.md``,
-    "wgbragg.bsdf.layered.simulation").
+    "Layered structures").
 
     Parameters
     ----------
@@ -251,7 +251,7 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
 
     Notes
     -----
-    The estimators are described in ``docs/physics.md`` ("wgbragg.bsdf.layered.simulation").
+    The estimators are described in ``docs/physics.md``, section 12.
     Statistics are accumulated in float32 over the paths of a GPU invocation (Welford's
     update; up to 64, fewer for long walks) and combined in float64.
 

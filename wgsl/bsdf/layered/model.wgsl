@@ -315,7 +315,7 @@ fn layered_eval_spectral(s: LayeredStructure, p: LayeredPair, wavelength_nm: f32
 // layered_eval_spectral at the four wavelengths a path carries: the lobes and the tables' rows,
 // which do not depend on wavelength, are computed once. Yeh's angle setup is not: sharing it
 // (angle_geometry), or unrolling the wavelength loop, is slower on lavapipe
-// (docs/performance.md, "wgbragg.bsdf.layered.model_gpu").
+// (docs/performance.md, "Layered structures").
 fn layered_eval_spectral4(s: LayeredStructure, p: LayeredPair, wavelength_nm: vec4<f32>)
     -> vec4<f32> {
     var albedo = vec4<f32>(0.0);

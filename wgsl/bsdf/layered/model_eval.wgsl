@@ -112,7 +112,7 @@ fn node_colour(wavelength_nm: f32) -> vec4<f32> {
 // The colour of the spectral f at four hero wavelengths: an unbiased estimate of
 // layered_eval_rgb's INTEGRATED colour. Each wavelength's rgb weights and base albedo come in
 // one vec4 pair rather than scalar loads from `tables`; four named values, not a private array
-// (docs/performance.md, "wgbragg.bsdf.layered.model_gpu").
+// (docs/performance.md, "Layered structures").
 fn layered_eval_hero(s: LayeredStructure, pair: LayeredPair, offset: f32) -> vec3<f32> {
     let hero = hero_wavelengths(offset);
     let c0 = node_colour(hero.nm.x);

@@ -10,7 +10,7 @@
 // A path carries four wavelengths, one vec4: a group of the given ones, or in RGB mode hero
 // wavelengths stratified in the inverse CDF of the summed XYZ density, one offset per path.
 // Groups of a query draw the same random numbers. (Four, not more in private arrays of vec4:
-// docs/performance.md, "wgbragg.bsdf.layered.simulation".)
+// docs/performance.md, "Layered structures".)
 //! include "gpu/harness.wgsl"
 //! include "gpu/numerics.wgsl"
 //! include "gpu/complex.wgsl"
