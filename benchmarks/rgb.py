@@ -914,8 +914,8 @@ def render_section(results: Results, command: str, plot: Path | None = None) -> 
             "converged integral", ""]
     out += ["Outside the benchmark grid: n2 evanescent (a dense medium or host), where the modes "
             "are those of q1 d1 and each π of the n1 phase holds one pass band, found on either "
-            "side of its zero of cos KΛ (docs/physics.md, 'Evanescent n2'). Angles from 0.5° "
-            "past n2's "
+            "side of its zero of cos KΛ (docs/physics.md, sec. 7, 'Evanescent n2'). Angles "
+            "from 0.5° past n2's "
             f"critical angle to 89° (or 0.5° before n1's); dE2000 over {cfg.dense_angles} of them, "
             f"times over {cfg.timing_angles:,}.", ""]
     out += _dense_table(results)
