@@ -23,6 +23,7 @@ from wgbragg.colour import colorimetry, grid_gpu, landmark_methods, landmark_met
 from wgbragg.colour import thin_film_gpu as colour_thin_film_gpu
 from wgbragg.lighting import environment_map, environment_prefilter
 from wgbragg.optics import landmarks, thin_film_gpu, yeh_gpu
+from wgbragg.render import packing
 
 ENVIRONMENT_MAP = str(Path(__file__).parent / "kernels" / "environment_map_eval.wgsl")
 """A kernel that includes ``lighting/environment_map.wgsl`` (the library has no entry point)."""
@@ -198,6 +199,9 @@ CONSTANTS = [
      model_gpu.FACTORED_COLOUR_METHODS["reference"]),
     ("bsdf/layered/model_eval.wgsl", "SUBDIVISIONS", _subdivided_default()),
     ("bsdf/layered/simulation.wgsl", "FIRST_NM", colorimetry.WAVELENGTH_RANGE_NM[0]),
+    # The BVH traversal: its stack and the node texture's rows.
+    ("render/renderer_scene.wgsl", "STACK_SIZE", packing._STACK_SIZE),
+    ("render/renderer_scene.wgsl", "NODE_TEXTURE_WIDTH", packing.NODE_TEXTURE_WIDTH),
     # Environment maps.
     (ENVIRONMENT_MAP, "ENVIRONMENT_ROWS", _environment_header_rows()),
     (ENVIRONMENT_MAP, "ENVIRONMENT_LUMINANCE", _f32(environment_map.LUMINANCE_WEIGHTS)),

@@ -96,6 +96,10 @@ keeps (about 1 MB): an edit re-bakes only the layer it changed, once for all ren
 _shared_layers: collections.OrderedDict = collections.OrderedDict()
 _STACK_SIZE = 32  # STACK_SIZE of render/renderer_scene.wgsl
 _INTERIOR = 0x40000000  # INTERIOR of render/renderer_scene.wgsl
+NODE_TEXTURE_WIDTH = 4096
+"""Texels a row of the BVH node texture (NODE_TEXTURE_WIDTH of render/renderer_scene.wgsl): two
+a node, so 2,048 nodes a row. WebGPU guarantees textures 8,192 wide, so the width always fits."""
+_NODE_EXACT = 1 << 24  # indices and counts stored as float32 stay exact below this
 _IBL_ALBEDO_NODES = 64  # IBL_ALBEDO_NODES of render/renderer.wgsl
 
 _CAMERA_FIELDS = [
@@ -116,8 +120,6 @@ PARAMS_DTYPE = gpu.struct_dtype([
 """``Params`` of render/renderer.wgsl (its nested Camera and Environment flattened: both are 16-byte
 aligned with sizes that are multiples of 16, so the offsets agree)."""
 
-_NODE_DTYPE = gpu.struct_dtype([("lo", "vec3<f32>"), ("left_or_first", "u32"),
-                                ("hi", "vec3<f32>"), ("count", "u32")])
 _MATERIAL_DTYPE = gpu.struct_dtype([("albedo", "vec3<f32>"), ("kind", "u32"),
                                     ("structure", "u32"), ("period_map", "u32"),
                                     ("delta_map", "u32"), ("ibl_level", "u32"),
@@ -212,6 +214,42 @@ def _node_counts(bvh) -> np.ndarray:
     return np.where(interior, code, bvh.node_count).astype(np.uint32)
 
 
+def _node_texels(bvh, largest: int) -> np.ndarray:
+    """The BVH nodes as the ``(rows, NODE_TEXTURE_WIDTH, 4)`` float32 texels of an
+    ``rgba32float`` texture that ``bvh_node`` of render/renderer_scene.wgsl decodes: node i at
+    texels 2 i (lo, left_or_first) and 2 i + 1 (hi, count), row-major, the last row zero-padded.
+    An interior node's count is stored as ``-(code & 7) - 1`` of its code (INTERIOR | axis and
+    side, :func:`_node_counts`), a leaf's as its face count; both integers are exact in float32.
+
+    Raises
+    ------
+    ValueError
+        If the tree needs more than ``largest`` rows (the device's max-texture-dimension-2d) or
+        has 2**24 nodes or more (its indices would not be exact in float32).
+    """
+    total = bvh.node_total
+    per_row = NODE_TEXTURE_WIDTH // 2
+    capacity = min(largest * per_row, _NODE_EXACT - 1)
+    if total > capacity:
+        raise ValueError(
+            f"scene: its BVH has {total:,} nodes ({len(bvh.triangle_order):,} triangles); the "
+            f"GPU node texture holds at most {capacity:,} on this device ({largest:,} rows of "
+            f"{per_row:,} nodes, and fewer than 2**24): use fewer triangles")
+    counts = _node_counts(bvh)
+    interior = counts >= _INTERIOR
+    code = np.where(interior, -(counts.astype(np.int64) & 7) - 1, counts)
+    texels = np.zeros((-(-total // per_row) * per_row, 2, 4), np.float32)
+    texels[:total, 0, :3], texels[:total, 1, :3] = bvh.node_min, bvh.node_max
+    texels[:total, 0, 3] = np.where(bvh.node_count > 0, bvh.node_first, bvh.node_left)
+    texels[:total, 1, 3] = code
+    return texels.reshape(-1, NODE_TEXTURE_WIDTH, 4)
+
+
+def _max_texture_dimension() -> int:
+    """The device's max-texture-dimension-2d (8,192 in WebGPU's default limits)."""
+    return int(gpu.get_device().limits["max-texture-dimension-2d"])
+
+
 @dataclasses.dataclass(frozen=True)
 class PackedGeometry:
     """The scene's triangles and BVH as render/renderer.wgsl reads them.
@@ -224,8 +262,8 @@ class PackedGeometry:
         (``vertices``) or v (``normals``).
     faces : numpy.ndarray, shape (F, 4), uint32
         Vertex indices and material index, in BVH order.
-    nodes : numpy.ndarray
-        The BVH nodes (``BvhNode``).
+    nodes : numpy.ndarray, shape (R, NODE_TEXTURE_WIDTH, 4), float32
+        The BVH nodes as texels of an ``rgba32float`` texture (:func:`_node_texels`).
     extent : float
         The largest side of the scene's bounding box, in scene units.
     """
@@ -244,7 +282,8 @@ def pack_geometry(scene: Scene) -> PackedGeometry:
     Raises
     ------
     ValueError
-        For a BVH too deep for the GPU traversal stack, or an unreadable mesh file.
+        For a BVH too deep for the GPU traversal stack or too large for the device's node
+        texture (:data:`NODE_TEXTURE_WIDTH`), or an unreadable mesh file.
     """
     material_index = {name: k for k, name in enumerate(scene.materials)}
     vertices, normals, faces, uv = _world_geometry(scene, material_index)
@@ -252,10 +291,7 @@ def pack_geometry(scene: Scene) -> PackedGeometry:
     if bvh.depth + 1 > _STACK_SIZE:
         raise ValueError(f"scene: its BVH is {bvh.depth} levels deep; the GPU traversal "
                          f"handles at most {_STACK_SIZE - 1}")
-    nodes = np.zeros(bvh.node_total, _NODE_DTYPE)
-    nodes["lo"], nodes["hi"] = bvh.node_min, bvh.node_max
-    nodes["count"] = _node_counts(bvh)
-    nodes["left_or_first"] = np.where(bvh.node_count > 0, bvh.node_first, bvh.node_left)
+    nodes = _node_texels(bvh, _max_texture_dimension())
     return PackedGeometry(
         bvh=bvh,
         vertices=np.column_stack([vertices, uv[:, 0]]).astype(np.float32),

@@ -390,7 +390,7 @@ class Renderer:
             gpu.DeviceArray.upload(packed.vertices, what="the scene's vertices"),
             gpu.DeviceArray.upload(packed.normals, what="the scene's normals"),
             gpu.DeviceArray.upload(packed.faces),
-            gpu.DeviceArray.upload(packed.nodes),
+            gpu.DeviceArray.upload(packed.nodes, texture=True),
         ]
         return inputs, packed.extent, (packed, tuple(scene.materials))
 

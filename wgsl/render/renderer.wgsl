@@ -90,7 +90,7 @@ struct Params {
 @group(0) @binding(0) var<storage, read> vertices: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read> normals: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> faces: array<vec4<u32>>;
-@group(0) @binding(3) var<storage, read> nodes: array<BvhNode>;
+@group(0) @binding(3) var node_texels: texture_2d<f32>;
 @group(0) @binding(4) var<storage, read> materials: array<Material>;
 @group(0) @binding(5) var<storage, read> structures: array<LayeredStructure>;
 @group(0) @binding(6) var<storage, read> layers: array<RoughLayer>;
