@@ -21,7 +21,7 @@ from wgbragg.bsdf import rough_layer, transmission_filter
 from wgbragg.bsdf.layered import model_gpu, simulation
 from wgbragg.colour import colorimetry, grid_gpu, landmark_methods, landmark_methods_gpu, thin_film
 from wgbragg.colour import thin_film_gpu as colour_thin_film_gpu
-from wgbragg.lighting import environment_map, environment_prefilter
+from wgbragg.lighting import environment_map, environment_prefilter, ibl
 from wgbragg.optics import landmarks, thin_film_gpu, yeh_gpu
 from wgbragg.render import packing
 
@@ -202,6 +202,8 @@ CONSTANTS = [
     # The BVH traversal: its stack and the node texture's rows.
     ("render/renderer_scene.wgsl", "STACK_SIZE", packing._STACK_SIZE),
     ("render/renderer_scene.wgsl", "NODE_TEXTURE_WIDTH", packing.NODE_TEXTURE_WIDTH),
+    # Filtered image-based lighting: the microfacet albedo table.
+    ("lighting/ibl.wgsl", "IBL_ALBEDO_NODES", ibl.ALBEDO_TABLE_NODES),
     # Environment maps.
     (ENVIRONMENT_MAP, "ENVIRONMENT_ROWS", _environment_header_rows()),
     (ENVIRONMENT_MAP, "ENVIRONMENT_LUMINANCE", _f32(environment_map.LUMINANCE_WEIGHTS)),

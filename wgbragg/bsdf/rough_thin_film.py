@@ -2,7 +2,8 @@
 
 ``f(wi, wo) = D(h) G1(wi) G1(wo) R(h.wi) / (4 |wi.z| |wo.z|)`` with ``R`` the film's Airy
 reflectance at the microfacet incidence, both polarisations averaged: the float64 twin of
-``film_eval`` / ``film_pdf`` in ``wgsl/render/renderer.wgsl``. Conventions are those of
+``film_eval`` / ``film_pdf`` in ``wgsl/bsdf/rough_thin_film.wgsl`` (included by
+``wgsl/render/renderer.wgsl``). Conventions are those of
 :mod:`wgbragg.bsdf.layered.model`, in the film's host medium. :func:`reflection_quadrature`,
 shared with :mod:`wgbragg.lighting.ibl`, integrates the reflected lobe deterministically.
 Details: ``docs/physics.md``, section 9.

@@ -1,5 +1,6 @@
 """Filtered image-based lighting of microfacet materials: the float64 twin of the renderer's
-``"split-sum"`` and ``"kneiphof"`` modes (``wgsl/render/renderer.wgsl``, ``ibl_radiance``).
+``"split-sum"`` and ``"kneiphof"`` modes, whose float32 twin is ``wgsl/lighting/ibl.wgsl``
+(included by ``wgsl/render/renderer.wgsl``, whose ``ibl_radiance`` dispatches to it).
 
 A microfacet material is shaded once per view as ``L_out = Lbar E(cos_v, alpha) Rbar``: the
 prefiltered radiance at the ideal reflection (:mod:`wgbragg.lighting.environment_prefilter`),
@@ -52,7 +53,7 @@ IBL_MODES = ("monte-carlo", "split-sum", "kneiphof")
 
 ALBEDO_TABLE_NODES = 64
 """Nodes in ``cos_v`` of the renderer's table of ``E`` (``IBL_ALBEDO_NODES`` of
-``wgsl/render/renderer.wgsl``)."""
+``wgsl/lighting/ibl.wgsl``)."""
 
 HERMITE_NODES = 5
 """Gauss-Hermite nodes of :func:`bragg_filtered_reflectance` (the renderer's rule)."""
@@ -146,7 +147,7 @@ def microfacet_albedo_table(alpha, nodes: int = ALBEDO_TABLE_NODES,
                             quadrature_nodes: int = QUADRATURE_NODES) -> np.ndarray:
     """``E(cos_v, alpha)`` at ``cos_v = (k + 1/2) / nodes``, ``k = 0 .. nodes - 1``.
 
-    The renderer's table (``microfacet_albedo`` in ``wgsl/render/renderer.wgsl``) interpolates it
+    The renderer's table (``microfacet_albedo`` in ``wgsl/lighting/ibl.wgsl``) interpolates it
     linearly in ``cos_v`` and holds the end values outside ``[1/(2 nodes), 1 - 1/(2 nodes)]``.
 
     Parameters
@@ -195,8 +196,7 @@ def moment_statistics(v, m1, m2) -> tuple[np.ndarray, np.ndarray]:
     -------
     mu_x, sigma_x : numpy.ndarray
         ``mu_x = clamp(v.m1, -1, 1)`` and ``sigma_x = sqrt(max(0, v^T m2 v - mu_x^2))``, shape
-        ``broadcast(...)``; as ``light_spread`` in ``wgsl/render/renderer.wgsl`` (which subtracts
-        the
+        ``broadcast(...)``; as ``light_spread`` in ``wgsl/lighting/ibl.wgsl`` (which subtracts the
         clamped mean too: the same, since ``|v.m1| <= 1`` for a true mean).
 
     Raises

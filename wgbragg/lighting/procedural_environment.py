@@ -1,5 +1,6 @@
 """The procedural environments of the path tracer in float64 numpy: the twin of
-``environment_radiance`` in ``wgsl/render/renderer_scene.wgsl``, for references and tests.
+``environment_radiance`` in ``wgsl/lighting/procedural_environment.wgsl`` (its float32 twin,
+included by ``wgsl/render/renderer.wgsl``), for references and tests.
 
 ``"uniform"``, ``"sky"`` and ``"studio"`` (:data:`PROCEDURAL_TYPES`): a constant, or a gradient
 from horizon to zenith over a ground colour with a disc source, in the scene's relative
@@ -137,7 +138,7 @@ class ProceduralEnvironment:
 def environment_radiance(environment, directions) -> np.ndarray:
     """Radiance of a procedural environment arriving from unit ``directions``, in float64.
 
-    The twin of ``environment_radiance`` in ``wgsl/render/renderer_scene.wgsl``, with the
+    The twin of ``environment_radiance`` in ``wgsl/lighting/procedural_environment.wgsl``, with the
     parameters :mod:`wgbragg.render` uploads for the environment (``docs/physics.md``,
     "Environment maps").
 

@@ -25,10 +25,13 @@
 //! include "bsdf/layered/model.wgsl"
 //! include "optics/thin_film.wgsl"
 //! include "colour/thin_film.wgsl"
+//! include "bsdf/rough_thin_film.wgsl"
 //! include "render/renderer_scene.wgsl"
+//! include "lighting/procedural_environment.wgsl"
 //! include "lighting/environment_map.wgsl"
 //! include "scene/parameter_maps.wgsl"
 //! include "lighting/environment_prefilter_lookup.wgsl"
+//! include "lighting/ibl.wgsl"
 //! include "colour/colorimetry_hero.wgsl"
 
 // Bounces after the camera ray; the path ends at a hit beyond them.
@@ -211,75 +214,16 @@ fn sky_sample(e: Environment, u: vec3<f32>) -> vec3<f32> {
 
 // ----------------------------------------------------------------------------- materials
 
-// GGX microfacets coated by a thin film (Belcour & Barla 2017), in air: the float32 twin of
-// wgbragg.bsdf.rough_thin_film.RoughThinFilm. The film's reflectance at the microfacet is its
-// Fourier-series colour (linear sRGB: the XYZ matrix is folded into colour.adapt) in RGB mode,
-// and its Airy reflectance at the hero wavelengths in spectral mode.
-struct FilmMaterial {
-    colour: FilmColourParams,   // d_nm is the film's own thickness
-    alpha: f32,
-    thickness_map: u32,         // index in map_records (FILM_MAPS), 0 for none
-    first_base: u32,            // its first row of film_base
-    _pad: u32,
-}
-
 const FILM_BASE_STEP_NM: f32 = 10.0;
 const FILM_BASE_ROWS: u32 = 48u;
 
-// The film thickness at the current shading point, nm (a thickness map varies it).
-var<private> film_thickness: f32;
-
+// bsdf/rough_thin_film.wgsl's base index: the film's rows of `film_base`.
 fn film_base_index(f: FilmMaterial, wavelength_nm: f32) -> vec2<f32> {
     let at = clamp((wavelength_nm - LAMBDA_LO_NM) / FILM_BASE_STEP_NM, 0.0,
                    f32(FILM_BASE_ROWS - 1u));
     let lower = min(u32(at), FILM_BASE_ROWS - 2u);
     return mix(film_base[f.first_base + lower], film_base[f.first_base + lower + 1u],
                at - f32(lower)).xy;
-}
-
-// Reflectance of the film at the incidence cosine cos_d on a microfacet; sigma_nm: standard
-// deviation of the thickness (prefiltering, RGB mode with FILM_PREFILTERED only).
-fn film_reflectance(f: FilmMaterial, cos_d: f32, sigma_nm: f32) -> vec4<f32> {
-    let theta = acos(clamp(cos_d, 0.0, 1.0));
-    //! if !SPECTRAL
-    var p = f.colour;
-    p.d_nm = film_thickness;
-    p.sigma_nm = sigma_nm;
-    return vec4<f32>(film_colour(theta, p, false, FILM_PREFILTERED), 0.0);
-    //! else
-    var film: ThinFilm;
-    film.host = f.colour.host;
-    film.n_film = f.colour.n_film;
-    film.d_nm = film_thickness;
-    var out = vec4<f32>(0.0);
-    for (var k = 0u; k < 4u; k++) {
-        let base = film_base_index(f, wavelengths[k]);
-        film.n_base = base.x;
-        film.k_base = base.y;
-        out[k] = thin_film_reflectance(film, wavelengths[k], theta, 2u);
-    }
-    return out;
-    //! endif
-}
-
-fn film_eval(f: FilmMaterial, wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
-    if (wi.z <= 0.0 || wo.z <= 0.0) {
-        return vec4<f32>(0.0);
-    }
-    let h = half_vector(wi, wo);
-    // D G1(wi) G1(wo) / (4 cos_i cos_o), with the cosines divided out of G1 where it is exact.
-    let shape = ggx_D(h.z, f.alpha) * ggx_G1_over_cos(min(wi.z, 1.0), f.alpha)
-        * ggx_G1_over_cos(min(wo.z, 1.0), f.alpha) * 0.25;
-    return film_reflectance(f, dot(wi, h), 0.0) * shape;
-}
-
-fn film_pdf(f: FilmMaterial, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
-    if (wi.z <= 0.0 || wo.z <= 0.0) {
-        return 0.0;
-    }
-    let h = half_vector(wi, wo);
-    let c = dot(wi, h);
-    return select(0.0, ggx_visible_normal_pdf(wi, h, f.alpha) / (4.0 * c), c > 0.0);
 }
 
 // Visible normals (Heitz 2018): the weight f cos / pdf is R G1(wo).
@@ -363,93 +307,9 @@ fn bsdf_sample(m: Material, wi: vec3<f32>, u: vec3<f32>) -> BsdfSample {
 
 // ----------------------------------------------------------------------------- filtered IBL
 
-const IBL_ALBEDO_NODES: u32 = 64u;
-
-// E(cos_v) of the level's roughness, linear between nodes at cos_v = (k + 1/2) / nodes.
-fn microfacet_albedo(level: u32, cos_v: f32) -> f32 {
-    let at = clamp(cos_v * f32(IBL_ALBEDO_NODES) - 0.5, 0.0, f32(IBL_ALBEDO_NODES - 1u));
-    let lower = min(u32(at), IBL_ALBEDO_NODES - 2u);
-    let first = level * IBL_ALBEDO_NODES + lower;
-    return mix(ibl_albedo[first], ibl_albedo[first + 1u], at - f32(lower));
-}
-
-// Mean and standard deviation of x = l.v over the prefiltered light directions l (Kneiphof et
-// al. 2019, eqs 20-21).
-fn light_spread(p: Prefiltered, v: vec3<f32>) -> vec2<f32> {
-    let mean = clamp(dot(v, p.mean), -1.0, 1.0);
-    let second = dot(v * v, p.second_diagonal)
-        + 2.0 * (v.x * v.y * p.second_off.x + v.y * v.z * p.second_off.y
-                 + v.z * v.x * p.second_off.z);
-    return vec2<f32>(mean, sqrt(max(0.0, second - mean * mean)));
-}
-
-// Kneiphof et al. 2019 eqs 22-29: the film's colour at the mean microfacet incidence, its
-// Fourier terms filtered by the spread of the optical path difference (the prefiltered table).
-fn film_kneiphof(f: FilmMaterial, spread: vec2<f32>) -> vec4<f32> {
-    let c1 = sqrt(max(0.0, 0.5 * (1.0 + spread.x)));
-    let k = (f.colour.host * f.colour.host) / (f.colour.n_film * f.colour.n_film);
-    let c2_squared = 1.0 + 0.5 * k * (spread.x - 1.0);
-    var sigma_nm = 0.0;
-    if (c2_squared > 0.0) {
-        let mean_c2 = sqrt(c2_squared);
-        // sigma_D = 2 n2 d sigma_c2, and film_colour spreads the m-th term by m 2 n2 c2 sigma.
-        sigma_nm = film_thickness * (0.25 * k / mean_c2 * spread.y) / mean_c2;
-    }
-    return film_reflectance(f, c1, sigma_nm);
-}
-
-// Probabilists' Gauss-Hermite rule of 5 nodes: the mean of g(x) for x ~ N(0, 1).
-const HERMITE_NODES = array<f32, 5>(-2.8569700, -1.3556262, 0.0, 1.3556262, 2.8569700);
-const HERMITE_WEIGHTS = array<f32, 5>(0.0112574, 0.2220759, 0.5333333, 0.2220759, 0.0112574);
-
-// Our analogue for a Bragg layer, whose colour has no short Fourier series in the optical path:
-// its colour averaged over x = l.v ~ N(mean, std^2), each node mapped exactly (no
-// linearisation) to the microfacet incidence theta_d = acos(sqrt((1 + x) / 2)).
-fn bragg_filtered(s: LayeredStructure, layer: RoughLayer, spread: vec2<f32>) -> vec3<f32> {
-    var total = vec3<f32>(0.0);
-    for (var k = 0u; k < 5u; k++) {
-        let x = clamp(spread.x + HERMITE_NODES[k] * spread.y, -1.0, 1.0);
-        total += HERMITE_WEIGHTS[k] * layer_colour(s, layer, acos(sqrt(0.5 * (1.0 + x))));
-    }
-    return total;
-}
-
-// Mean cosine of a cosine-distributed direction: where the diffuse base's light crosses the
-// layers, on average.
-const DIFFUSE_MEAN_COS: f32 = 0.6666667;
-
-// The single-reflection model (eq 34) by the split sum, layer by layer: each lobe lit by the
-// environment prefiltered for its roughness (its levels follow the material's first), its
-// colour at the ideal reflection (or filtered, IBL_KNEIPHOF), through the layers above at
-// theta_v both ways; a Lambertian base by the cosine level (the material's last), through the
-// layers at theta_v and at the diffuse mean angle.
-fn layered_ibl(m: Material, n: vec3<f32>, v: vec3<f32>, cos_v: f32) -> vec3<f32> {
-    let s = structures[m.structure];
-    let theta_v = acos(cos_v);
-    let r = 2.0 * cos_v * n - v;
-    var total = vec3<f32>(0.0);
-    var through = vec3<f32>(1.0);
-    var through_diffuse = vec3<f32>(1.0);
-    for (var l = 0u; l < m.ibl_layers; l++) {
-        let layer = layers[s.first_layer + l];
-        let level = m.ibl_level + l;
-        let p = prefiltered_lookup(level, r);
-        //! if IBL == IBL_KNEIPHOF
-        let colour = bragg_filtered(s, layer, light_spread(p, v));
-        //! else
-        let colour = layer_colour(s, layer, theta_v);
-        //! endif
-        total += p.radiance * microfacet_albedo(level, cos_v) * colour * through;
-        let t = table_lerp_rgb(layer.transmissivity_rgb, filter_row(layer, theta_v));
-        through *= t * t;
-        through_diffuse *= t * table_lerp_rgb(layer.transmissivity_rgb,
-                                              filter_row(layer, acos(DIFFUSE_MEAN_COS)));
-    }
-    if (BASE == BASE_LAMBERTIAN && any(s.base_rgb > vec3<f32>(0.0))) {
-        let diffuse = prefiltered_lookup(m.ibl_level + m.ibl_layers, n).radiance;
-        total += s.base_rgb * diffuse * through_diffuse;
-    }
-    return total;
+// lighting/ibl.wgsl's table of microfacet albedos: node i of `ibl_albedo`.
+fn ibl_albedo_node(i: u32) -> f32 {
+    return ibl_albedo[i];
 }
 
 // Radiance towards v (world, unit) of a surface with shading normal n, lit by the
@@ -461,7 +321,8 @@ fn ibl_radiance(m: Material, n: vec3<f32>, v: vec3<f32>) -> vec4<f32> {
     let cos_v = clamp(dot(n, v), 0.0, 1.0);
     //! if LAYERED
     if (m.kind == MATERIAL_LAYERED) {
-        return vec4<f32>(layered_ibl(m, n, v, cos_v), 0.0);
+        return vec4<f32>(layered_ibl(structures[m.structure], m.ibl_level, m.ibl_layers, n,
+                                     v, cos_v), 0.0);
     }
     //! endif
     var reflectance = vec4<f32>(0.0);

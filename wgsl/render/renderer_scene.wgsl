@@ -1,5 +1,6 @@
 // Scene queries of the path tracer (wgbragg/render/renderer.py): random numbers, camera rays, the BVH
-// traversal and ray-triangle tests, the procedural environments and the surface frame.
+// traversal and ray-triangle tests and the surface frame (the procedural environments:
+// lighting/procedural_environment.wgsl).
 // Needs gpu/numerics.wgsl (PI, TWO_PI).
 //
 // Buffers. No bindings here: the including entry point declares, under these names,
@@ -8,7 +9,8 @@
 //   faces:    array<vec4<u32>>   vertex indices (xyz) and material index (w), in the BVH's
 //                                triangle order, so that a leaf's faces are contiguous
 //   node_texels: texture_2d<f32> bvh.BVH, depth-first with sibling pairs, as bvh_node reads it
-// and a `params: Params` uniform holding a `camera: Camera` and an `environment: Environment`.
+// and a `params: Params` uniform holding a `camera: Camera` and an `environment: Environment`
+// (lighting/procedural_environment.wgsl).
 
 // Traversal stack slots: bvh.BVH.depth + 1 slots suffice; render.py refuses deeper trees. A
 // binned-SAH tree of 1.3 million triangles is 21 deep; every slot costs its zeroing per trace.
@@ -51,21 +53,6 @@ struct Camera {
     _pad0: f32,
     up: vec3<f32>,        // scaled by tan(fov / 2)
     _pad1: f32,
-}
-
-// A gradient over the upper hemisphere, a ground colour below and a disc source (the sun, or
-// a studio's key light): a uniform environment has three equal colours and no disc.
-struct Environment {
-    zenith: vec3<f32>,
-    disc_cos: f32,        // cosine of the disc's angular radius
-    horizon: vec3<f32>,
-    disc_probability: f32,  // share of environment samples aimed at the disc
-    ground: vec3<f32>,
-    _pad0: f32,
-    disc_radiance: vec3<f32>,
-    _pad1: f32,
-    disc_direction: vec3<f32>,
-    _pad2: f32,
 }
 
 // ----------------------------------------------------------------------------- random numbers
@@ -229,45 +216,4 @@ fn cosine_direction(u: vec2<f32>) -> vec3<f32> {
     let radius = sqrt(u.x);
     let phi = TWO_PI * u.y;
     return vec3<f32>(radius * cos(phi), radius * sin(phi), sqrt(max(0.0, 1.0 - u.x)));
-}
-
-// ----------------------------------------------------------------------------- environment
-
-fn environment_radiance(e: Environment, d: vec3<f32>) -> vec3<f32> {
-    var sky = e.ground;
-    if (d.y >= 0.0) {
-        // sqrt(elevation) keeps the horizon band bright but narrow.
-        sky = mix(e.horizon, e.zenith, sqrt(d.y));
-    }
-    if (dot(d, e.disc_direction) >= e.disc_cos) {
-        sky += e.disc_radiance;
-    }
-    return sky;
-}
-
-fn disc_solid_angle(e: Environment) -> f32 {
-    return TWO_PI * (1.0 - e.disc_cos);
-}
-
-// Density (1/sr) of environment_sample: uniform over the sphere, mixed with uniform over the
-// disc's cone.
-fn environment_pdf(e: Environment, d: vec3<f32>) -> f32 {
-    var density = (1.0 - e.disc_probability) / (4.0 * PI);
-    if (e.disc_probability > 0.0 && dot(d, e.disc_direction) >= e.disc_cos) {
-        density += e.disc_probability / disc_solid_angle(e);
-    }
-    return density;
-}
-
-fn environment_sample(e: Environment, u: vec3<f32>) -> vec3<f32> {
-    if (u.x < e.disc_probability) {
-        let c = mix(1.0, e.disc_cos, u.y);
-        let s = sqrt(max(0.0, 1.0 - c * c));
-        let phi = TWO_PI * u.z;
-        return to_world(frame_about(e.disc_direction), vec3<f32>(s * cos(phi), s * sin(phi), c));
-    }
-    let z = 1.0 - 2.0 * u.y;
-    let s = sqrt(max(0.0, 1.0 - z * z));
-    let phi = TWO_PI * u.z;
-    return vec3<f32>(s * cos(phi), s * sin(phi), z);
 }
