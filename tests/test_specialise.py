@@ -3,6 +3,8 @@ which lines each set of override constants keeps, and the errors of malformed bl
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from wgbragg import gpu
@@ -129,12 +131,25 @@ def test_directives_inside_block_comments_are_comment_text():
         specialise(HEADER + body + "//! if GHOST\n//! endif\n", {})
 
 
-@pytest.mark.parametrize("name", sorted(
-    path.relative_to(gpu.shader_dir()).as_posix() for path in gpu.shader_dir().rglob("*.wgsl")
-    if "broken" not in path.name))
+SHIPPED = sorted(path.relative_to(gpu.shader_dir()).as_posix()
+                 for path in gpu.shader_dir().rglob("*.wgsl") if "broken" not in path.name)
+ENTRY_POINT = re.compile(r"^@(compute|vertex|fragment)\b", re.MULTILINE)
+
+
+@pytest.mark.parametrize("name", SHIPPED)
 def test_every_shipped_shader_specialises_with_its_defaults(name):
+    """An entry point specialises on its own; a library whose blocks read the override
+    constants of the kernels that include it specialises inside each of them."""
     source = gpu.load_shader(name)
-    assert specialise(source.code, {}).count("\n") == source.code.count("\n")
+    if ENTRY_POINT.search(source.code) or "//! if" not in source.code:
+        assert specialise(source.code, {}).count("\n") == source.code.count("\n")
+        return
+    includers = [gpu.load_shader(other) for other in SHIPPED
+                 if other != name and ENTRY_POINT.search(gpu.load_shader(other).code)
+                 and name in {file for file, _ in gpu.load_shader(other).line_map}]
+    assert includers, f"{name} has //! if blocks but no entry point includes it"
+    for kernel in includers:
+        assert specialise(kernel.code, {}).count("\n") == kernel.code.count("\n")
 
 
 # ------------------------------------------------------------------ through the harness
