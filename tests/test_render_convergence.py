@@ -5,21 +5,20 @@ of its models: the procedural environments seen by missed camera rays against th
 deterministic quadrature of the reflected radiance, for a Lambertian, a layered Bragg and a
 coated layered Bragg material, and in spectral mode.
 
-The sphere is the built-in unit icosphere, seen by a nearly orthographic camera (40 units away,
-3 deg field of view). The reference integrates, per pixel,
+The sphere is the built-in unit sphere (exact), seen by a nearly orthographic camera (40 units
+away, 3 deg field of view). The reference integrates, per pixel,
 
     L = int f(wi, wo) L_env(wo) cos(theta_o) dwo  (+ R_c(theta_i) L_env(mirror of wi))
 
-over the directions above both the geometric and the shading normal (as the shader's next-event
-estimation and BSDF sampling both require), with the interpolated vertex normal of the hit as
-the shading normal. The sphere is convex, so a path escapes after its first bounce and the
-environment is all the light there is. Quadrature: Gauss-Legendre in sqrt(y) over the upper
-hemisphere (the sky's gradient is linear in it, and the horizon's jump is a grid line),
-Gauss-Legendre in y below, the key light's cone apart (its edge is then a grid line too), and
-uniform steps in azimuth. The render is a box-filtered pixel (jittered rays), so the smooth
-continuous part is box-filtered through its centre values and their second differences, and the
-coating's mirror image (sharp edges) is averaged over sub-pixel rays. Only pixels whose 3 x 3
-neighbourhood lies on the sphere are compared.
+over the directions above the sphere's normal (the geometric and the shading normal, as the
+shader's next-event estimation and BSDF sampling both require). The sphere is convex, so a path
+escapes after its first bounce and the environment is all the light there is. Quadrature:
+Gauss-Legendre in sqrt(y) over the upper hemisphere (the sky's gradient is linear in it, and
+the horizon's jump is a grid line), Gauss-Legendre in y below, the key light's cone apart (its
+edge is then a grid line too), and uniform steps in azimuth. The render is a box-filtered pixel
+(jittered rays), so the smooth continuous part is box-filtered through its centre values and
+their second differences, and the coating's mirror image (sharp edges) is averaged over sub-
+pixel rays. Only pixels whose 3 x 3 neighbourhood lies on the sphere are compared.
 
 Measured on lavapipe (2 cores), SMAPE over the 120 pixels compared: 0.0072 (Lambertian,
 8192 spp), 0.0089 (layered, 8192 spp), 0.0078 (coated, 12288 spp), 0.0098 (spectral layered,
@@ -138,27 +137,24 @@ def _pixel_grid(width: int, height: int, k: int):
 def _shading(renderer: Renderer, directions: np.ndarray):
     """Hit mask, shading and geometric normals of camera rays, as surface_at makes them.
 
-    The hit is the numpy BVH's (float64); the unit sphere's vertex normals are its vertex
-    positions (wgbragg.scene.meshes.sphere_mesh), interpolated barycentrically and normalised.
-    Both normals face the viewer.
+    The scene's one sphere is exact: the float64 intersection of the rays with the image of
+    the unit sphere under its map (Renderer.world_geometry), whose normal is the gradient
+    M^-T p of the hit's point p on the unit sphere. Both normals face the viewer.
     """
     shape = directions.shape[:-1]
     d = directions.reshape(-1, 3)
-    origin = np.asarray(renderer.scene.camera.position, np.float64)
-    _, face, u, v = renderer.bvh.intersect(origin, d)
-    hit = face >= 0
-    corners = renderer.bvh.faces[np.where(hit, face, 0)]
-    vertices = renderer.bvh.vertices
-    v0, v1, v2 = (vertices[corners[:, j]] for j in range(3))
-    normals = [p / np.linalg.norm(p, axis=1, keepdims=True) for p in (v0, v1, v2)]
-    u, v = np.where(hit, u, 0.0)[:, None], np.where(hit, v, 0.0)[:, None]
-    shading = (1.0 - u - v) * normals[0] + u * normals[1] + v * normals[2]
-    shading /= np.linalg.norm(shading, axis=1, keepdims=True)
-    geometric = np.cross(v1 - v0, v2 - v0)
-    geometric /= np.linalg.norm(geometric, axis=1, keepdims=True)
-    geometric = np.where(np.sum(geometric * d, axis=1, keepdims=True) > 0.0, -geometric, geometric)
-    shading = np.where(np.sum(shading * geometric, axis=1, keepdims=True) < 0.0, -shading, shading)
-    return hit.reshape(shape), shading.reshape(*shape, 3), geometric.reshape(*shape, 3)
+    (to_world,) = renderer.world_geometry().sphere_to_world
+    inverse = np.linalg.inv(to_world[:, :3])
+    origin = inverse @ (np.asarray(renderer.scene.camera.position, np.float64) - to_world[:, 3])
+    local = d @ inverse.T
+    a, b, c = np.sum(local * local, axis=1), local @ origin, origin @ origin - 1.0
+    discriminant = b * b - a * c
+    hit = discriminant >= 0.0
+    t = (-b - np.sqrt(np.where(hit, discriminant, 0.0))) / a
+    normal = (origin + t[:, None] * local) @ inverse
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    normal = np.where(np.sum(normal * d, axis=1, keepdims=True) > 0.0, -normal, normal)
+    return hit.reshape(shape), normal.reshape(*shape, 3), normal.reshape(*shape, 3)
 
 
 def _tangents(n: np.ndarray):

@@ -1,6 +1,7 @@
-"""Renderer.world_geometry (wgbragg.render.renderer): the world-space triangles the path tracer
-traces, for comparisons with other renderers: the teapot preset's triangles, materials and
-floor, the objects' transforms, and the GPU's own closest hits against those triangles.
+"""Renderer.world_geometry (wgbragg.render.renderer): the world-space triangles and spheres the
+path tracer traces, for comparisons with other renderers: the teapot preset's triangles,
+materials and floor, the objects' transforms, and the GPU's own closest hits against those
+triangles.
 
 The teapot preset's layered materials are swapped for Lambertian ones (the geometry does not
 depend on them, and their tables would take seconds to build)."""
@@ -78,24 +79,23 @@ def test_teapot_preset_triangles_and_materials(teapot):
     geometry = teapot.world_geometry()
     assert isinstance(geometry, WorldGeometry)
     pot = len(utah_teapot(8).faces)
-    assert teapot.triangles == pot + 2
-    assert geometry.vertices.shape == geometry.normals.shape == (pot + 2, 3, 3)
-    assert geometry.uv.shape == (pot + 2, 3, 2)
+    assert teapot.triangles == pot
+    assert geometry.vertices.shape == geometry.normals.shape == (pot, 3, 3)
+    assert geometry.uv.shape == (pot, 3, 2)
     assert geometry.vertices.dtype == geometry.normals.dtype == np.float64
     assert geometry.material_names == ("two_layers", "floor")
-    # The objects in the scene's order: the teapot's faces, then the floor's two.
-    np.testing.assert_array_equal(geometry.material, [0] * pot + [1, 1])
+    np.testing.assert_array_equal(geometry.material, [0] * pot)
     np.testing.assert_allclose(np.linalg.norm(geometry.normals, axis=-1), 1.0, atol=1e-6)
     assert not geometry.vertices.flags.writeable
+    assert geometry.sphere_to_world.shape == (0, 3, 4)
 
-    # The floor: the 2 x 2 plane scaled by 6 in y = 0, facing +y.
-    floor = geometry.vertices[geometry.material == 1].reshape(-1, 3)
-    np.testing.assert_array_equal(floor.min(axis=0), [-6.0, 0.0, -6.0])
-    np.testing.assert_array_equal(floor.max(axis=0), [6.0, 0.0, 6.0])
-    np.testing.assert_array_equal(geometry.normals[geometry.material == 1].reshape(-1, 3),
-                                  np.tile([0.0, 1.0, 0.0], (6, 1)))
-    v = geometry.vertices[geometry.material == 1]
-    assert np.all(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])[:, 1] > 0.0)
+    # The floor, exact: the 2 x 2 plane scaled by 6 in y = 0, facing +y, u along +x and v
+    # along -z.
+    np.testing.assert_array_equal(geometry.parallelogram_material, [1])
+    np.testing.assert_array_equal(geometry.parallelograms,
+                                  [[[-6.0, 0.0, 6.0], [12.0, 0.0, 0.0], [0.0, 0.0, -12.0]]])
+    corner, edge_u, edge_v = geometry.parallelograms[0]
+    assert np.cross(edge_u, edge_v)[1] > 0.0
 
     # The teapot: 1 unit wide along x before its -30 degree turn, standing on y = 0 with its
     # height in Newell's proportion (3.15 of 6.43 wide).
@@ -116,17 +116,22 @@ def test_transforms_place_the_objects(tmp_path):
     path.write_text(_SCENE, encoding="utf-8")
     geometry = Renderer(load_scene(path), size=(4, 4)).world_geometry()
     assert geometry.material_names == ("red", "grey")
-    plane = geometry.vertices[geometry.material == 1].reshape(-1, 3)
+    assert geometry.vertices.shape == (0, 3, 3)
+    corner, edge_u, edge_v = geometry.parallelograms[0]
+    plane = np.array([corner, corner + edge_u, corner + edge_v, corner + edge_u + edge_v])
     # Scaled (2, 1, 3): x in [-2, 2], z in [-3, 3]; turned 90 degrees about y: (x, z) ->
     # (z, -x); then moved by (0.5, -1, 0).
     np.testing.assert_allclose(plane.min(axis=0), [-2.5, -1.0, -2.0], atol=1e-6)
     np.testing.assert_allclose(plane.max(axis=0), [3.5, -1.0, 2.0], atol=1e-6)
-    sphere = geometry.vertices[geometry.material == 0].reshape(-1, 3)
-    np.testing.assert_allclose(np.linalg.norm(sphere - [0.0, 0.2, 0.3], axis=-1), 0.75,
-                               rtol=1e-6)
-    centre = np.array([0.0, 0.2, 0.3])
-    normals = geometry.normals[geometry.material == 0].reshape(-1, 3)
-    np.testing.assert_allclose(normals, (sphere - centre) / 0.75, atol=1e-6)
+    # The sphere is exact, not triangles: scaled by 0.75, moved to (0, 0.2, 0.3).
+    assert not np.any(geometry.material == 0)
+    np.testing.assert_array_equal(geometry.sphere_material, [0])
+    np.testing.assert_allclose(geometry.sphere_to_world,
+                               [[[0.75, 0, 0, 0.0], [0, 0.75, 0, 0.2], [0, 0, 0.75, 0.3]]],
+                               atol=1e-15)
+    lo, hi = geometry.bounds
+    np.testing.assert_allclose(lo, [-2.5, -1.0, -2.0], atol=1e-6)
+    np.testing.assert_allclose(hi, [3.5, 0.95, 2.0], atol=1e-6)
 
 
 def test_the_gpu_hits_these_triangles(teapot):
@@ -135,8 +140,8 @@ def test_the_gpu_hits_these_triangles(teapot):
     geometry = teapot.world_geometry()
     t, face = teapot.primary_hits()
     origins, directions = teapot.camera_rays()
-    hit = face.ravel() >= 0
-    assert hit.mean() > 0.5 and np.any(geometry.material[face.ravel()[hit]] == 0)
+    hit = (face.ravel() >= 0) & (face.ravel() < teapot.triangles)
+    assert hit.mean() > 0.1
     expected = ray_triangle(origins[hit], directions[hit], geometry.vertices[face.ravel()[hit]])
     np.testing.assert_allclose(t.ravel()[hit], expected, rtol=1e-4)
 

@@ -202,6 +202,7 @@ CONSTANTS = [
     # The BVH traversal: its stack and the node texture's rows.
     ("render/renderer_scene.wgsl", "STACK_SIZE", packing._STACK_SIZE),
     ("render/renderer_scene.wgsl", "NODE_TEXTURE_WIDTH", packing.NODE_TEXTURE_WIDTH),
+    ("render/renderer_scene.wgsl", "SHAPE_TEXTURE_WIDTH", packing.SHAPE_TEXTURE_WIDTH),
     # Filtered image-based lighting: the microfacet albedo table.
     ("lighting/ibl.wgsl", "IBL_ALBEDO_NODES", ibl.ALBEDO_TABLE_NODES),
     # Environment maps.

@@ -6,10 +6,12 @@ layered structures and their tables, thin films, parameter maps, lights, the spe
 the EXR and prefiltered environments, and the ``Params`` uniform. Uploading them, and the
 pipelines, are :mod:`wgbragg.render.renderer`'s job.
 
-Geometry is +y up. The built-in shapes are converted from :mod:`wgbragg.scene.meshes` (+z up)
-to the scene's: a unit sphere at the origin (its texture coordinates' poles on the y axis), the
-2 x 2 plane in y = 0 facing +y (u along +x, v along -z), and the Utah teapot scaled to 1 unit
-wide along x, standing on y = 0 (its body's axis through the origin). Mesh files are used in
+Geometry is +y up. Built-in spheres and planes are exact, intersected analytically: the unit
+sphere at the origin under the object's transform, with the texture coordinates of
+:func:`wgbragg.scene.meshes.sphere_mesh` (their poles on the y axis), and the 2 x 2 plane in
+y = 0 facing +y (u along +x, v along -z) as a parallelogram. The Utah teapot is converted from
+:mod:`wgbragg.scene.meshes` (+z up) to the scene's axes, scaled to 1 unit wide along x,
+standing on y = 0 (its body's axis through the origin). Mesh files are used in
 their own axes, with their own texture coordinates (zeros when they have none).
 
 All layered materials of a scene share one pipeline specialisation: structures with fewer
@@ -50,12 +52,12 @@ from wgbragg.colour.thin_film_gpu import (
     windows_buffer,
 )
 from wgbragg.common.exr import read_exr
-from wgbragg.lighting.environment_map import EnvironmentMap
+from wgbragg.lighting.environment_map import LUMINANCE_WEIGHTS, EnvironmentMap
 from wgbragg.lighting.environment_prefilter import prefilter_environment
 from wgbragg.lighting.ibl import microfacet_albedo_table
 from wgbragg.lighting.procedural_environment import ProceduralEnvironment
 from wgbragg.render.bvh import BVH, build_bvh
-from wgbragg.scene.meshes import load_mesh, plane_mesh, sphere_mesh, utah_teapot
+from wgbragg.scene.meshes import load_mesh, utah_teapot
 from wgbragg.scene.model import (
     MAX_RADIANCE,
     AreaLight,
@@ -78,6 +80,7 @@ __all__ = [
     "ibl_levels",
     "layered_buffers",
     "light_buffer",
+    "light_probabilities",
     "map_buffers",
     "no_films",
     "no_layered",
@@ -99,6 +102,9 @@ _INTERIOR = 0x40000000  # INTERIOR of render/renderer_scene.wgsl
 NODE_TEXTURE_WIDTH = 4096
 """Texels a row of the BVH node texture (NODE_TEXTURE_WIDTH of render/renderer_scene.wgsl): two
 a node, so 2,048 nodes a row. WebGPU guarantees textures 8,192 wide, so the width always fits."""
+SHAPE_TEXTURE_WIDTH = 4096
+"""Texels a row of the texture of exact spheres and planes (SHAPE_TEXTURE_WIDTH of
+render/renderer_scene.wgsl): four a shape."""
 _NODE_EXACT = 1 << 24  # indices and counts stored as float32 stay exact below this
 _IBL_ALBEDO_NODES = 64  # IBL_ALBEDO_NODES of render/renderer.wgsl
 
@@ -116,6 +122,7 @@ PARAMS_DTYPE = gpu.struct_dtype([
     *_CAMERA_FIELDS, *_ENVIRONMENT_FIELDS,
     ("_p0", "u32"), ("count", "u32"), ("width", "u32"), ("point_lights", "u32"),
     ("area_lights", "u32"), ("epsilon", "f32"), ("seed", "u32"), ("samples", "u32"),
+    ("triangles", "u32"), ("spheres", "u32"), ("planes", "u32"), ("_p1", "u32"),
 ])
 """``Params`` of render/renderer.wgsl (its nested Camera and Environment flattened: both are 16-byte
 aligned with sizes that are multiples of 16, so the offsets agree)."""
@@ -158,6 +165,8 @@ def _rotation(degrees) -> np.ndarray:
     return rz @ ry @ rx
 
 
+# Shapes traced exactly, not as triangles.
+_EXACT_SHAPES = ("sphere", "plane")
 # meshes.py is +z up, the scene +y up: (x, y, z) -> (x, z, -y), a rotation (winding kept).
 _Z_UP_TO_Y_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
 
@@ -168,9 +177,6 @@ def _shape_mesh(obj):
     if obj.shape == "mesh":
         mesh = load_mesh(obj.path)
         vertices, normals = mesh.vertices, mesh.normals
-    elif obj.shape in ("sphere", "plane"):
-        mesh = sphere_mesh(4) if obj.shape == "sphere" else plane_mesh(2.0)
-        vertices, normals = mesh.vertices @ _Z_UP_TO_Y_UP.T, mesh.normals @ _Z_UP_TO_Y_UP.T
     else:
         mesh = utah_teapot(8)
         width = np.ptp(mesh.vertices[:, 0])
@@ -180,25 +186,98 @@ def _shape_mesh(obj):
     return vertices, normals, mesh.faces, uv
 
 
+def _linear_map(obj) -> np.ndarray:
+    """The object's scale, then its rotation (scene.SceneObject), as a 3 x 3 matrix."""
+    return _rotation(obj.rotate_deg) @ np.diag(obj.scale)
+
+
 def _world_geometry(scene: Scene, material_index: dict):
-    """World-space vertices, unit normals and texture coordinates of all objects, and their
-    faces with material indices (F, 4)."""
+    """World-space vertices, unit normals and texture coordinates of the mesh and teapot
+    objects, and their faces with material indices (F, 4)."""
     vertices, normals, faces, uvs = [], [], [], []
     offset = 0
     for obj in scene.objects:
+        if obj.shape in _EXACT_SHAPES:
+            continue
         v, n, f, uv = _shape_mesh(obj)
         uvs.append(uv)
-        linear = _rotation(obj.rotate_deg) @ np.diag(obj.scale)
         # Normals transform by the inverse transpose: R S^-1 for rotation R and scale S.
         normal_map = _rotation(obj.rotate_deg) @ np.diag(1.0 / np.asarray(obj.scale))
         world_n = n @ normal_map.T
-        vertices.append(v @ linear.T + np.asarray(obj.translate))
+        vertices.append(v @ _linear_map(obj).T + np.asarray(obj.translate))
         normals.append(world_n / np.linalg.norm(world_n, axis=1, keepdims=True))
         faces.append(np.column_stack([f + offset,
                                       np.full(len(f), material_index[obj.material])]))
         offset += len(v)
+    if not faces:
+        return (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 4), np.int64),
+                np.zeros((0, 2)))
     return (np.concatenate(vertices), np.concatenate(normals), np.concatenate(faces),
             np.concatenate(uvs))
+
+
+def _spheres(scene: Scene, material_index: dict) -> tuple[np.ndarray, np.ndarray]:
+    """The sphere objects' maps from the unit sphere to world space, (S, 3, 4) float64 (the
+    linear part, then the translation), and their material indices (S,)."""
+    spheres = [obj for obj in scene.objects if obj.shape == "sphere"]
+    to_world = np.array([np.column_stack([_linear_map(obj), obj.translate]) for obj in spheres],
+                        np.float64).reshape(-1, 3, 4)
+    return to_world, np.array([material_index[obj.material] for obj in spheres], np.int64)
+
+
+# The built-in plane (wgbragg.scene.meshes.plane_mesh(2), +y up): the corner at (u, v) = (0, 0)
+# and the edges along u and v, whose cross product is its normal +y.
+_PLANE_EDGES = np.array([[-1.0, 0.0, 1.0], [2.0, 0.0, 0.0], [0.0, 0.0, -2.0]])
+
+
+def _planes(scene: Scene, material_index: dict) -> tuple[np.ndarray, np.ndarray]:
+    """The plane objects as parallelograms, (P, 3, 3) float64 rows corner, edge_u, edge_v in
+    world space, and their material indices (P,)."""
+    planes = [obj for obj in scene.objects if obj.shape == "plane"]
+    corners = np.array([np.stack([_linear_map(obj) @ _PLANE_EDGES[0] + obj.translate,
+                                  _linear_map(obj) @ _PLANE_EDGES[1],
+                                  _linear_map(obj) @ _PLANE_EDGES[2]]) for obj in planes],
+                       np.float64).reshape(-1, 3, 3)
+    return corners, np.array([material_index[obj.material] for obj in planes], np.int64)
+
+
+def _shape_rows(to_world: np.ndarray, sphere_material: np.ndarray,
+                parallelograms: np.ndarray, plane_material: np.ndarray) -> np.ndarray:
+    """The ``shape_texels`` of render/renderer_scene.wgsl: 4 rows a sphere, the affine map
+    from world space to the unit sphere (the inverse of ``to_world``) and its material; then 4
+    rows a plane, its corner (material in w), edges and unit normal; in rows of
+    :data:`SHAPE_TEXTURE_WIDTH` texels.
+
+    Raises
+    ------
+    ValueError
+        For more shapes than the device's largest texture holds.
+    """
+    count = len(to_world) + len(parallelograms)
+    texture_rows = -(-4 * max(count, 1) // SHAPE_TEXTURE_WIDTH)
+    if texture_rows > _max_texture_dimension():
+        raise ValueError(f"scene: {count:,} spheres and planes; the GPU's shape texture holds "
+                         f"at most {_max_texture_dimension() * SHAPE_TEXTURE_WIDTH // 4:,}")
+    rows = np.zeros((texture_rows * SHAPE_TEXTURE_WIDTH // 4, 4, 4), np.float64)
+    for k, (m, index) in enumerate(zip(to_world, sphere_material, strict=True)):
+        inverse = np.linalg.inv(m[:, :3])
+        rows[k, :3, :3] = inverse
+        rows[k, :3, 3] = -inverse @ m[:, 3]
+        rows[k, 3, 0] = index
+    for k, (edges, index) in enumerate(zip(parallelograms, plane_material, strict=True)):
+        row = rows[len(to_world) + k]
+        row[:3, :3] = edges
+        row[0, 3] = index
+        normal = np.cross(edges[1], edges[2])
+        row[3, :3] = normal / np.linalg.norm(normal)
+    return rows.reshape(texture_rows, SHAPE_TEXTURE_WIDTH, 4).astype(np.float32)
+
+
+def _sphere_bounds(to_world: np.ndarray) -> np.ndarray:
+    """Corners of the spheres' bounding boxes, (2 S, 3): the centre -+ the norms of the rows
+    of the linear part."""
+    half = np.linalg.norm(to_world[:, :, :3], axis=2)
+    return np.concatenate([to_world[:, :, 3] - half, to_world[:, :, 3] + half])
 
 
 def _node_counts(bvh) -> np.ndarray:
@@ -252,11 +331,12 @@ def _max_texture_dimension() -> int:
 
 @dataclasses.dataclass(frozen=True)
 class PackedGeometry:
-    """The scene's triangles and BVH as render/renderer.wgsl reads them.
+    """The scene's triangles, BVH and exact spheres as render/renderer.wgsl reads them.
 
     Attributes
     ----------
-    bvh : wgbragg.render.bvh.BVH
+    bvh : wgbragg.render.bvh.BVH or None
+        None for a scene without triangles (its buffers are then zero placeholders).
     vertices, normals : numpy.ndarray, shape (V, 4), float32
         World-space positions and unit normals, each row ending with the vertex's u
         (``vertices``) or v (``normals``).
@@ -264,20 +344,43 @@ class PackedGeometry:
         Vertex indices and material index, in BVH order.
     nodes : numpy.ndarray, shape (R, NODE_TEXTURE_WIDTH, 4), float32
         The BVH nodes as texels of an ``rgba32float`` texture (:func:`_node_texels`).
+    sphere_to_world : numpy.ndarray, shape (S, 3, 4), float64
+        Each sphere object's map from the unit sphere to world space.
+    sphere_material : numpy.ndarray, shape (S,), int64
+    parallelograms : numpy.ndarray, shape (P, 3, 3), float64
+        Each plane object's corner, edge along u and edge along v in world space.
+    parallelogram_material : numpy.ndarray, shape (P,), int64
+    shapes : numpy.ndarray, shape (R, SHAPE_TEXTURE_WIDTH, 4), float32
+        The shapes' rows (:func:`_shape_rows`) as texels of an ``rgba32float`` texture, R
+        rows of :data:`SHAPE_TEXTURE_WIDTH` texels, zero-padded.
     extent : float
         The largest side of the scene's bounding box, in scene units.
+    radius : float
+        Half the diagonal of that box: a sphere about its centre holding the scene.
     """
 
-    bvh: BVH
+    bvh: BVH | None
     vertices: np.ndarray
     normals: np.ndarray
     faces: np.ndarray
     nodes: np.ndarray
+    sphere_to_world: np.ndarray
+    sphere_material: np.ndarray
+    parallelograms: np.ndarray
+    parallelogram_material: np.ndarray
+    shapes: np.ndarray
     extent: float
+    radius: float
+
+    @property
+    def triangles(self) -> int:
+        """Triangles in the scene (0 when ``bvh`` is None)."""
+        return 0 if self.bvh is None else len(self.faces)
 
 
 def pack_geometry(scene: Scene) -> PackedGeometry:
-    """World-space triangles of all objects and one BVH over them.
+    """World-space triangles of the meshes and teapots, one BVH over them, and the spheres
+    and planes, exact.
 
     Raises
     ------
@@ -287,6 +390,23 @@ def pack_geometry(scene: Scene) -> PackedGeometry:
     """
     material_index = {name: k for k, name in enumerate(scene.materials)}
     vertices, normals, faces, uv = _world_geometry(scene, material_index)
+    sphere_to_world, sphere_material = _spheres(scene, material_index)
+    parallelograms, parallelogram_material = _planes(scene, material_index)
+    corners = parallelograms[:, :1] + np.array([0.0, 0.0, 1.0, 1.0])[:, None] * parallelograms[
+        :, 1:2] + np.array([0.0, 1.0, 0.0, 1.0])[:, None] * parallelograms[:, 2:3]
+    points = np.concatenate([vertices, _sphere_bounds(sphere_to_world),
+                             corners.reshape(-1, 3)])
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    common = dict(sphere_to_world=sphere_to_world, sphere_material=sphere_material,
+                  parallelograms=parallelograms, parallelogram_material=parallelogram_material,
+                  shapes=_shape_rows(sphere_to_world, sphere_material, parallelograms,
+                                     parallelogram_material),
+                  extent=float((hi - lo).max()), radius=float(0.5 * np.linalg.norm(hi - lo)))
+    if not len(faces):
+        return PackedGeometry(
+            bvh=None, vertices=np.zeros((1, 4), np.float32),
+            normals=np.zeros((1, 4), np.float32), faces=np.zeros((1, 4), np.uint32),
+            nodes=np.zeros((1, NODE_TEXTURE_WIDTH, 4), np.float32), **common)
     bvh = build_bvh(vertices, faces[:, :3])
     if bvh.depth + 1 > _STACK_SIZE:
         raise ValueError(f"scene: its BVH is {bvh.depth} levels deep; the GPU traversal "
@@ -297,9 +417,7 @@ def pack_geometry(scene: Scene) -> PackedGeometry:
         vertices=np.column_stack([vertices, uv[:, 0]]).astype(np.float32),
         normals=np.column_stack([normals, uv[:, 1]]).astype(np.float32),
         faces=np.ascontiguousarray(faces[bvh.triangle_order], np.uint32),
-        nodes=nodes,
-        extent=float(np.ptp(vertices, axis=0).max()),
-    )
+        nodes=nodes, **common)
 
 
 # ----------------------------------------------------------------------------------- materials
@@ -584,14 +702,74 @@ def light_counts(scene: Scene) -> tuple[int, int]:
             sum(isinstance(light, AreaLight) for light in scene.lights))
 
 
-def light_buffer(scene: Scene) -> np.ndarray:
-    """The ``lights`` buffer: point lights (position, intensity), then area lights (corner,
-    edge_u, edge_v, radiance)."""
+def _luminance(rgb) -> float:
+    return float(np.asarray(rgb, np.float64) @ LUMINANCE_WEIGHTS)
+
+
+def _mean_environment_luminance(environment, environment_map) -> float:
+    """The environment's luminance averaged over all directions."""
+    if environment.type == "uniform":
+        return _luminance(environment.radiance)
+    if environment_map is not None:
+        # Rows weighted by their solid angle, sin(theta) at their centres.
+        weight = np.sin(np.pi * (np.arange(environment_map.height) + 0.5)
+                        / environment_map.height)
+        per_row = (environment_map.radiance @ LUMINANCE_WEIGHTS).mean(axis=1)
+        return environment_map.intensity * float(weight @ per_row / weight.sum())
+    twin = ProceduralEnvironment.from_scene(environment)
+    count = 4096
+    # A Fibonacci lattice: even over the sphere, and the disc added by its solid angle.
+    z = 1.0 - (2.0 * np.arange(count) + 1.0) / count
+    phi = np.pi * (3.0 - math.sqrt(5.0)) * np.arange(count)
+    ring = np.sqrt(1.0 - z * z)
+    directions = np.column_stack([ring * np.cos(phi), z, ring * np.sin(phi)])
+    mean = twin.radiance(directions, disc=False).mean(axis=0)
+    return _luminance(mean) + _luminance(twin.disc_radiance) * twin.disc_solid_angle / (
+        4.0 * math.pi)
+
+
+def light_probabilities(scene: Scene, one_light: bool, environment_light: bool,
+                        radius: float, environment_map=None) -> np.ndarray:
+    """How often next-event estimation samples each light at a vertex: the environment
+    (when ``environment_light``: Monte Carlo lighting), the point lights, the area lights.
+
+    With ``one_light``, one light is chosen by its emitted power (luminance): ``4 pi I`` for a
+    point light, ``pi A L`` for an area light (twice for two-sided), and ``4 pi^2 radius^2`` times
+    the mean radiance for the environment, what it sends into a sphere of ``radius`` around the
+    scene; uniformly if all are dark. Otherwise every light, each with probability 1.
+    """
+    points = [light for light in scene.lights if isinstance(light, PointLight)]
+    areas = [light for light in scene.lights if isinstance(light, AreaLight)]
+    count = int(environment_light) + len(points) + len(areas)
+    if not one_light or count == 0:
+        return np.ones(count)
+    powers = [4.0 * math.pi**2 * radius**2
+              * _mean_environment_luminance(scene.environment, environment_map)
+              ] if environment_light else []
+    powers += [4.0 * math.pi * _luminance(p.intensity) for p in points]
+    powers += [math.pi * float(np.linalg.norm(np.cross(a.edge_u, a.edge_v)))
+               * _luminance(a.radiance) * (2.0 if a.two_sided else 1.0) for a in areas]
+    powers = np.maximum(np.asarray(powers, np.float64), 0.0)
+    total = powers.sum()
+    return powers / total if total > 0.0 and np.isfinite(total) else np.full(count, 1.0 / count)
+
+
+def light_buffer(scene: Scene, probabilities: np.ndarray) -> np.ndarray:
+    """The ``lights`` buffer: point lights (position, intensity), then area lights (corner
+    with w = 1 when two-sided, edge_u, edge_v, radiance), then each light's selection row
+    (the cumulative probability, the probability; :func:`light_probabilities`)."""
     points = [light for light in scene.lights if isinstance(light, PointLight)]
     areas = [light for light in scene.lights if isinstance(light, AreaLight)]
     rows = [row for p in points for row in (p.position, p.intensity)]
     rows += [row for a in areas for row in (a.corner, a.edge_u, a.edge_v, a.radiance)]
-    return _vec4(np.asarray(rows or [(0.0, 0.0, 0.0)], np.float64).reshape(-1, 3))
+    buffer = _vec4(np.asarray(rows, np.float64).reshape(-1, 3))
+    for k, light in enumerate(areas):
+        buffer[2 * len(points) + 4 * k, 3] = float(light.two_sided)
+    selection = np.zeros((len(probabilities), 4), np.float32)
+    selection[:, 0] = np.cumsum(probabilities)
+    selection[:, 1] = probabilities
+    table = np.concatenate([buffer, selection])
+    return table if len(table) else np.zeros((1, 4), np.float32)
 
 
 def spectra() -> np.ndarray:
@@ -623,10 +801,10 @@ def _unit(vector: np.ndarray) -> np.ndarray:
     return vector / np.linalg.norm(vector)
 
 
-def scene_params(scene: Scene, width: int, height: int, extent: float,
+def scene_params(scene: Scene, width: int, height: int, geometry: PackedGeometry,
                  seed: int) -> np.ndarray:
     """The ``Params`` uniform (:data:`PARAMS_DTYPE`) of a ``width`` x ``height`` image of the
-    scene, whose geometry spans ``extent`` scene units; ``samples`` is left 0."""
+    scene, whose packed geometry is ``geometry``; ``samples`` is left 0."""
     cam = scene.camera
     origin = np.asarray(cam.position, np.float64)
     forward = _unit(np.asarray(cam.look_at, np.float64) - origin)
@@ -643,7 +821,10 @@ def scene_params(scene: Scene, width: int, height: int, extent: float,
     params["width"] = width
     params["point_lights"], params["area_lights"] = light_counts(scene)
     # The shader adds 1e-5 of the hit point's largest coordinate (its float32 rounding).
-    params["epsilon"] = 1e-5 * extent
+    params["epsilon"] = 1e-5 * geometry.extent
+    params["triangles"] = geometry.triangles
+    params["spheres"] = len(geometry.sphere_material)
+    params["planes"] = len(geometry.parallelogram_material)
     params["seed"] = seed
     return params
 

@@ -1,17 +1,21 @@
 """The progressive GPU path tracer of scene files, RGB or spectral (``wgsl/render/renderer.wgsl``).
 
 :class:`Renderer` packs a :class:`wgbragg.scene.model.Scene` into GPU buffers
-(:mod:`wgbragg.render.packing`: world-space triangles, one BVH, materials, lights), uploads them
+(:mod:`wgbragg.render.packing`: world-space triangles, one BVH, exact spheres and planes,
+materials, lights), uploads them
 once, compiles the pipeline specialised for the scene, and accumulates paths per pixel in a
 float32 buffer on the device. :mod:`wgbragg.render.display` turns the image into a PNG.
 Scenes are +y up (the built-in shapes' placement: :mod:`wgbragg.render.packing`);
-:meth:`Renderer.world_geometry` returns the world-space triangles it traces.
+:meth:`Renderer.world_geometry` returns the world-space triangles, spheres and planes it
+traces.
 
-Light transport: next-event estimation towards the environment, combined with BRDF sampling
-by the power heuristic; point and area lights by shadow rays only (they are not geometry, so
-a BRDF-sampled ray never finds them and needs no MIS); the coating's mirror reflection of a
-layered material is a Dirac bounce, after which the environment counts fully; Russian roulette
-from the third bounce; at most ``max_bounces`` bounces (8 by default).
+Light transport: next-event estimation towards the environment, point lights and area lights
+(``light_sampling="all"``: every light at each vertex; ``"power"``: one light chosen by its
+power, fewer shadow rays for more noise), combined with BSDF sampling by the power heuristic
+for the environment and the area lights, which are geometry (seen by the camera and by
+bounces, occluding, black where they do not emit); the coating's mirror reflection of a
+layered material is a Dirac bounce, after which emitters count fully; Russian roulette from
+the third bounce; at most ``max_bounces`` bounces (8 by default).
 
 Modes: ``"rgb"`` carries linear sRGB along a path. ``"spectral"`` carries four hero
 wavelengths, stratified over the inverse CDF of the summed CIE 1931 CMFs, and turns each
@@ -88,12 +92,14 @@ from wgbragg import gpu
 from wgbragg.bsdf.layered.model_gpu import FACTORED_COLOUR_METHODS
 from wgbragg.colour.methods import COLOUR_METHODS
 from wgbragg.render.packing import (
+    PackedGeometry,
     PackedMaterials,
     exr_environment,
     film_buffers,
     ibl_levels,
     layered_buffers,
     light_buffer,
+    light_probabilities,
     map_buffers,
     no_films,
     no_layered,
@@ -110,11 +116,12 @@ from wgbragg.scene.model import (
     MAX_IMAGE_PIXELS,
     MAX_IMAGE_SIDE,
     MODES,
+    AreaLight,
     Scene,
 )
 
-__all__ = ["MAX_BOUNCES", "PATHS_PER_DISPATCH", "Renderer", "WorldGeometry", "check_size",
-           "max_lights"]
+__all__ = ["LIGHT_SAMPLING", "MAX_BOUNCES", "PATHS_PER_DISPATCH", "Renderer", "WorldGeometry",
+           "check_size", "max_lights"]
 
 WORKGROUP_SIZE = 64
 MAX_BOUNCES = 8
@@ -131,12 +138,15 @@ _PIXEL_BYTES = 16
 
 @dataclasses.dataclass(frozen=True)
 class WorldGeometry:
-    """The triangles a :class:`Renderer` traces, in world space (scene units, +y up).
+    """The triangles, spheres and planes a :class:`Renderer` traces, in world space (scene
+    units, +y up).
 
-    Triangle ``t`` is the scene's face ``t``: the objects' faces in the scene's order, each
-    object's in its mesh's order (the numbering of :meth:`Renderer.primary_hits`'s ``face``).
-    Positions and normals are the float32 values on the GPU, widened to float64. The arrays
-    are read-only.
+    Triangle ``t`` is the scene's face ``t``: the faces of the mesh and teapot objects, in the
+    scene's order, each object's in its mesh's order. Sphere ``k`` is the scene's k-th
+    ``"sphere"`` object and parallelogram ``k`` its k-th ``"plane"``, both traced exactly.
+    :meth:`Renderer.primary_hits` numbers the triangles ``0 .. T-1``, the spheres ``T + k``,
+    the planes ``T + S + k``. Triangle positions and normals are the float32 values on the
+    GPU, widened to float64. The arrays are read-only.
 
     Attributes
     ----------
@@ -151,6 +161,17 @@ class WorldGeometry:
         Index of each triangle's material in :attr:`material_names`.
     material_names : tuple of str
         The scene's material names, in the scene's order.
+    sphere_to_world : numpy.ndarray, shape (S, 3, 4), float64
+        Each sphere's map from the unit sphere at the origin (object space, +y up) to world
+        space: ``x = M[:, :3] @ p + M[:, 3]`` (the object's scale, rotation, translation).
+    sphere_material : numpy.ndarray, shape (S,), int64
+        Index of each sphere's material in :attr:`material_names`.
+    parallelograms : numpy.ndarray, shape (P, 3, 3), float64
+        Each plane's corner, edge along u and edge along v: the points ``corner + s edge_u +
+        t edge_v``, s and t in [0, 1], with texture coordinates (s, t) and the front-facing
+        normal ``edge_u x edge_v``.
+    parallelogram_material : numpy.ndarray, shape (P,), int64
+        Index of each plane's material in :attr:`material_names`.
     """
 
     vertices: np.ndarray
@@ -158,18 +179,35 @@ class WorldGeometry:
     uv: np.ndarray
     material: np.ndarray
     material_names: tuple[str, ...]
+    sphere_to_world: np.ndarray
+    sphere_material: np.ndarray
+    parallelograms: np.ndarray
+    parallelogram_material: np.ndarray
 
     @property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """The smallest and largest coordinates of :attr:`vertices`, each shape (3,)."""
-        points = self.vertices.reshape(-1, 3)
+        """The smallest and largest coordinates of the triangles, spheres and planes, each
+        shape (3,)."""
+        half = np.linalg.norm(self.sphere_to_world[:, :, :3], axis=2)
+        centre = self.sphere_to_world[:, :, 3]
+        corner, edge_u, edge_v = (self.parallelograms[:, j] for j in range(3))
+        points = np.concatenate([self.vertices.reshape(-1, 3), centre - half, centre + half,
+                                 corner, corner + edge_u, corner + edge_v,
+                                 corner + edge_u + edge_v])
         return points.min(axis=0), points.max(axis=0)
+
+
+LIGHT_SAMPLING = ("all", "power")
+""":class:`Renderer` ``light_sampling``: next-event estimation of every light at each vertex,
+or of one light chosen by its power."""
 
 
 def _convex_alone(scene: Scene) -> bool:
     """Whether the scene is a single convex object (a built-in sphere or plane, under any
-    scale and rotation, which keep it convex): paths then need no shadow or bounce rays."""
-    return len(scene.objects) == 1 and scene.objects[0].shape in ("sphere", "plane")
+    scale and rotation, which keep it convex) without area lights: paths then need no
+    shadow or bounce rays."""
+    return (len(scene.objects) == 1 and scene.objects[0].shape in ("sphere", "plane")
+            and not any(isinstance(light, AreaLight) for light in scene.lights))
 
 
 def max_lights(max_bounces: int, convex_alone: bool = False) -> int:
@@ -249,6 +287,11 @@ class Renderer:
         How the environment lights surfaces (see the module docstring); the scene's
         ``settings.ibl`` by default. The filtered modes need ``mode="rgb"`` and no smooth
         coating.
+    light_sampling : {"all", "power"}
+        Next-event estimation at each vertex: of every light (the environment under Monte
+        Carlo lighting, each point and area light), or of one light chosen by its power
+        (:func:`wgbragg.render.packing.light_probabilities`), which traces fewer shadow rays
+        and is noisier per sample (docs/performance.md measures the trade).
 
     Raises
     ------
@@ -269,7 +312,7 @@ class Renderer:
         roughness not loaded before). Materials left unchanged keep their tables, so an
         update that edits only the camera, lights or environment takes almost none.
     triangles : int
-        Triangles in the scene.
+        Triangles in the scene (its spheres and planes are exact, not triangles).
     mode : str
     ibl : str
     environment_map : wgbragg.lighting.environment_map.EnvironmentMap or None
@@ -278,8 +321,13 @@ class Renderer:
 
     def __init__(self, scene: Scene, size: tuple[int, int] | None = None, seed: int = 0,
                  mode: str | None = None, max_bounces: int = MAX_BOUNCES,
-                 colour_method: str = "averaged", ibl: str | None = None):
+                 colour_method: str = "averaged", ibl: str | None = None,
+                 light_sampling: str = "all"):
         width, height = check_size(scene.settings.size if size is None else size)
+        if light_sampling not in LIGHT_SAMPLING:
+            raise ValueError(f"light_sampling must be one of {LIGHT_SAMPLING}, got "
+                             f"{light_sampling!r}")
+        self.light_sampling = light_sampling
         mode = scene.settings.mode if mode is None else mode
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
@@ -336,16 +384,20 @@ class Renderer:
         """
         mode, colour_method, ibl = self._options(scene, mode, colour_method, ibl)
         geometry_key = (scene.objects, tuple(scene.materials))
-        shading = self._shading(scene, mode, colour_method, ibl)
-        if geometry_key != self._geometry_of:
-            geometry = self._geometry(scene)
-            self._geometry_of = geometry_key
-            self._geometry_inputs, self._extent, self._world = geometry
+        geometry = (self._geometry(scene) if geometry_key != self._geometry_of
+                    else (self._geometry_inputs, self._world))
+        shading = self._shading(scene, mode, colour_method, ibl, geometry[1][0])
+        self._geometry_of = geometry_key
+        self._geometry_inputs, self._world = geometry
+        packed = self._world[0]
+        self.bvh, self.triangles = packed.bvh, packed.triangles
         inputs, constants, environment_map, self._structures, self.table_seconds = shading
         self.scene, self.mode, self.environment_map = scene, mode, environment_map
         self.colour_method, self.ibl = colour_method, ibl
-        self._inputs = [*self._geometry_inputs[:4], *inputs]
+        self._inputs = [*self._geometry_inputs, *inputs]
         constants["CONVEX_ALONE"] = _convex_alone(scene)
+        constants["MESHES"] = packed.bvh is not None
+        constants["ONE_LIGHT"] = self.light_sampling == "power"
         self._constants = constants
         self._kernel = gpu.compute_pipeline("render/renderer.wgsl", "render", constants)
         self._params = self._make_params()
@@ -380,22 +432,23 @@ class Renderer:
         self._dispatches = {}
         self.passes = 0
 
-    def _geometry(self, scene: Scene):
-        """Vertex, normal, face and BVH node buffers, the scene's extent, and its packed
-        geometry with the material names (for :meth:`world_geometry`)."""
+    @staticmethod
+    def _geometry(scene: Scene):
+        """Vertex, normal, face, BVH node and shape buffers, and the packed geometry with
+        the material names (for :meth:`world_geometry`)."""
         packed = pack_geometry(scene)
-        self.bvh = packed.bvh
-        self.triangles = len(packed.faces)
         inputs = [
             gpu.DeviceArray.upload(packed.vertices, what="the scene's vertices"),
             gpu.DeviceArray.upload(packed.normals, what="the scene's normals"),
             gpu.DeviceArray.upload(packed.faces),
             gpu.DeviceArray.upload(packed.nodes, texture=True),
+            gpu.DeviceArray.upload(packed.shapes, texture=True),
         ]
-        return inputs, packed.extent, (packed, tuple(scene.materials))
+        return inputs, (packed, tuple(scene.materials))
 
     def world_geometry(self) -> WorldGeometry:
-        """The triangles this renderer traces, in world space, with their materials.
+        """The triangles, spheres and planes this renderer traces, in world space, with
+        their materials.
 
         What a comparison with another renderer needs to set up the same scene: the built-in
         shapes tessellated and placed (:mod:`wgbragg.render.packing`), mesh files transformed,
@@ -405,23 +458,29 @@ class Renderer:
         Returns
         -------
         WorldGeometry
-            Its triangles in the scene's face order.
+            Its triangles in the scene's face order, its spheres and planes in the scene's
+            order.
         """
         packed, names = self._world
         # The GPU's faces are in BVH order; face triangle_order[i] of the scene is its i-th.
-        faces = np.empty_like(packed.faces)
-        faces[packed.bvh.triangle_order] = packed.faces
+        faces = np.empty_like(packed.faces[:packed.triangles])
+        if packed.bvh is not None:
+            faces[packed.bvh.triangle_order] = packed.faces
         corners = faces[:, :3].astype(np.intp)
         vertices = packed.vertices[corners, :3].astype(np.float64)
         normals = packed.normals[corners, :3].astype(np.float64)
         uv = np.stack([packed.vertices[corners, 3], packed.normals[corners, 3]],
                       axis=-1).astype(np.float64)
         material = faces[:, 3].astype(np.int64)
-        for array in (vertices, normals, uv, material):
+        exact = [array.copy() for array in (packed.sphere_to_world, packed.sphere_material,
+                                            packed.parallelograms,
+                                            packed.parallelogram_material)]
+        for array in (vertices, normals, uv, material, *exact):
             array.flags.writeable = False
-        return WorldGeometry(vertices, normals, uv, material, names)
+        return WorldGeometry(vertices, normals, uv, material, names, *exact)
 
-    def _shading(self, scene: Scene, mode: str, colour_method: str, ibl: str):
+    def _shading(self, scene: Scene, mode: str, colour_method: str, ibl: str,
+                 geometry: PackedGeometry):
         """Buffers after the geometry's, the pipeline's constants, the EXR environment, the
         layered materials' structures by id, and the time their tables took."""
         spectral = mode == "spectral"
@@ -438,7 +497,9 @@ class Renderer:
         inputs = [
             gpu.DeviceArray.upload(materials.records),
             *(gpu.DeviceArray.upload(array) for array in layered),
-            gpu.DeviceArray.upload(light_buffer(scene)),
+            gpu.DeviceArray.upload(light_buffer(scene, light_probabilities(
+                scene, self.light_sampling == "power", ibl == "monte-carlo", geometry.radius,
+                environment_map))),
             gpu.DeviceArray.upload(spectra() if spectral else np.zeros((1, 4), np.float32)),
             gpu.DeviceArray.upload(environment_texels, what="environment.path: its texels"),
             gpu.DeviceArray.upload(map_records),
@@ -513,7 +574,7 @@ class Renderer:
                 + self._paths.nbytes + self._loops_cut.nbytes)
 
     def _make_params(self) -> np.ndarray:
-        return scene_params(self.scene, self.width, self.height, self._extent, self._seed)
+        return scene_params(self.scene, self.width, self.height, self._world[0], self._seed)
 
     def _dispatch(self, entry: str, samples: int = 1):
         key = (entry, samples)
@@ -638,7 +699,9 @@ class Renderer:
         t : numpy.ndarray, shape (height, width), float32
             Distance along the unit ray direction; inf for a miss.
         face : numpy.ndarray, shape (height, width), int64
-            Index into ``bvh.faces`` of the face hit; -1 for a miss.
+            The primitive hit: a triangle of :meth:`world_geometry` (``0 .. T-1``), a sphere
+            (``T + k``), a plane (``T + S + k``) or an area light (``T + S + P + k``, in the
+            scene's order of area lights); -1 for a miss.
 
         Raises
         ------
@@ -651,8 +714,10 @@ class Renderer:
         self.reset()
         face = result[:, 1].astype(np.int64)
         hit = face >= 0
+        triangle = hit & (face < self.triangles)
         # The GPU's faces are in BVH order; report the scene's face numbers.
-        face[hit] = self.bvh.triangle_order[face[hit]]
+        if self.bvh is not None:
+            face[triangle] = self.bvh.triangle_order[face[triangle]]
         t = np.where(hit, result[:, 0], np.inf).astype(np.float32)
         return t.reshape(self.height, self.width), face.reshape(self.height, self.width)
 

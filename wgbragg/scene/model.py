@@ -379,9 +379,11 @@ class PointLight:
 
 @dataclasses.dataclass(frozen=True)
 class AreaLight:
-    """A one-sided emitting parallelogram ``corner + s edge_u + t edge_v``, s, t in [0, 1].
+    """An emitting parallelogram ``corner + s edge_u + t edge_v``, s, t in [0, 1].
 
-    It emits on the side of ``edge_u x edge_v``.
+    It is geometry: camera and bounce rays see it, and it occludes. It emits on the side of
+    ``edge_u x edge_v`` (both sides if ``two_sided``) and reflects nothing: its unlit side is
+    black.
 
     Parameters
     ----------
@@ -389,12 +391,15 @@ class AreaLight:
         In scene units; the edges are not parallel.
     radiance : tuple of 3 floats
         Emitted radiance per linear sRGB channel (>= 0), relative units.
+    two_sided : bool
+        Emit from both sides.
     """
 
     corner: tuple[float, float, float]
     edge_u: tuple[float, float, float]
     edge_v: tuple[float, float, float]
     radiance: tuple[float, float, float]
+    two_sided: bool = False
 
 
 @dataclasses.dataclass(frozen=True)

@@ -418,12 +418,13 @@ def _light(ctx: _Context, value, key: str) -> PointLight | AreaLight:
         _keys(ctx, table, key, ("type", "position", "intensity"))
         return PointLight(_vector(ctx, table["position"], f"{key}.position"),
                           _radiometric(ctx, table["intensity"], f"{key}.intensity"))
-    _keys(ctx, table, key, ("type", "corner", "edge_u", "edge_v", "radiance"))
+    _keys(ctx, table, key, ("type", "corner", "edge_u", "edge_v", "radiance"), ("two_sided",))
     light = AreaLight(
         corner=_vector(ctx, table["corner"], f"{key}.corner"),
         edge_u=_vector(ctx, table["edge_u"], f"{key}.edge_u"),
         edge_v=_vector(ctx, table["edge_v"], f"{key}.edge_v"),
         radiance=_radiometric(ctx, table["radiance"], f"{key}.radiance"),
+        two_sided=_flag(ctx, table.get("two_sided", False), f"{key}.two_sided"),
     )
     if not _transverse(light.edge_u, light.edge_v):
         raise ctx.error(f"{key}.edge_v", f"must not be zero or parallel to edge_u (no area; "

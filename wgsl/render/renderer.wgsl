@@ -1,15 +1,16 @@
 // Entry points of the progressive path tracer, run by wgbragg/render/renderer.py:
 //   render:        `samples` paths per pixel, their linear sRGB radiance written to paths
 //   accumulate:    each pixel's paths added to accum (rgb, and their number in w)
-//   primary_hits:  the closest hit of each pixel-centre camera ray, accum = (t, face, 0, 0),
-//                  face -1 and t = 3.4e38 for a miss (to check the traversal against numpy)
+//   primary_hits:  the closest hit of each pixel-centre camera ray, accum = (t, primitive, 0,
+//                  0), primitive -1 and t = 3.4e38 for a miss (to check the traversal against numpy)
 // Each sets loops_cut[0] = 1 where llvmpipe ended an invocation's loops early (wgbragg.gpu,
 // "Loop budget"): a path's loops (bounces, lights, BVH traversals, in-kernel colours) add up
 // to what the host cannot foresee, so it checks the flag after every submission.
-// Light transport: next-event estimation towards the environment (combined with BRDF
-// sampling by the power heuristic), point lights and area lights (shadow rays, which only
-// next-event estimation reaches: neither kind is part of the geometry), Russian roulette
-// after a few bounces. Materials are seen only through bsdf_eval / bsdf_pdf / bsdf_sample.
+// Light transport: next-event estimation towards the environment, point lights and area
+// lights (every light at each vertex, or one chosen by power: ONE_LIGHT), combined with BSDF
+// sampling by the power heuristic where BSDF rays can reach the light too (the environment;
+// area lights are geometry: they are seen, occlude and emit, and reflect nothing), Russian
+// roulette after a few bounces. Materials are seen only through bsdf_eval / bsdf_pdf / bsdf_sample.
 // A path carries a vec4 "spectrum": linear sRGB in xyz (RGB mode, w unused), or its values at
 // four hero wavelengths (SPECTRAL), to which every RGB quantity of the scene (albedos,
 // lights, environment) is upsampled by Mallett and Yuksel's basis spectra.
@@ -42,6 +43,9 @@ override ROULETTE_FROM: u32 = 3u;
 override LAYERED: bool = false;
 // Hero-wavelength transport: layered materials by their spectral model.
 override SPECTRAL: bool = false;
+// Next-event estimation samples one light per vertex, chosen by its power, instead of every
+// light: fewer shadow rays, more noise per sample (docs/performance.md compares them).
+override ONE_LIGHT: bool = false;
 // The scene is one convex object: a ray leaving its surface (above the face it leaves) meets
 // nothing but the environment, so only camera rays are traced.
 override CONVEX_ALONE: bool = false;
@@ -88,45 +92,55 @@ struct Params {
                           // the hit point's largest coordinate (its float32 rounding)
     seed: u32,
     samples: u32,         // paths per pixel in this render dispatch
+    triangles: u32,       // primitives: triangles, spheres, planes, then area lights
+    spheres: u32,
+    planes: u32,
+    _pad1: u32,
 }
 
 @group(0) @binding(0) var<storage, read> vertices: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read> normals: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> faces: array<vec4<u32>>;
 @group(0) @binding(3) var node_texels: texture_2d<f32>;
-@group(0) @binding(4) var<storage, read> materials: array<Material>;
-@group(0) @binding(5) var<storage, read> structures: array<LayeredStructure>;
-@group(0) @binding(6) var<storage, read> layers: array<RoughLayer>;
-@group(0) @binding(7) var<storage, read> tables: array<f32>;
-// Point lights (position, intensity), then area lights (corner, edge_u, edge_v, radiance).
-@group(0) @binding(8) var<storage, read> lights: array<vec4<f32>>;
+// The exact spheres and planes (render/renderer_scene.wgsl).
+@group(0) @binding(4) var shape_texels: texture_2d<f32>;
+@group(0) @binding(5) var<storage, read> materials: array<Material>;
+@group(0) @binding(6) var<storage, read> structures: array<LayeredStructure>;
+@group(0) @binding(7) var<storage, read> layers: array<RoughLayer>;
+@group(0) @binding(8) var<storage, read> tables: array<f32>;
+// Point lights (position, intensity), then area lights (corner with w = 1 when two-sided,
+// edge_u, edge_v, radiance), then a row per light of next-event estimation, the environment
+// first under Monte Carlo lighting (wgbragg/render/packing.py light_buffer): (the cumulative
+// probability of choosing it, that probability, 0, 0); the probability is 1 for every light
+// when all are sampled at each vertex.
+@group(0) @binding(9) var<storage, read> lights: array<vec4<f32>>;
 // Spectral mode (wgbragg/render/renderer.py _spectra): 471 rows of basis spectra, 471 rows of the
 // linear sRGB response per nm (360..830 nm), then the hero wavelengths' inverse CDF in x.
-@group(0) @binding(9) var<storage, read> spectra: array<vec4<f32>>;
+@group(0) @binding(10) var<storage, read> spectra: array<vec4<f32>>;
 // EnvironmentMap.packed() (wgsl/lighting/environment_map.wgsl) when ENVIRONMENT_MAP.
-@group(0) @binding(10) var<storage, read> environment_texels: array<vec4<f32>>;
+@group(0) @binding(11) var<storage, read> environment_texels: array<vec4<f32>>;
 // pack_maps (wgbragg/scene/parameter_maps.py) when VARYING_LAYERS: record 0 is unused.
-@group(0) @binding(11) var<storage, read> map_records: array<ParameterMapRecord>;
-@group(0) @binding(12) var<storage, read> map_texels: array<f32>;
+@group(0) @binding(12) var<storage, read> map_records: array<ParameterMapRecord>;
+@group(0) @binding(13) var<storage, read> map_texels: array<f32>;
 // Thin films (THIN_FILMS, wgbragg/render/renderer.py _film_buffers): their records, the Fourier
 // colour's windows and evanescent nodes (film_colour, colour/thin_film.wgsl) and table, and
 // each film's base index (n, k) every FILM_BASE_STEP_NM from 360 nm (spectral mode).
-@group(0) @binding(13) var<storage, read> films: array<FilmMaterial>;
-@group(0) @binding(14) var<storage, read> fourier_windows: array<FourierWindow>;
-@group(0) @binding(15) var<storage, read> evanescent_nodes: array<EvanescentNode>;
-@group(0) @binding(16) var film_table: texture_2d<f32>;
-@group(0) @binding(17) var<storage, read> film_base: array<vec4<f32>>;
+@group(0) @binding(14) var<storage, read> films: array<FilmMaterial>;
+@group(0) @binding(15) var<storage, read> fourier_windows: array<FourierWindow>;
+@group(0) @binding(16) var<storage, read> evanescent_nodes: array<EvanescentNode>;
+@group(0) @binding(17) var film_table: texture_2d<f32>;
+@group(0) @binding(18) var<storage, read> film_base: array<vec4<f32>>;
 // Filtered image-based lighting (IBL != IBL_MONTE_CARLO): the prefiltered environment
 // (wgbragg.lighting.environment_prefilter, read by lighting/environment_prefilter_lookup.wgsl) and, per level, the
 // microfacet albedo E(cos_v) at IBL_ALBEDO_NODES cosines (wgbragg.lighting.ibl.microfacet_albedo_table).
-@group(0) @binding(18) var<storage, read> prefiltered_levels: array<PrefilteredLevel>;
-@group(0) @binding(19) var<storage, read> prefiltered_texels: array<vec4<f32>>;
-@group(0) @binding(20) var<storage, read> ibl_albedo: array<f32>;
-@group(0) @binding(21) var<storage, read_write> accum: array<vec4<f32>>;
+@group(0) @binding(19) var<storage, read> prefiltered_levels: array<PrefilteredLevel>;
+@group(0) @binding(20) var<storage, read> prefiltered_texels: array<vec4<f32>>;
+@group(0) @binding(21) var<storage, read> ibl_albedo: array<f32>;
+@group(0) @binding(22) var<storage, read_write> accum: array<vec4<f32>>;
 // The radiance of each path of a render dispatch, for accumulate.
-@group(0) @binding(22) var<storage, read_write> paths: array<vec3<f32>>;
-@group(0) @binding(23) var<storage, read_write> loops_cut: array<u32>;
-@group(0) @binding(24) var<uniform> params: Params;
+@group(0) @binding(23) var<storage, read_write> paths: array<vec3<f32>>;
+@group(0) @binding(24) var<storage, read_write> loops_cut: array<u32>;
+@group(0) @binding(25) var<uniform> params: Params;
 
 // ----------------------------------------------------------------------------- spectra
 
@@ -352,22 +366,67 @@ fn unoccluded(origin: vec3<f32>, direction: vec3<f32>, distance: f32) -> bool {
     if (CONVEX_ALONE) {
         return true;
     }
-    return trace(origin, direction, distance, true).face < 0;
+    return trace(origin, direction, distance, true).primitive < 0;
+}
+
+// Lights of next-event estimation: the environment (Monte Carlo lighting only), then the
+// point lights, then the area lights.
+fn environment_lights() -> u32 {
+    return select(0u, 1u, IBL == IBL_MONTE_CARLO);
+}
+
+fn light_total() -> u32 {
+    return environment_lights() + params.point_lights + params.area_lights;
+}
+
+// The probability that next-event estimation samples light k at a vertex (1 when every light
+// is sampled).
+fn light_probability(k: u32) -> f32 {
+    if (!ONE_LIGHT) {
+        return 1.0;
+    }
+    return lights[2u * params.point_lights + 4u * params.area_lights + k].y;
+}
+
+// One light by the cumulative probabilities of the selection rows.
+fn choose_light(u: f32) -> u32 {
+    let rows = 2u * params.point_lights + 4u * params.area_lights;
+    let last = light_total() - 1u;
+    for (var k = 0u; k < last; k++) {
+        if (u < lights[rows + k].x) {
+            return k;
+        }
+    }
+    return last;
+}
+
+// Area light k's solid-angle density of next-event estimation towards a point at `distance`
+// along `direction`, seen at `cos_area` = -dot(edge_u x edge_v, direction) (its area times
+// the cosine).
+fn area_light_pdf(k: u32, distance: f32, cos_area: f32) -> f32 {
+    return light_probability(environment_lights() + params.point_lights + k) * distance
+        * distance / abs(cos_area);
 }
 
 // Radiance reflected at one vertex towards wi from the lights reached by shadow rays: one
 // environment sample (Monte Carlo lighting only), every point light, one point on every area
-// light. One loop over them all, so that the BSDF (for some scenes a whole in-kernel colour
-// integral) is inlined once here: once per light kind, the render kernel of period-mapped
-// layers in RGB mode took 3.6 s to compile instead of 1.4 s.
+// light; or, with ONE_LIGHT, one of them chosen by power. One loop over them all, so that the
+// BSDF (for some scenes a whole in-kernel colour integral) is inlined once here: once per
+// light kind, the render kernel of period-mapped layers in RGB mode took 3.6 s to compile
+// instead of 1.4 s.
 fn direct_light(m: Material, frame: Frame, wi: vec3<f32>, origin: vec3<f32>,
                 geometric: vec3<f32>, state: ptr<function, u32>) -> vec4<f32> {
     let e = params.environment;
-    // Filtered IBL lights the surface from the environment by itself.
-    let environment = select(0u, 1u, IBL == IBL_MONTE_CARLO);
+    let environment = environment_lights();
     let first_area = environment + params.point_lights;
+    var first = 0u;
+    var end = light_total();
+    if (ONE_LIGHT && end > 0u) {
+        first = choose_light(random(state));
+        end = first + 1u;
+    }
     var total = vec4<f32>(0.0);
-    for (var k = 0u; k < first_area + params.area_lights; k++) {
+    for (var k = first; k < end; k++) {
         var l: vec3<f32>;
         var shadow_distance = FAR;
         var distance = 0.0;
@@ -390,8 +449,12 @@ fn direct_light(m: Material, frame: Frame, wi: vec3<f32>, origin: vec3<f32>,
             let to_light = point - origin;
             distance = length(to_light);
             l = to_light / distance;
-            // One-sided emitter: it shines towards edge_u x edge_v.
+            // A one-sided emitter shines towards edge_u x edge_v, a two-sided one both ways.
             emitting = -dot(normal_area, l);
+            if (lights[base].w > 0.5) {
+                emitting = abs(emitting);
+            }
+            // Short of the light, which is geometry too.
             shadow_distance = distance * (1.0 - 1e-4);
         }
         let local = to_local(frame, l);
@@ -402,19 +465,43 @@ fn direct_light(m: Material, frame: Frame, wi: vec3<f32>, origin: vec3<f32>,
         if (!any(f > vec4<f32>(0.0)) || !unoccluded(origin, l, shadow_distance)) {
             continue;
         }
+        let chosen = light_probability(k);
         if (k < environment) {
-            let light_pdf = sky_pdf(e, l);
+            let light_pdf = chosen * sky_pdf(e, l);
             let weight = power_heuristic(light_pdf, bsdf_pdf(m, wi, local));
             total += f * local.z * upsample(sky_radiance(e, l)) * (weight / light_pdf);
         } else if (k < first_area) {
-            total += f * local.z * upsample(lights[base + 1u].xyz) / (distance * distance);
+            total += f * local.z * upsample(lights[base + 1u].xyz)
+                / (chosen * distance * distance);
         } else {
-            // Uniform on the area (pdf 1 / A): A cos_light / distance^2, and emitting is A cos_light.
-            total += f * local.z * upsample(lights[base + 3u].xyz) * emitting
-                / (distance * distance);
+            // Uniform on the area A: the density distance^2 / (A cos_light) per solid angle,
+            // and emitting is A cos_light.
+            let light_pdf = area_light_pdf(k - first_area, distance, emitting);
+            let weight = power_heuristic(light_pdf, bsdf_pdf(m, wi, local));
+            total += f * local.z * upsample(lights[base + 3u].xyz) * (weight / light_pdf);
         }
     }
     return total;
+}
+
+// Radiance of area light k seen along `direction` at `distance`, weighted against its
+// next-event estimation unless the ray was a camera ray or a Dirac bounce (`specular`); its
+// back is black unless it is two-sided.
+fn area_light_radiance(k: u32, direction: vec3<f32>, distance: f32, specular: bool,
+                       last_pdf: f32) -> vec4<f32> {
+    let base = 2u * params.point_lights + 4u * k;
+    var cos_area = -dot(cross(lights[base + 1u].xyz, lights[base + 2u].xyz), direction);
+    if (lights[base].w > 0.5) {
+        cos_area = abs(cos_area);
+    }
+    if (!(cos_area > 0.0)) {
+        return vec4<f32>(0.0);
+    }
+    var weight = 1.0;
+    if (!specular) {
+        weight = power_heuristic(last_pdf, area_light_pdf(k, distance, cos_area));
+    }
+    return upsample(lights[base + 3u].xyz) * weight;
 }
 
 fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u32>)
@@ -433,12 +520,18 @@ fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u3
         if (!CONVEX_ALONE || depth == 0u) {
             hit = trace(origin, d, FAR, false);
         }
-        if (hit.face < 0) {
+        if (hit.primitive < 0) {
             var weight = 1.0;
             if (!specular) {
-                weight = power_heuristic(last_pdf, sky_pdf(e, d));
+                weight = power_heuristic(last_pdf, light_probability(0u) * sky_pdf(e, d));
             }
             radiance += throughput * upsample(sky_radiance(e, d)) * weight;
+            break;
+        }
+        let first_light = i32(params.triangles + params.spheres + params.planes);
+        if (hit.primitive >= first_light) {
+            radiance += throughput * area_light_radiance(u32(hit.primitive - first_light), d,
+                                                         hit.t, specular, last_pdf);
             break;
         }
         if (depth == MAX_BOUNCES) {
@@ -550,6 +643,6 @@ fn primary_hits(@builtin(global_invocation_id) gid: vec3<u32>,
     let pixel = vec2<f32>(f32(index % params.width) + 0.5, f32(index / params.width) + 0.5);
     let c = params.camera;
     let hit = trace(c.origin, camera_direction(c, pixel), FAR, false);
-    accum[index] = vec4<f32>(hit.t, f32(hit.face), 0.0, 0.0);
+    accum[index] = vec4<f32>(hit.t, f32(hit.primitive), 0.0, 0.0);
     report_cut_loops();
 }

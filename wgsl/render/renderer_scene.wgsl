@@ -1,5 +1,6 @@
-// Scene queries of the path tracer (wgbragg/render/renderer.py): random numbers, camera rays, the BVH
-// traversal and ray-triangle tests and the surface frame (the procedural environments:
+// Scene queries of the path tracer (wgbragg/render/renderer.py): random numbers, camera rays, the
+// ray casts against the scene's primitives (triangles through a BVH, exact spheres, area
+// lights) and the surface frame (the procedural environments:
 // lighting/procedural_environment.wgsl).
 // Needs gpu/numerics.wgsl (PI, TWO_PI).
 //
@@ -9,8 +10,19 @@
 //   faces:    array<vec4<u32>>   vertex indices (xyz) and material index (w), in the BVH's
 //                                triangle order, so that a leaf's faces are contiguous
 //   node_texels: texture_2d<f32> bvh.BVH, depth-first with sibling pairs, as bvh_node reads it
-// and a `params: Params` uniform holding a `camera: Camera` and an `environment: Environment`
-// (lighting/procedural_environment.wgsl).
+//   shape_texels: texture_2d<f32> rows of SHAPE_TEXTURE_WIDTH texels, read by shape_row: 4 a
+//                                sphere: the affine map from world space to the unit
+//                                sphere (3 rows, translation in w), then (material, 0, 0, 0);
+//                                then 4 rows a plane: its corner (material in w), edge_u,
+//                                edge_v, unit normal
+//   lights:   array<vec4<f32>>   point lights (2 rows each), then area lights (corner, edge_u,
+//                                edge_v, radiance), then the light selection table
+// and a `params: Params` uniform holding a `camera: Camera`, an `environment: Environment`
+// (lighting/procedural_environment.wgsl) and the counts `triangles`, `spheres`, `planes`,
+// `point_lights` and `area_lights`.
+//
+// Primitives are numbered as Renderer.primary_hits reports them: the triangles (in BVH order
+// here), then the spheres, then the planes (parallelograms), then the area lights.
 
 // Traversal stack slots: bvh.BVH.depth + 1 slots suffice; render.py refuses deeper trees. A
 // binned-SAH tree of 1.3 million triangles is 21 deep; every slot costs its zeroing per trace.
@@ -24,6 +36,15 @@ const INTERIOR: u32 = 0x40000000u;
 // 2i + 1, row-major. On lavapipe textureLoad costs less than storage loads: the path tracer
 // ran 1.5x faster, with identical images (docs/performance.md).
 const NODE_TEXTURE_WIDTH: u32 = 4096u;
+
+// Texels a row of shape_texels (wgbragg/render/packing.py SHAPE_TEXTURE_WIDTH), row-major.
+const SHAPE_TEXTURE_WIDTH: u32 = 4096u;
+
+// Row i of the shapes (textureLoad costs llvmpipe less than a storage load, as for nodes).
+fn shape_row(i: u32) -> vec4<f32> {
+    return textureLoad(shape_texels, vec2<u32>(i % SHAPE_TEXTURE_WIDTH, i / SHAPE_TEXTURE_WIDTH),
+                       0);
+}
 
 struct BvhNode {
     lo: vec3<f32>,
@@ -80,10 +101,13 @@ fn camera_direction(c: Camera, pixel: vec2<f32>) -> vec3<f32> {
 
 // ----------------------------------------------------------------------------- intersection
 
+// The scene holds triangles: otherwise the BVH is an empty placeholder, never traversed.
+override MESHES: bool = true;
+
 struct Hit {
     t: f32,           // distance along the unit direction; t_max when nothing was hit
-    face: i32,        // -1 for a miss
-    u: f32,           // barycentric weights of the face's second and third vertex
+    primitive: i32,   // -1 for a miss
+    u: f32,           // a triangle's barycentric weights of its second and third vertex
     v: f32,
 }
 
@@ -110,6 +134,62 @@ fn triangle_hit(origin: vec3<f32>, direction: vec3<f32>, face: u32) -> vec3<f32>
     return vec3<f32>(dot(edge2, q) * inverse, u, v);
 }
 
+// Moller & Trumbore's algebra for the parallelogram corner + u edge_u + v edge_v, u and v in
+// [0, 1], two-sided: (distance, u, v), the distance -1 for a miss.
+fn parallelogram_hit(origin: vec3<f32>, direction: vec3<f32>, corner: vec3<f32>,
+                     edge_u: vec3<f32>, edge_v: vec3<f32>) -> vec3<f32> {
+    let miss = vec3<f32>(-1.0, 0.0, 0.0);
+    let p = cross(direction, edge_v);
+    let det = dot(edge_u, p);
+    if (det == 0.0) {
+        return miss;
+    }
+    let inverse = 1.0 / det;
+    let s = origin - corner;
+    let u = dot(s, p) * inverse;
+    let q = cross(s, edge_u);
+    let v = dot(direction, q) * inverse;
+    if (u < 0.0 || u > 1.0 || v < 0.0 || v > 1.0) {
+        return miss;
+    }
+    return vec3<f32>(dot(edge_v, q) * inverse, u, v);
+}
+
+// The point of world space `p` in sphere k's own space, where it is the unit sphere.
+fn sphere_local(k: u32, p: vec3<f32>) -> vec3<f32> {
+    let r0 = shape_row(4u * k);
+    let r1 = shape_row(4u * k + 1u);
+    let r2 = shape_row(4u * k + 2u);
+    return vec3<f32>(dot(r0.xyz, p) + r0.w, dot(r1.xyz, p) + r1.w, dot(r2.xyz, p) + r2.w);
+}
+
+// The nearest distance > 0 to sphere k (any affine image of the unit sphere), or a value
+// <= 0 for a miss. In its own space the ray's closest approach to the centre gives the
+// discriminant without cancellation, and the roots' product (|o|^2 - 1) the far one.
+fn sphere_hit(origin: vec3<f32>, direction: vec3<f32>, k: u32) -> f32 {
+    let r0 = shape_row(4u * k);
+    let r1 = shape_row(4u * k + 1u);
+    let r2 = shape_row(4u * k + 2u);
+    let o = vec3<f32>(dot(r0.xyz, origin) + r0.w, dot(r1.xyz, origin) + r1.w,
+                      dot(r2.xyz, origin) + r2.w);
+    let d = vec3<f32>(dot(r0.xyz, direction), dot(r1.xyz, direction), dot(r2.xyz, direction));
+    let scale = length(d);
+    let unit = d / scale;
+    let b = dot(o, unit);
+    let closest = o - b * unit;
+    let h = 1.0 - dot(closest, closest);
+    if (h < 0.0) {
+        return -1.0;
+    }
+    let q = -b - select(-sqrt(h), sqrt(h), b >= 0.0);
+    if (q == 0.0) {
+        return -1.0;
+    }
+    let other = (dot(o, o) - 1.0) / q;
+    let near = min(q, other);
+    return select(max(q, other), near, near > 0.0) / scale;
+}
+
 // Entry and exit distances of the slab test; entry > exit for a miss.
 fn box_span(origin: vec3<f32>, inverse: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>) -> vec2<f32> {
     let t0 = (lo - origin) * inverse;
@@ -119,9 +199,45 @@ fn box_span(origin: vec3<f32>, inverse: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>)
     return vec2<f32>(max(max(near.x, near.y), near.z), min(min(far.x, far.y), far.z));
 }
 
-// Closest hit with 0 < t < t_max; with `any_hit` the first hit found (shadow rays).
+// Closest hit with 0 < t < t_max; with `any_hit` the first hit found (shadow rays). Spheres,
+// planes and area lights first, each a few loads, so that their hits prune the BVH.
 fn trace(origin: vec3<f32>, direction: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
     var best = Hit(t_max, -1, 0.0, 0.0);
+    for (var k = 0u; k < params.spheres; k++) {
+        let t = sphere_hit(origin, direction, k);
+        if (t > 0.0 && t < best.t) {
+            best = Hit(t, i32(params.triangles + k), 0.0, 0.0);
+            if (any_hit) {
+                return best;
+            }
+        }
+    }
+    let first_plane = params.triangles + params.spheres;
+    for (var k = 0u; k < params.planes; k++) {
+        let row = 4u * (params.spheres + k);
+        let h = parallelogram_hit(origin, direction, shape_row(row).xyz, shape_row(row + 1u).xyz,
+                                  shape_row(row + 2u).xyz);
+        if (h.x > 0.0 && h.x < best.t) {
+            best = Hit(h.x, i32(first_plane + k), h.y, h.z);
+            if (any_hit) {
+                return best;
+            }
+        }
+    }
+    for (var k = 0u; k < params.area_lights; k++) {
+        let base = 2u * params.point_lights + 4u * k;
+        let t = parallelogram_hit(origin, direction, lights[base].xyz, lights[base + 1u].xyz,
+                                  lights[base + 2u].xyz).x;
+        if (t > 0.0 && t < best.t) {
+            best = Hit(t, i32(first_plane + params.planes + k), 0.0, 0.0);
+            if (any_hit) {
+                return best;
+            }
+        }
+    }
+    if (!MESHES) {
+        return best;
+    }
     let inverse = 1.0 / direction;
     var stack: array<u32, STACK_SIZE>;
     var top = 1u;
@@ -166,8 +282,40 @@ struct Surface {
     uv: vec2<f32>,          // interpolated texture coordinates (vertices.w, normals.w)
 }
 
+// A sphere's surface: the normal is the gradient of |local|^2, M^T local for the affine map
+// M of sphere_local; uv as the tessellated sphere's (wgbragg.scene.meshes.sphere_mesh, +z up
+// there): u the azimuth from +x towards -z over 2 pi, v = 1/2 + latitude / pi.
+fn sphere_surface(position: vec3<f32>, direction: vec3<f32>, k: u32) -> Surface {
+    let local = sphere_local(k, position);
+    var normal = normalize(local.x * shape_row(4u * k).xyz + local.y * shape_row(4u * k + 1u).xyz
+                           + local.z * shape_row(4u * k + 2u).xyz);
+    if (dot(normal, direction) > 0.0) {
+        normal = -normal;
+    }
+    let uv = vec2<f32>(fract(atan2(-local.z, local.x) / TWO_PI),
+                       0.5 + asin(clamp(local.y / length(local), -1.0, 1.0)) / PI);
+    return Surface(position, normal, normal, u32(shape_row(4u * k + 3u).x), uv);
+}
+
+// The surface of a triangle, sphere or plane hit (area lights are not surfaces: they only
+// emit).
 fn surface_at(origin: vec3<f32>, direction: vec3<f32>, hit: Hit) -> Surface {
-    let f = faces[u32(hit.face)];
+    let primitive = u32(hit.primitive);
+    let position = origin + hit.t * direction;
+    if (primitive >= params.triangles + params.spheres) {
+        // A plane: its normal and (u, v) along its edges, as the two triangles of
+        // wgbragg.scene.meshes.plane_mesh would interpolate them.
+        let row = 4u * (primitive - params.triangles);
+        var normal = shape_row(row + 3u).xyz;
+        if (dot(normal, direction) > 0.0) {
+            normal = -normal;
+        }
+        return Surface(position, normal, normal, u32(shape_row(row).w), vec2<f32>(hit.u, hit.v));
+    }
+    if (primitive >= params.triangles) {
+        return sphere_surface(position, direction, primitive - params.triangles);
+    }
+    let f = faces[primitive];
     let v0 = vertices[f.x].xyz;
     var geometric = normalize(cross(vertices[f.y].xyz - v0, vertices[f.z].xyz - v0));
     let w = 1.0 - hit.u - hit.v;
