@@ -208,7 +208,8 @@ def _render(args) -> int:
     if args.size is not None:
         _check_render_size(args.size)
     scene = load_preset(args.scene) if args.scene else load_scene(args.scene_file)
-    renderer = Renderer(scene, size=args.size, mode=args.mode, ibl=args.ibl)
+    renderer = Renderer(scene, size=args.size, mode=args.mode, ibl=args.ibl,
+                        light_sampling=args.light_sampling)
     start = time.perf_counter()
     if args.seconds is not None:
         image = renderer.render(seconds=args.seconds, progress=args.progress)
@@ -332,6 +333,9 @@ def _add_render_command(commands) -> None:
     render.add_argument("--ibl", choices=("monte-carlo", "split-sum", "kneiphof"), default=None,
                         help="environment lighting: paths, or a filtered image-based lighting "
                              "mode (default: the scene's settings.ibl)")
+    render.add_argument("--light-sampling", choices=("all", "power"), default="all",
+                        help="next-event estimation at each path vertex: every light, or one "
+                             "chosen by its power (fewer shadow rays, more noise; default all)")
     render.add_argument("--exr", default=None,
                         help="also write the linear image to this OpenEXR file")
     render.add_argument("--no-progress", dest="progress", action="store_false",
