@@ -22,6 +22,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from wgbragg.app.cli import main
+from wgbragg.common.exr import read_exr
 from wgbragg.render import Renderer
 from wgbragg.render.packing import light_probabilities
 from wgbragg.scene import load_scene
@@ -354,3 +356,14 @@ def test_two_sided_must_be_a_boolean(tmp_path):
                           sided="two_sided = 1")
     with pytest.raises(ValueError, match=r"lights\[0\]\.two_sided: must be true or false"):
         _write(tmp_path, "bad", text)
+
+
+def test_cli_renders_with_one_light_by_power(device, tmp_path, capsys):
+    """Under the light, the floor's mean radiance is what every light's sampling gives."""
+    (tmp_path / "under.toml").write_text(_UNDER_LIGHT.format(radiance=3.0), encoding="utf-8")
+    png, exr = tmp_path / "under.png", tmp_path / "under.exr"
+    code = main(["render", str(tmp_path / "under.toml"), "-o", str(png), "--exr", str(exr),
+                 "--spp", "1024", "--size", "8x8", "--light-sampling", "power", "--no-progress"])
+    assert code == 0 and "lights power" in capsys.readouterr().out
+    reference = Renderer(load_scene(tmp_path / "under.toml"), size=(8, 8), seed=9).render(1024)
+    assert read_exr(exr).mean() == pytest.approx(reference.mean(), rel=0.01)

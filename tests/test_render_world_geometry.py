@@ -94,7 +94,7 @@ def test_teapot_preset_triangles_and_materials(teapot):
     np.testing.assert_array_equal(geometry.parallelogram_material, [1])
     np.testing.assert_array_equal(geometry.parallelograms,
                                   [[[-6.0, 0.0, 6.0], [12.0, 0.0, 0.0], [0.0, 0.0, -12.0]]])
-    corner, edge_u, edge_v = geometry.parallelograms[0]
+    _, edge_u, edge_v = geometry.parallelograms[0]
     assert np.cross(edge_u, edge_v)[1] > 0.0
 
     # The teapot: 1 unit wide along x before its -30 degree turn, standing on y = 0 with its

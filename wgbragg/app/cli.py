@@ -232,7 +232,8 @@ def _render(args) -> int:
         write_exr(args.exr, image)
         written.append(str(args.exr))
     print(f"{', '.join(written)}: {renderer.width}x{renderer.height}, {renderer.mode}, "
-          f"ibl {renderer.ibl}, {renderer.passes} spp in {seconds:.1f} s")
+          f"ibl {renderer.ibl}, lights {renderer.light_sampling}, {renderer.passes} spp in "
+          f"{seconds:.1f} s")
     return 0
 
 
