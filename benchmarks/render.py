@@ -174,7 +174,10 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> dict:
             for mode in MODES:
                 renderer = Renderer(load_preset(name), size=size, mode=mode)
                 rates.append(_throughput(renderer, cfg.passes))
-            results["presets"][name] = (*rates, renderer.gpu_bytes, renderer.triangles)
+            geometry = renderer.world_geometry()
+            shapes = (f"{renderer.triangles:,} / {len(geometry.sphere_material)} / "
+                      f"{len(geometry.parallelogram_material)}")
+            results["presets"][name] = (*rates, renderer.gpu_bytes, shapes)
             bar.update()
 
         teapot = load_preset("teapot")
@@ -243,11 +246,11 @@ def render_section(results: dict, cfg: Config, command: str) -> str:
         "### Presets",
         "",
     ]
-    lines += _table(["preset", "triangles", "samples/s, RGB", "samples/s, spectral",
-                     "spectral / RGB", "GPU memory (spectral)"], [
-        [name, f"{triangles:,}", _rate(rgb), _rate(spectral), f"{spectral / rgb:.2f}",
+    lines += _table(["preset", "triangles / spheres / planes", "samples/s, RGB",
+                     "samples/s, spectral", "spectral / RGB", "GPU memory (spectral)"], [
+        [name, shapes, _rate(rgb), _rate(spectral), f"{spectral / rgb:.2f}",
          f"{memory / 1e6:.2f} MB"]
-        for name, (rgb, spectral, memory, triangles) in results["presets"].items()])
+        for name, (rgb, spectral, memory, shapes) in results["presets"].items()])
     c = cfg.convergence_size
     lines += ["", f"### Time to SMAPE {TARGET_SMAPE:g} (teapot, {c} x {c})", ""]
     lines += _table(["mode", "time", "spp", "SMAPE reached"], [

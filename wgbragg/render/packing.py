@@ -103,8 +103,8 @@ NODE_TEXTURE_WIDTH = 4096
 """Texels a row of the BVH node texture (NODE_TEXTURE_WIDTH of render/renderer_scene.wgsl): two
 a node, so 2,048 nodes a row. WebGPU guarantees textures 8,192 wide, so the width always fits."""
 SHAPE_TEXTURE_WIDTH = 4096
-"""Texels a row of the texture of exact spheres and planes (SHAPE_TEXTURE_WIDTH of
-render/renderer_scene.wgsl): four a shape."""
+"""Texels a row of the textures of exact spheres and planes (four a shape) and of triangle
+corners (three a face): SHAPE_TEXTURE_WIDTH of render/renderer_scene.wgsl."""
 _NODE_EXACT = 1 << 24  # indices and counts stored as float32 stay exact below this
 _IBL_ALBEDO_NODES = 64  # IBL_ALBEDO_NODES of render/renderer.wgsl
 
@@ -344,6 +344,9 @@ class PackedGeometry:
         Vertex indices and material index, in BVH order.
     nodes : numpy.ndarray, shape (R, NODE_TEXTURE_WIDTH, 4), float32
         The BVH nodes as texels of an ``rgba32float`` texture (:func:`_node_texels`).
+    corners : numpy.ndarray, shape (R, SHAPE_TEXTURE_WIDTH, 4), float32
+        Each face's corners (BVH order) as three texels of an ``rgba32float`` texture
+        (:func:`_corner_texels`).
     sphere_to_world : numpy.ndarray, shape (S, 3, 4), float64
         Each sphere object's map from the unit sphere to world space.
     sphere_material : numpy.ndarray, shape (S,), int64
@@ -364,6 +367,7 @@ class PackedGeometry:
     normals: np.ndarray
     faces: np.ndarray
     nodes: np.ndarray
+    corners: np.ndarray
     sphere_to_world: np.ndarray
     sphere_material: np.ndarray
     parallelograms: np.ndarray
@@ -406,18 +410,42 @@ def pack_geometry(scene: Scene) -> PackedGeometry:
         return PackedGeometry(
             bvh=None, vertices=np.zeros((1, 4), np.float32),
             normals=np.zeros((1, 4), np.float32), faces=np.zeros((1, 4), np.uint32),
-            nodes=np.zeros((1, NODE_TEXTURE_WIDTH, 4), np.float32), **common)
+            nodes=np.zeros((1, NODE_TEXTURE_WIDTH, 4), np.float32),
+            corners=np.zeros((1, SHAPE_TEXTURE_WIDTH, 4), np.float32), **common)
     bvh = build_bvh(vertices, faces[:, :3])
     if bvh.depth + 1 > _STACK_SIZE:
         raise ValueError(f"scene: its BVH is {bvh.depth} levels deep; the GPU traversal "
                          f"handles at most {_STACK_SIZE - 1}")
     nodes = _node_texels(bvh, _max_texture_dimension())
+    ordered = np.ascontiguousarray(faces[bvh.triangle_order], np.uint32)
+    vertices32 = vertices.astype(np.float32)
     return PackedGeometry(
         bvh=bvh,
         vertices=np.column_stack([vertices, uv[:, 0]]).astype(np.float32),
         normals=np.column_stack([normals, uv[:, 1]]).astype(np.float32),
-        faces=np.ascontiguousarray(faces[bvh.triangle_order], np.uint32),
-        nodes=nodes, **common)
+        faces=ordered, nodes=nodes,
+        corners=_corner_texels(vertices32[ordered[:, :3].astype(np.intp)],
+                               _max_texture_dimension()),
+        **common)
+
+
+def _corner_texels(corners: np.ndarray, largest: int) -> np.ndarray:
+    """The faces' corners ``(F, 3, 3)`` as texels of an ``rgba32float`` texture: face i's
+    corner j at texel 3 i + j, rows of :data:`SHAPE_TEXTURE_WIDTH`, zero-padded.
+
+    Raises
+    ------
+    ValueError
+        For more triangles than ``largest`` rows (the device's max-texture-dimension-2d) hold.
+    """
+    count = 3 * len(corners)
+    rows = -(-count // SHAPE_TEXTURE_WIDTH)
+    if rows > largest:
+        raise ValueError(f"scene: {len(corners):,} triangles; the GPU's triangle texture holds "
+                         f"at most {largest * SHAPE_TEXTURE_WIDTH // 3:,} on this device")
+    texels = np.zeros((rows * SHAPE_TEXTURE_WIDTH, 4), np.float32)
+    texels[:count, :3] = corners.reshape(-1, 3)
+    return texels.reshape(rows, SHAPE_TEXTURE_WIDTH, 4)
 
 
 # ----------------------------------------------------------------------------------- materials

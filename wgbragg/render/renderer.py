@@ -434,7 +434,7 @@ class Renderer:
 
     @staticmethod
     def _geometry(scene: Scene):
-        """Vertex, normal, face, BVH node and shape buffers, and the packed geometry with
+        """Vertex, normal, face, BVH node, shape and corner buffers, and the packed geometry with
         the material names (for :meth:`world_geometry`)."""
         packed = pack_geometry(scene)
         inputs = [
@@ -443,6 +443,7 @@ class Renderer:
             gpu.DeviceArray.upload(packed.faces),
             gpu.DeviceArray.upload(packed.nodes, texture=True),
             gpu.DeviceArray.upload(packed.shapes, texture=True),
+            gpu.DeviceArray.upload(packed.corners, texture=True),
         ]
         return inputs, (packed, tuple(scene.materials))
 

@@ -10,6 +10,8 @@
 //   faces:    array<vec4<u32>>   vertex indices (xyz) and material index (w), in the BVH's
 //                                triangle order, so that a leaf's faces are contiguous
 //   node_texels: texture_2d<f32> bvh.BVH, depth-first with sibling pairs, as bvh_node reads it
+//   triangle_texels: texture_2d<f32> the corners of face i (in BVH order) at texels 3 i .. 3 i + 2,
+//                                rows of SHAPE_TEXTURE_WIDTH texels, read by triangle_corner
 //   shape_texels: texture_2d<f32> rows of SHAPE_TEXTURE_WIDTH texels, read by shape_row: 4 a
 //                                sphere: the affine map from world space to the unit
 //                                sphere (3 rows, translation in w), then (material, 0, 0, 0);
@@ -111,12 +113,19 @@ struct Hit {
     v: f32,
 }
 
+// Corner j of face i (BVH order), from triangle_texels: the traversal's triangle tests read
+// textures, which llvmpipe loads faster than storage buffers (docs/performance.md).
+fn triangle_corner(i: u32, j: u32) -> vec3<f32> {
+    let at = 3u * i + j;
+    return textureLoad(triangle_texels,
+                       vec2<u32>(at % SHAPE_TEXTURE_WIDTH, at / SHAPE_TEXTURE_WIDTH), 0).xyz;
+}
+
 // Moller & Trumbore 1997, two-sided, as bvh._moller_trumbore.
 fn triangle_hit(origin: vec3<f32>, direction: vec3<f32>, face: u32) -> vec3<f32> {
-    let f = faces[face];
-    let v0 = vertices[f.x].xyz;
-    let edge1 = vertices[f.y].xyz - v0;
-    let edge2 = vertices[f.z].xyz - v0;
+    let v0 = triangle_corner(face, 0u);
+    let edge1 = triangle_corner(face, 1u) - v0;
+    let edge2 = triangle_corner(face, 2u) - v0;
     let p = cross(direction, edge2);
     let det = dot(edge1, p);
     let miss = vec3<f32>(-1.0, 0.0, 0.0);
