@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: setup vulkan xvfb test demo lint bench clean
+.PHONY: setup vulkan xvfb test demo lint bench bench-peer clean
 
 setup: vulkan $(STAMP)
 
@@ -49,6 +49,26 @@ bench: setup
 	$(PY) -m benchmarks.render
 	$(PY) -m benchmarks.ibl
 	$(PY) -m benchmarks.viewer
+
+# Mitsuba 3 as a peer (benchmarks/mitsuba_peer.py): scalar_rgb, and llvm_ad_rgb on a libLLVM
+# that its drjit can use. The system's LLVM 15 (lavapipe's) makes drjit 1.5 abort, so Debian's
+# libllvm19 is unpacked into .cache/llvm (apt-get download + dpkg -x: no system install) and
+# DRJIT_LIBLLVM_PATH points at it; without it llvm_ad_rgb is tried on drjit's own search and,
+# where that fails, its rows say why (scalar_rgb is measured either way).
+LLVM_CACHE := .cache/llvm
+
+bench-peer: setup
+	$(PY) -m pip install -q -e '.[test,bench]' || $(PY) -m pip install -q 'mitsuba>=3.6' \
+		|| echo "wgbragg: mitsuba not installed, continuing"
+	@mkdir -p $(LLVM_CACHE)
+	@if [ -z "$$(find $(LLVM_CACHE) -name 'libLLVM.so.19*' -print -quit)" ]; then \
+		(cd $(LLVM_CACHE) && rm -f libllvm19_*.deb && apt-get download libllvm19 \
+			&& dpkg -x libllvm19_*.deb .) \
+		|| echo "wgbragg: libllvm19 not fetched: llvm_ad_rgb only if drjit finds a usable LLVM"; \
+	fi
+	@lib="$$(find $(CURDIR)/$(LLVM_CACHE) -name 'libLLVM.so.19*' -print -quit)"; \
+	echo "DRJIT_LIBLLVM_PATH=$$lib $(PY) -m benchmarks.mitsuba_peer"; \
+	DRJIT_LIBLLVM_PATH="$$lib" $(PY) -m benchmarks.mitsuba_peer
 
 clean:
 	rm -rf $(VENV) out build dist .pytest_cache .ruff_cache .hypothesis
