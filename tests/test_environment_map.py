@@ -1,7 +1,9 @@
 """EnvironmentMap: the convention (Mitsuba 3's equirectangular orientation; the marked
 panorama of tests/test_environment_panorama.py checks it end to end), the bilinear lookups, the
-sampling density (normalised, matched by the sampler in a chi-square test), n-dimensional input
-and refusals; then the float32 WGSL twin (wgsl/lighting/environment_map.wgsl) against it on the
+sampling density (from the mean of the bilinear luminance over each texel, checked by
+quadrature; normalised; matched by the sampler in a chi-square test; free of the fireflies a
+density of the texels' own luminance leaves around a small sun), n-dimensional input and
+refusals; then the float32 WGSL twin (wgsl/lighting/environment_map.wgsl) against it on the
 GPU.
 
 GPU tolerances. The kernel sees the same float32 u and directions as numpy; it differs in its
@@ -46,8 +48,22 @@ def sky(height, width, seed, sun=1e4):
     return radiance
 
 
+def sun_sky(height, width, radius, sun=1e4, seed=0):
+    """A dim sky (brighter towards the zenith, dimmer below the horizon, with texel noise) and
+    a disc of ``radius`` texels of radiance ``sun`` above the horizon, off the texel grid."""
+    rng = np.random.default_rng(seed)
+    v = (np.arange(height) + 0.5) / height
+    brightness = 0.3 + 0.7 * np.clip(np.cos(np.pi * v), 0.0, 1.0)
+    radiance = brightness[:, None, None] * [0.6, 0.8, 1.0] * rng.uniform(0.8, 1.2,
+                                                                       (height, width, 1))
+    y, x = np.mgrid[0:height, 0:width] + 0.5
+    radiance[np.hypot(y - 0.3 * height - 0.23, x - 0.37 * width - 0.41) < radius] = sun
+    return radiance
+
+
 MAPS = {
     "sky": lambda: EnvironmentMap(sky(8, 16, seed=1), intensity=2.5),
+    "sun": lambda: EnvironmentMap(sun_sky(16, 32, radius=1.5), intensity=0.5),
     "odd": lambda: EnvironmentMap(sky(5, 7, seed=2)),
     "one-row": lambda: EnvironmentMap(sky(1, 4, seed=3)),
     "wide": lambda: EnvironmentMap(sky(64, 128, seed=4, sun=1e6)),
@@ -180,12 +196,15 @@ def test_image_centre_looks_along_plus_z_and_row_0_up():
     np.testing.assert_array_equal(environment.radiance_at([0.0, 1.0, 0.0]), radiance[0, 0])
     d = environment.sample(np.random.default_rng(0).random((20_000, 2)))
     x, y = environment.direction_to_texel(d)
-    in_centre = (x == 8) & (y == 4)
-    in_row_0 = d[:, 1] >= math.cos(math.pi / 9)
+    # The bilinear lookup spreads the centre texel over its 3 x 3 neighbourhood, row 0 into
+    # the top half of row 1; so does the density.
+    in_centre = (np.abs(x - 8) <= 1) & (np.abs(y - 4) <= 1)
+    in_top = y <= 1
     assert in_centre.mean() > 0.97
-    assert in_row_0.mean() > 0.01
+    assert np.mean((x == 8) & (y == 4)) > 0.5
+    assert in_top.mean() > 0.01
     # What the luminance floor leaves for the black texels: ~1e-3 of the samples.
-    assert np.mean(~in_centre & ~in_row_0) < 3e-3
+    assert np.mean(~in_centre & ~in_top) < 3e-3
     mean = d[in_centre].mean(axis=0)
     np.testing.assert_allclose(mean / np.linalg.norm(mean), [0.0, 0.0, 1.0], atol=1e-2)
 
@@ -237,9 +256,10 @@ def test_pdf_integrates_to_one(environment):
     assert integral == pytest.approx(1.0, rel=1e-5)
 
 
-def test_pdf_is_luminance_plus_floor(environment):
-    # pdf = (L + f) / sum((L + f) Omega), f = 1e-3 of the mean luminance (1 for a black map).
-    luminance = environment.radiance @ [0.2126, 0.7152, 0.0722]
+def test_pdf_is_sampling_luminance_plus_floor(environment):
+    # pdf = (S + f) / sum((S + f) Omega), S the sampling luminance, f = 1e-3 of its mean
+    # (1 for a black map).
+    luminance = environment.sampling_luminance
     cos_edges = np.cos(np.pi * np.arange(environment.height + 1) / environment.height)
     solid_angle = (2.0 * np.pi / environment.width) * -np.diff(cos_edges)[:, None]
     mean = np.sum(luminance * solid_angle) / (4.0 * np.pi)
@@ -249,6 +269,119 @@ def test_pdf_is_luminance_plus_floor(environment):
         weight / np.sum(weight * solid_angle),
         rtol=1e-12,
     )
+
+
+def bilinear_cell_means(environment, order=6):
+    """Mean of the luminance of ``radiance_at`` (without the intensity) over each texel's solid
+    angle, by quadrature: each texel split into quarters at its centre lines (where the
+    bilinear lookup has its kinks), an ``order`` x ``order`` Gauss-Legendre rule in (theta,
+    phi) with sin theta on each quarter, exact to rounding for these smooth integrands."""
+    h, w = environment.height, environment.width
+    x, weights = np.polynomial.legendre.leggauss(order)
+    x, weights = 0.5 * (x + 1.0), 0.5 * weights  # on [0, 1]
+    theta_edges = np.pi * np.arange(2 * h + 1) / (2 * h)  # quarter edges: texel edges, centres
+    phi_edges = 2.0 * np.pi * np.arange(2 * w + 1) / (2 * w)
+    theta = theta_edges[:-1, None] + np.diff(theta_edges)[:, None] * x  # (2h, order)
+    phi = phi_edges[:-1, None] + np.diff(phi_edges)[:, None] * x  # (2w, order)
+    d = direction(theta[:, :, None, None], phi[None, None])  # (2h, order, 2w, order, 3)
+    luminance = environment.radiance_at(d) @ [0.2126, 0.7152, 0.0722]
+    if environment.intensity > 0.0:
+        luminance = luminance / environment.intensity
+    measure = (np.sin(theta) * weights)[:, :, None, None] * weights  # (2h, order, 1, order)
+    integral = np.einsum("aibj,aibj->ab", luminance, np.broadcast_to(measure, luminance.shape))
+    # Sum the quarters, and divide by each quarter's measure (sum of sin theta weights).
+    area = np.einsum("ai,i->a", np.sin(theta), weights)[:, None] * np.ones(2 * w)
+    integral = integral.reshape(h, 2, w, 2).sum(axis=(1, 3))
+    return integral / area.reshape(h, 2, w, 2).sum(axis=(1, 3))
+
+
+@pytest.mark.parametrize("shape", [(5, 7), (1, 4), (2, 2), (2, 5), (9, 3)])
+def test_sampling_luminance_is_the_mean_of_the_bilinear_luminance_over_each_texel(shape):
+    """Every row, the first and last included (where the lookup is constant in v beyond the
+    row centres), and every column, the seam's included (where it wraps)."""
+    environment = EnvironmentMap(sky(*shape, seed=sum(shape)), intensity=3.0)
+    np.testing.assert_allclose(environment.sampling_luminance,
+                               bilinear_cell_means(environment), rtol=1e-10)
+    assert not environment.sampling_luminance.flags.writeable
+
+
+def test_sampling_luminance_filters_columns_by_eighths_and_rows_by_solid_angle():
+    """A single lit texel at the seam spreads 1/8, 3/4, 1/8 across columns (wrapping); across
+    rows by solid-angle weights, near 1/8, 3/4, 1/8 away from the poles: in the northern
+    hemisphere more into the row above, whose lower half (towards the equator) holds more of
+    its solid angle, than into the row below, whose upper half holds less."""
+    radiance = np.zeros((64, 16, 3))
+    radiance[20, 0] = 1.0
+    environment = EnvironmentMap(radiance)
+    spread = environment.sampling_luminance
+    np.testing.assert_array_equal(np.flatnonzero(spread.sum(axis=0)), [0, 1, 15])
+    np.testing.assert_allclose(spread[:, [15, 0, 1]],
+                               np.outer(spread[:, 0] / 0.75, [1 / 8, 3 / 4, 1 / 8]), rtol=1e-12)
+    np.testing.assert_array_equal(np.flatnonzero(spread.sum(axis=1)), [19, 20, 21])
+    above, centre, below = spread[19:22, 0] / 0.75
+    np.testing.assert_allclose([above, centre, below], [1 / 8, 3 / 4, 1 / 8], atol=5e-3)
+    assert above > 1 / 8 > below
+    # A single row is filtered across columns only.
+    one_row = sky(1, 6, seed=4) @ [0.2126, 0.7152, 0.0722]
+    np.testing.assert_allclose(
+        EnvironmentMap(sky(1, 6, seed=4)).sampling_luminance[0],
+        0.75 * one_row[0] + 0.125 * (np.roll(one_row[0], 1) + np.roll(one_row[0], -1)),
+        rtol=1e-12)
+
+
+def irradiance_figures(environment, density, split=8):
+    """For estimating the irradiance at a horizontal point by sampling ``density`` (per texel,
+    (H, W), 1/sr) with the estimator L(d) cos / p(d) (L the luminance of radiance_at): its
+    relative variance per sample, Var / E^2, and the firefly ratio max(L / p) over the sphere
+    relative to the map's power (1 for a density proportional to L). Both by the midpoint rule
+    over cells of equal solid angle, ``split`` x ``split`` per texel."""
+    cos_edges, phi_edges = aligned_edges(environment, split)
+    cos_theta = 0.5 * (cos_edges[:-1] + cos_edges[1:])
+    phi = 0.5 * (phi_edges[:-1] + phi_edges[1:])
+    sin_theta = np.sqrt(1.0 - cos_theta**2)[:, None]
+    d = np.stack(np.broadcast_arrays(sin_theta * np.sin(phi), cos_theta[:, None],
+                                     sin_theta * np.cos(phi)), axis=-1)
+    omega = np.diff(cos_edges)[:, None] * np.diff(phi_edges)
+    luminance = environment.radiance_at(d) @ [0.2126, 0.7152, 0.0722]
+    x, y = environment.direction_to_texel(d)
+    p = density[y, x]
+    assert np.sum(p * omega) == pytest.approx(1.0, rel=1e-9)
+    g = luminance * np.maximum(d[..., 1], 0.0)
+    mean = np.sum(g * omega)
+    variance = np.sum(g**2 / p * omega) - mean**2
+    return variance / mean**2, float(np.max(luminance / p) / np.sum(luminance * omega))
+
+
+def test_a_small_sun_leaves_no_fireflies():
+    """A sun of a few texels on a dim sky: texels beside it show the sun blended in (10-100x
+    their own value) but held only their own luminance's density, so that directions there
+    were seldom drawn and their estimates huge (the fireflies Mitsuba 3, whose density follows
+    the bilinear lookup, does not have). The density from the bilinear luminance holds the
+    firefly ratio max(L / p) to a small constant and the irradiance estimator's variance far
+    below the texels' own luminance's."""
+    environment = EnvironmentMap(sun_sky(32, 64, radius=1.5), intensity=2.0)
+    h, w = environment.height, environment.width
+    cos_edges = np.cos(np.pi * np.arange(h + 1) / h)
+    solid_angle = (2.0 * np.pi / w) * -np.diff(cos_edges)[:, None]
+    own = environment.radiance @ [0.2126, 0.7152, 0.0722]
+    own = own + 1e-3 * np.sum(own * solid_angle) / (4.0 * np.pi)
+    old = own / np.sum(own * solid_angle)
+    new = environment.pdf(texel_centres(environment))
+    old_variance, old_fireflies = irradiance_figures(environment, old)
+    new_variance, new_fireflies = irradiance_figures(environment, new)
+    print(f"relative variance per sample: old {old_variance:.4g}, new {new_variance:.4g}; "
+          f"firefly ratio: old {old_fireflies:.4g}, new {new_fireflies:.4g}")
+    # Bilinear over a texel peaks at most 4 x its mean per axis (a lit neighbour at a corner).
+    assert new_fireflies < 16.0
+    assert old_fireflies > 1000.0
+    assert new_variance < 0.5
+    assert new_variance * 3.0 < old_variance
+    # The samples themselves: the estimator's mean and variance agree with the quadrature's.
+    d = environment.sample(np.random.default_rng(5).random((200_000, 2)))
+    estimates = (environment.radiance_at(d) @ [0.2126, 0.7152, 0.0722]
+                 * np.maximum(d[:, 1], 0.0) / environment.pdf(d))
+    relative = estimates.var() / estimates.mean() ** 2
+    assert relative == pytest.approx(new_variance, rel=0.1)
 
 
 def test_uniform_and_black_maps_are_uniform():
@@ -390,26 +523,25 @@ def test_packed_layout():
     environment = EnvironmentMap(radiance, intensity=0.5)
     packed = environment.packed()
     assert packed.dtype == np.float32
-    assert packed.shape == (2 + 3 + 15, 4)
+    assert packed.shape == (1 + 3 + 15 + 4, 4)
     np.testing.assert_array_equal(packed[0], [5.0, 3.0, 0.5, 0.0])
-    marginal, conditional = packed[2:5, 0], packed[5:, 3].reshape(3, 5)
+    marginal, conditional = packed[1:4, 0], packed[4:19, 3].reshape(3, 5)
     assert marginal[-1] == 1.0 and np.all(conditional[:, -1] == 1.0)
     assert np.all(np.diff(marginal) > 0) and np.all(np.diff(conditional, axis=1) > 0)
-    np.testing.assert_array_equal(packed[5:, :3], radiance.reshape(-1, 3).astype(np.float32))
+    np.testing.assert_array_equal(packed[4:19, :3], radiance.reshape(-1, 3).astype(np.float32))
     theta = np.pi * np.arange(4) / 3
-    np.testing.assert_allclose(packed[2:5, 1], np.sin(theta[:-1] / 2) ** 2, rtol=1e-7)
+    np.testing.assert_allclose(packed[1:4, 1], np.sin(theta[:-1] / 2) ** 2, rtol=1e-7)
     np.testing.assert_allclose(
-        packed[2:5, 2], (np.cos(theta[:-1]) - np.cos(theta[1:])) / 2, rtol=1e-7
+        packed[1:4, 2], (np.cos(theta[:-1]) - np.cos(theta[1:])) / 2, rtol=1e-7
     )
-    np.testing.assert_allclose(packed[2:5, 3], np.cos(theta[1:] / 2) ** 2, rtol=1e-7, atol=1e-30)
+    np.testing.assert_allclose(packed[1:4, 3], np.cos(theta[1:] / 2) ** 2, rtol=1e-7, atol=1e-30)
     probabilities = texel_probabilities(environment)
     np.testing.assert_allclose(marginal, np.cumsum(probabilities.sum(axis=1)), rtol=1e-6)
-    luminance = radiance @ [0.2126, 0.7152, 0.0722]
-    np.testing.assert_allclose(
-        packed[1, 0] * luminance + packed[1, 1],
-        environment.pdf(texel_centres(environment)),
-        rtol=1e-6,
-    )
+    # The densities, 4 a row, row-major, the last row padded with zeros.
+    densities = packed[19:].reshape(-1)
+    np.testing.assert_allclose(densities[:15], environment.pdf(texel_centres(environment)).ravel(),
+                               rtol=1e-6)
+    np.testing.assert_array_equal(densities[15:], 0.0)
 
 
 def test_radiance_is_a_read_only_copy():

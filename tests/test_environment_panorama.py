@@ -11,6 +11,7 @@ lookups within a texel of its centre blend only the mark's own colour.
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -134,9 +135,13 @@ translate = [300.0, -200.0, 450.0]
 
 
 def scene(tmp_path, exr, look_at, up=(0.0, 1.0, 0.0), fov=10.0):
+    """The view as a scene file beside a copy of the panorama (a scene reads files in its own
+    folder only)."""
+    if not (tmp_path / exr.name).exists():
+        shutil.copyfile(exr, tmp_path / exr.name)
     path = tmp_path / "scene.toml"
-    path.write_text(_SCENE.format(look_at=list(look_at), up=list(up), fov=fov,
-                                  path=exr.as_posix()), encoding="utf-8")
+    path.write_text(_SCENE.format(look_at=list(look_at), up=list(up), fov=fov, path=exr.name),
+                    encoding="utf-8")
     return load_scene(path)
 
 

@@ -140,9 +140,10 @@ def _subdivided_default() -> int:
 
 
 def _environment_header_rows() -> int:
+    """Rows before the map's rows: all but its H rows, H W texels and H W densities, 4 a row."""
     height, width = 3, 5
     packed = environment_map.EnvironmentMap(np.ones((height, width, 3))).packed()
-    return packed.shape[0] - height - height * width
+    return packed.shape[0] - height - height * width - -(-height * width // 4)
 
 
 def _hero_inverse_cdf_offset() -> int:
@@ -207,7 +208,6 @@ CONSTANTS = [
     ("lighting/ibl.wgsl", "IBL_ALBEDO_NODES", ibl.ALBEDO_TABLE_NODES),
     # Environment maps.
     (ENVIRONMENT_MAP, "ENVIRONMENT_ROWS", _environment_header_rows()),
-    (ENVIRONMENT_MAP, "ENVIRONMENT_LUMINANCE", _f32(environment_map.LUMINANCE_WEIGHTS)),
     (ENVIRONMENT_MAP, "ENVIRONMENT_BELOW_ONE", np.nextafter(np.float32(1.0), np.float32(0.0))),
 ]
 

@@ -20,9 +20,11 @@ taken as 1/2. Angles are in radians, densities per steradian, radiance in the ma
 (linear sRGB).
 
 Radiance lookups are bilinear between texel centres (wrapping in ``u`` across the seam,
-clamped in ``v`` above the first row's centres and below the last's), while importance
-sampling follows the texels' luminance: the sampling density is piecewise constant per texel
-(``docs/physics.md``, "Environment maps"), and :meth:`EnvironmentMap.pdf` is
+clamped in ``v`` above the first row's centres and below the last's). Importance sampling
+follows that bilinear radiance's luminance: the sampling density is piecewise constant per
+texel, proportional to the mean over the texel's solid angle of the luminance
+:meth:`EnvironmentMap.radiance_at` returns there (:attr:`EnvironmentMap.sampling_luminance`,
+``docs/physics.md``, "Environment maps") plus a floor, and :meth:`EnvironmentMap.pdf` is
 exactly the density :meth:`EnvironmentMap.sample` draws from, which keeps the estimators that
 combine them unbiased.
 """
@@ -38,7 +40,8 @@ __all__ = ["FLOOR_FRACTION", "LUMINANCE_WEIGHTS", "EnvironmentMap"]
 LUMINANCE_WEIGHTS = np.array([0.2126, 0.7152, 0.0722])
 """Luminance of linear sRGB (Rec. 709 primaries, D65)."""
 FLOOR_FRACTION = 1e-3
-"""Sampling floor added to every texel's luminance, as a fraction of the mean luminance."""
+"""Sampling floor added to every texel's sampling luminance, as a fraction of its mean over
+the sphere."""
 
 # The kernel clamps u below 1 the same way, so that u = 1 (e.g. 1 - 1e-9 rounded to float32)
 # still falls inside the last CDF step.
@@ -65,6 +68,14 @@ class EnvironmentMap:
     intensity : float
     height, width : int
         ``H`` and ``W``.
+    sampling_luminance : numpy.ndarray, shape (H, W)
+        Read-only: per texel, the mean over its solid angle of the luminance (Rec. 709
+        weights, :data:`LUMINANCE_WEIGHTS`) of the bilinear radiance :meth:`radiance_at`
+        returns there, without ``intensity``; the sampling density is proportional to it plus
+        a floor. Each is a combination of the luminance of the texel's 3 x 3 neighbourhood
+        (``docs/physics.md``, "Environment maps"): weights 1/8, 3/4, 1/8 across columns
+        (wrapping at the seam) and, across rows, solid-angle weights that tend to the same away
+        from the poles (the first row has none above, the last none below).
 
     Raises
     ------
@@ -116,22 +127,22 @@ class EnvironmentMap:
         # its peak, a map of subnormal radiance keeps its floor (which would underflow to 0,
         # and its CDFs to 0 / 0) and a huge one cannot overflow its integral.
         relative = luminance / peak if peak > 0.0 else luminance
-        mean = np.sum(relative * solid_angle[:, None]) / (4.0 * np.pi)
+        sampling = _cell_means(relative, _row_weights(self.height))
+        with np.errstate(over="ignore"):
+            self.sampling_luminance = np.minimum(sampling * peak, np.finfo(np.float64).max)
+        self.sampling_luminance.flags.writeable = False
+        mean = np.sum(sampling * solid_angle[:, None]) / (4.0 * np.pi)
         floor = FLOOR_FRACTION * mean if mean > 0.0 else 1.0
-        cumulative = np.cumsum((relative + floor) * solid_angle[:, None], axis=1)
+        cumulative = np.cumsum((sampling + floor) * solid_angle[:, None], axis=1)
         marginal = np.cumsum(cumulative[:, -1])
         total = marginal[-1]
         # Dividing by the last partial sum makes each CDF end at exactly 1.
         self._marginal = marginal / total
         self._conditional = cumulative / cumulative[:, -1:]
-        # Per unit of absolute luminance; infinite for a subnormal peak, which packed() refuses.
-        with np.errstate(over="ignore", divide="ignore"):
-            self._pdf_scale = 1.0 / (total * peak) if peak > 0.0 else 1.0 / total
-        self._pdf_floor = floor / total
-        self._density = (relative + floor) / total
+        self._density = (sampling + floor) / total
 
     def direction_to_texel(self, directions) -> tuple[np.ndarray, np.ndarray]:
-        """The texel holding each direction: the one whose luminance :meth:`pdf` uses.
+        """The texel holding each direction: the one whose density :meth:`pdf` returns.
 
         Parameters
         ----------
@@ -188,7 +199,9 @@ class EnvironmentMap:
 
     def pdf(self, directions) -> np.ndarray:
         """Density of :meth:`sample` per steradian at ``directions``: constant over each
-        texel (:meth:`direction_to_texel`), proportional to its luminance plus a floor.
+        texel (:meth:`direction_to_texel`), proportional to its :attr:`sampling_luminance`
+        plus a floor (:data:`FLOOR_FRACTION` of that luminance's mean over the sphere, or 1
+        for a black map, which is then sampled uniformly).
 
         Parameters
         ----------
@@ -250,34 +263,35 @@ class EnvironmentMap:
 
         Returns
         -------
-        numpy.ndarray, shape (2 + H + H * W, 4), float32
+        numpy.ndarray, shape (1 + H + H * W + ceil(H * W / 4), 4), float32
             Bound as ``environment_texels: array<vec4<f32>>``; with ``theta_y = pi y / H``:
 
             - row 0: ``(W, H, intensity, 0)``;
-            - row 1: ``(pdf_scale, pdf_floor, 0, 0)``: the density of a texel of luminance
-              ``L`` is ``pdf_scale * L + pdf_floor`` (1/sr);
-            - row ``2 + y`` for ``y`` in ``[0, H)``: ``(marginal CDF at the end of row y,
+            - row ``1 + y`` for ``y`` in ``[0, H)``: ``(marginal CDF at the end of row y,
               sin^2(theta_y / 2), (cos theta_y - cos theta_(y+1)) / 2,
               cos^2(theta_(y+1) / 2))``;
-            - row ``2 + H + y * W + x``: ``(r, g, b, conditional CDF at the end of texel x
-              within row y)``, ``(r, g, b)`` being :attr:`radiance` (without ``intensity``).
+            - row ``1 + H + y * W + x``: ``(r, g, b, conditional CDF at the end of texel x
+              within row y)``, ``(r, g, b)`` being :attr:`radiance` (without ``intensity``);
+            - row ``1 + H + H * W + i // 4``, component ``i % 4``, with ``i = y * W + x``:
+              the density :meth:`pdf` of texel ``(x, y)`` in 1/sr (the last row padded with
+              zeros).
 
             Both CDFs are non-decreasing and end at exactly 1.0.
 
         Raises
         ------
         ValueError
-            If a value overflows float32 (radiance beyond 3.4e38, or a density beyond it for
-            a map whose radiance is almost 0 everywhere).
+            If a radiance overflows float32 (beyond 3.4e38).
         """
-        header = [
-            [self.width, self.height, self.intensity, 0.0],
-            [self._pdf_scale, self._pdf_floor, 0.0, 0.0],
-        ]
+        header = [[self.width, self.height, self.intensity, 0.0]]
         rows = np.column_stack([self._marginal, self._rows])
         texels = np.column_stack([self.radiance.reshape(-1, 3), self._conditional.reshape(-1)])
+        densities = np.zeros(-(-self._density.size // 4) * 4)
+        densities[:self._density.size] = self._density.reshape(-1)
         with np.errstate(over="ignore"):
-            packed = np.concatenate([header, rows, texels]).astype(np.float32)
+            packed = np.concatenate(
+                [header, rows, texels, densities.reshape(-1, 4)]
+            ).astype(np.float32)
         if not np.isfinite(packed).all():
             raise ValueError("radiance is out of the float32 range of the packed layout")
         return packed
@@ -287,6 +301,52 @@ class EnvironmentMap:
         column = np.floor(u * self.width).astype(np.intp) % self.width
         row = np.minimum(np.floor(v * self.height).astype(np.intp), self.height - 1)
         return column, row
+
+
+def _row_weights(height: int) -> np.ndarray:
+    """Weights of rows ``y - 1``, ``y`` and ``y + 1`` in the mean over row ``y``'s solid angle
+    of the bilinear lookup, which is linear in ``theta`` between row centres and constant
+    above the first row's centres and below the last's.
+
+    Parameters
+    ----------
+    height : int
+        ``H >= 1``.
+
+    Returns
+    -------
+    numpy.ndarray, shape (H, 3)
+        Non-negative rows summing to 1 (up to rounding). The first row has no weight above
+        and the last none below: those halves of them see only their own row. Away from the
+        poles the weights tend to (1/8, 3/4, 1/8), the mean of the lookup over ``v``.
+    """
+    step = np.pi / height
+    centres = step * (np.arange(height) + 0.5)
+    # Gauss-Legendre on each half-row, s in [0, 1] from the row's centre line to its edge,
+    # where the neighbour's weight is s / 2: 8 nodes integrate s / 2 * sin(theta) over a
+    # half-row of at most pi / 2 to rounding, positive terms only (no cancellation).
+    nodes, weights = np.polynomial.legendre.leggauss(8)
+    s, weights = 0.5 * (nodes + 1.0), 0.5 * weights
+    half = 0.5 * step
+    above = (weights * s / 2.0 * np.sin(centres[:, None] - half * s)).sum(axis=1) * half
+    below = (weights * s / 2.0 * np.sin(centres[:, None] + half * s)).sum(axis=1) * half
+    # cos theta_y - cos theta_(y+1), as a product (accurate for the thin polar rows).
+    band = 2.0 * np.sin(centres) * np.sin(half)
+    above, below = above / band, below / band
+    above[0] = below[-1] = 0.0
+    return np.stack([above, 1.0 - above - below, below], axis=-1)
+
+
+def _cell_means(luminance: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Mean over each texel's solid angle of the bilinear interpolation of ``luminance``
+    (H, W) between texel centres, given :func:`_row_weights` ``rows``. Written as the texel's
+    value plus weighted differences, it is exact for a constant map and cannot overflow."""
+    across = 0.75 * luminance + 0.125 * (np.roll(luminance, 1, axis=1)
+                                         + np.roll(luminance, -1, axis=1))
+    y = np.arange(luminance.shape[0])
+    up, down = np.maximum(y - 1, 0), np.minimum(y + 1, luminance.shape[0] - 1)
+    return (across + rows[:, :1] * (across[up] - across)
+            + rows[:, 2:] * (across[down] - across))
 
 
 def _image_coordinates(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -5,7 +5,9 @@
 //   environment_map_radiance(d) -> vec3<f32>   radiance at d, bilinear between texel centres
 //                                              (u wraps, v clamps), times the intensity
 //   environment_map_pdf(d) -> f32              density of environment_map_sample (1/sr):
-//                                              constant over d's texel, from its luminance
+//                                              constant over d's texel, read from the table
+//                                              (from the mean luminance of the bilinear
+//                                              radiance over the texel, plus a floor)
 //   environment_map_sample(u) -> vec3<f32>     a unit direction drawn with that density
 // d is a unit vector towards the environment; u is in [0, 1)^2 (1 is clamped just below).
 // Never NaN or infinite for such inputs, the poles and the seam included.
@@ -14,17 +16,15 @@
 //
 // Buffers. No bindings here: the including entry point declares, under this name,
 //   environment_texels: array<vec4<f32>>   EnvironmentMap.packed(), with theta_y = pi y / H:
-//     [0]                  (W, H, intensity, 0)
-//     [1]                  (pdf_scale, pdf_floor, 0, 0): a texel's density is
-//                          pdf_scale * luminance + pdf_floor
-//     [2 + y]              (marginal CDF at the end of row y, sin^2(theta_y / 2),
-//                          (cos theta_y - cos theta_(y+1)) / 2, cos^2(theta_(y+1) / 2))
-//     [2 + H + y W + x]    (r, g, b, conditional CDF at the end of texel x within row y)
+//     [0]                        (W, H, intensity, 0)
+//     [1 + y]                    (marginal CDF at the end of row y, sin^2(theta_y / 2),
+//                                (cos theta_y - cos theta_(y+1)) / 2, cos^2(theta_(y+1) / 2))
+//     [1 + H + y W + x]          (r, g, b, conditional CDF at the end of texel x within row y)
+//     [1 + H + H W + i / 4][i % 4], i = y W + x: the density of texel (x, y) (1/sr), the
+//                                last row padded with zeros
 
-// The header rows above, and EnvironmentMap's luminance weights (checked against
-// environment_map.py by tests/test_wgsl_layouts.py).
-const ENVIRONMENT_ROWS: u32 = 2u;
-const ENVIRONMENT_LUMINANCE: vec3<f32> = vec3<f32>(0.2126, 0.7152, 0.0722);
+// The header rows above (checked against environment_map.py by tests/test_wgsl_layouts.py).
+const ENVIRONMENT_ROWS: u32 = 1u;
 // The largest float32 below 1: u = 1 still falls inside the last CDF step.
 const ENVIRONMENT_BELOW_ONE: f32 = 0.99999994;
 
@@ -56,7 +56,7 @@ fn environment_map_coordinates(d: vec3<f32>) -> vec2<f32> {
     return vec2<f32>(0.5 - azimuth, 2.0 * polar);
 }
 
-// Index in environment_texels of the texel holding d (whose luminance the density uses).
+// Index y W + x of the texel (x, y) holding d, whose density environment_map_pdf returns.
 fn environment_map_texel(d: vec3<f32>) -> u32 {
     let size = environment_map_size();
     let uv = environment_map_coordinates(d);
@@ -64,7 +64,7 @@ fn environment_map_texel(d: vec3<f32>) -> u32 {
     // u = 1 (the seam approached from the right edge) wraps to column 0.
     var column = u32(uv.x * f32(size.x));
     column = select(column, 0u, column >= size.x);
-    return ENVIRONMENT_ROWS + size.y + row * size.x + column;
+    return row * size.x + column;
 }
 
 fn environment_map_radiance(d: vec3<f32>) -> vec3<f32> {
@@ -91,9 +91,10 @@ fn environment_map_radiance(d: vec3<f32>) -> vec3<f32> {
 }
 
 fn environment_map_pdf(d: vec3<f32>) -> f32 {
-    let density = environment_texels[1];
-    let rgb = environment_texels[environment_map_texel(d)].xyz;
-    return density.x * dot(ENVIRONMENT_LUMINANCE, rgb) + density.y;
+    let size = environment_map_size();
+    let texel = environment_map_texel(d);
+    let densities = ENVIRONMENT_ROWS + size.y + size.y * size.x;
+    return environment_texels[densities + texel / 4u][texel % 4u];
 }
 
 // The first of `count` records from `first` whose CDF (`component`) exceeds u < 1, by
