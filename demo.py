@@ -49,6 +49,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--scene", default="teapot",
                         help=f"a preset ({', '.join(PRESETS)}) or a scene file with a "
                              "layered-bragg or thin-film material (default teapot)")
+    parser.add_argument("--allow-outside-paths", action="store_true",
+                        help="let the scene file name files outside its folder (../x.obj, "
+                             "absolute paths, symlinks to elsewhere); refused by default")
     parser.add_argument("--mode", choices=MODES, default=None,
                         help="light transport (default: the scene's)")
     args = parser.parse_args(argv)
@@ -60,7 +63,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.spp < 1:
             raise ValueError(f"--spp must be >= 1, got {args.spp}")
-        scene = load_preset(args.scene) if args.scene in PRESETS else load_scene(args.scene)
+        scene = (load_preset(args.scene) if args.scene in PRESETS
+                 else load_scene(args.scene, allow_outside=args.allow_outside_paths))
         viewer = Viewer(scene, size=args.size, mode=args.mode)
     except (ValueError, OSError) as error:
         parser.error(str(error))

@@ -441,8 +441,11 @@ def fake_filter_module() -> types.ModuleType:
             module.bakes.append((alpha, resolution_deg, psi_samples, backend))
             theta = np.radians(np.arange(0.0, 90.0 + resolution_deg / 2, resolution_deg))
             values = np.exp(-np.subtract.outer(theta, theta) ** 2 / alpha**2)
+            # Plausible for the cache's content check: rows of weights sum to
+            # 1 / psi_samples, within G1 <= 1.
+            weight = 1.0 / (psi_samples * (theta.size - 1))
             return cls(alpha, resolution_deg, psi_samples, theta, theta[:-1].copy(),
-                       values[:, :-1], np.full_like(values[:, :-1], 1.0 / psi_samples))
+                       values[:, :-1], np.full_like(values[:, :-1], weight))
 
         @classmethod
         def from_arrays(cls, *, alpha, resolution_deg, psi_samples, theta_i, theta_d, values,

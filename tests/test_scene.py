@@ -391,8 +391,10 @@ def test_unknown_material_names_are_refused_with_the_defined_ones(tmp_path):
 ])
 def test_missing_files_are_refused(tmp_path, old, new, key):
     message = refused(tmp_path, MINIMAL.replace(old, new, 1))
-    assert f": {key}: no such file: {tmp_path.resolve()}" in message
-    assert "resolve against the scene file's folder" in message
+    # The path as the file writes it, then the folder it resolves against.
+    written = re.search(r'(missing\.\w+)"', new).group(1)
+    assert f': {key}: no such file: "{written}" (paths resolve against the scene file\'s ' \
+           f"folder {tmp_path.resolve()})" in message
 
 
 def test_files_of_unknown_types_are_refused(tmp_path):

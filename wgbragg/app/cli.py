@@ -2,7 +2,8 @@
 
 ``wgbragg info`` shows the adapter and versions; ``wgbragg reflectance`` prints R for one
 mirror; ``wgbragg map`` writes a reflectance map (wavelength x angle) as a PNG; ``wgbragg bake``
-fills the LUT cache (transmission filters and colour tables, see :mod:`wgbragg.common.luts`);
+fills the LUT cache (transmission filters and colour tables, see :mod:`wgbragg.common.luts`),
+``wgbragg cache verify|clear`` checks or empties it;
 ``wgbragg scatterogram`` renders the reflected hemisphere of a rough Bragg layer as a PNG;
 ``wgbragg render`` path-traces a scene file or a built-in preset to a PNG and optionally an EXR.
 """
@@ -10,6 +11,8 @@ fills the LUT cache (transmission filters and colour tables, see :mod:`wgbragg.c
 from __future__ import annotations
 
 import argparse
+import collections
+import contextlib
 import functools
 import sys
 import time
@@ -19,6 +22,7 @@ import numpy as np
 
 from wgbragg.app.scatterogram import SIZE_RANGE
 from wgbragg.common.atomic import check_output_folder, check_output_path
+from wgbragg.common.luts import LutWarning
 
 __all__ = ["main"]
 
@@ -137,6 +141,30 @@ def _bake(args) -> int:
     return 0
 
 
+def _cache(args) -> int:
+    from wgbragg.bsdf import filter_cache
+    from wgbragg.colour import tables
+    from wgbragg.common import luts
+
+    if args.cache is not None and not args.cache:  # Path("") is the current folder
+        raise ValueError("--cache must be a folder path, got ''")
+    folder = luts.cache_dir() if args.cache is None else args.cache
+    if args.cache_command == "clear":
+        entries = luts.clear_cache(folder)
+    else:
+        checks = {luts.TRANSMISSION_FILTER: filter_cache.check_filter_tables,
+                  luts.COLOUR_TABLES: tables.check_colour_tables}
+        entries = luts.verify_cache(folder, checks, repair=args.repair)
+    for entry in entries:
+        reason = f" ({entry.reason})" if entry.reason else ""
+        print(f"{entry.status}: {entry.path}{reason}")
+    counts = collections.Counter(entry.status for entry in entries)
+    summary = ", ".join(f"{counts[status]} {status}" for status in ("ok", "removed", "kept", "bad")
+                        if counts[status])
+    print(f"{folder}: {summary or 'no cache files'}")
+    return 1 if counts["bad"] else 0
+
+
 def _scatterogram(args) -> int:
     from wgbragg.app.scatterogram import jewel_beetle, save_scatterogram, scatterogram
     from wgbragg.bsdf.layered.model import LayeredBragg
@@ -207,7 +235,8 @@ def _render(args) -> int:
         raise ValueError(f"--spp must be an integer >= 1, got {args.spp}")
     if args.size is not None:
         _check_render_size(args.size)
-    scene = load_preset(args.scene) if args.scene else load_scene(args.scene_file)
+    scene = (load_preset(args.scene) if args.scene
+             else load_scene(args.scene_file, allow_outside=args.allow_outside_paths))
     renderer = Renderer(scene, size=args.size, mode=args.mode, ibl=args.ibl,
                         light_sampling=args.light_sampling)
     start = time.perf_counter()
@@ -245,6 +274,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_reflectance_command(commands)
     _add_map_command(commands)
     _add_bake_command(commands)
+    _add_cache_command(commands)
     _add_scatterogram_command(commands)
     _add_render_command(commands)
     return parser
@@ -289,6 +319,25 @@ def _add_bake_command(commands) -> None:
     bake.set_defaults(run=_bake)
 
 
+def _add_cache_command(commands) -> None:
+    cache = commands.add_parser("cache", help="check or empty the LUT cache")
+    actions = cache.add_subparsers(dest="cache_command", required=True)
+    verify = actions.add_parser(
+        "verify", help="check every cache file ('ok: PATH' or 'bad: PATH (problem)'); exit "
+        "status 1 if a problem remains")
+    verify.add_argument("--repair", action="store_true",
+                        help="remove invalid or unreadable cache files (re-baked on next use) "
+                             "and temporary files of writes interrupted over an hour ago")
+    clear = actions.add_parser(
+        "clear", help="remove the files the cache wrote (tables and stale temporary files), "
+        "nothing else")
+    for action in (verify, clear):
+        action.add_argument("--cache", default=None,
+                            help="cache folder (default $WGBRAGG_CACHE, else the user cache "
+                                 "folder)")
+        action.set_defaults(run=_cache)
+
+
 def _add_scatterogram_command(commands) -> None:
     scatter = commands.add_parser(
         "scatterogram", help="reflected hemisphere of a rough Bragg layer for one light "
@@ -322,6 +371,9 @@ def _add_render_command(commands) -> None:
         "render", help="path-trace a scene to a PNG (8-bit sRGB) and optionally an EXR (linear)")
     render.add_argument("scene_file", nargs="?", default=None, help="a scene TOML file")
     render.add_argument("--scene", default=None, help="a built-in preset instead of a file")
+    render.add_argument("--allow-outside-paths", action="store_true",
+                        help="let the scene file name files outside its folder (../x.obj, "
+                             "absolute paths, symlinks to elsewhere); refused by default")
     render.add_argument("-o", "--output", default="out/render.png")
     render.add_argument("--spp", type=int, default=None,
                         help="samples per pixel (default: the scene's settings.spp)")
@@ -344,10 +396,29 @@ def _add_render_command(commands) -> None:
     render.set_defaults(run=_render)
 
 
+@contextlib.contextmanager
+def _lut_warnings_in_one_line():
+    """Print each LutWarning (a cache file re-baked or unusable) as one ``wgbragg: warning:``
+    line, without the file, line number and source echo of Python's format."""
+    with warnings.catch_warnings():
+        show = warnings.showwarning
+
+        def showwarning(message, category, filename, lineno, file=None, line=None):
+            if not issubclass(category, LutWarning):
+                return show(message, category, filename, lineno, file, line)
+            text = " ".join(str(message).splitlines())
+            print(f"wgbragg: warning: {text}", file=sys.stderr if file is None else file)
+            return None
+
+        warnings.showwarning = showwarning
+        yield
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        return args.run(args)
+        with _lut_warnings_in_one_line():
+            return args.run(args)
     except (ValueError, RuntimeError, OSError) as error:
         # OSError: a file that cannot be read or written (missing, a folder, no permission).
         print(f"wgbragg: error: {error}", file=sys.stderr)

@@ -7,6 +7,7 @@ W sr^-1 m^-2, or any consistent relative scale), row 0 at the top, as OpenEXR st
 from __future__ import annotations
 
 import os
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -40,22 +41,32 @@ def read_exr(path: str | os.PathLike) -> np.ndarray:
 
     Raises
     ------
-    FileNotFoundError
-        If ``path`` does not exist.
     ValueError
-        If the file is not OpenEXR, lacks RGB and Y channels (the message lists those it
-        has), holds integer or subsampled channels, or has a non-finite pixel.
+        If ``path`` is missing, a folder or another non-file, cannot be read (no permission),
+        is not OpenEXR, lacks RGB and Y channels (the message lists those it has), holds
+        integer or subsampled channels, or has a non-finite pixel. The message is one line
+        that starts with ``path``.
     """
     path = Path(path)
-    # Opened here first: the OpenEXR binding reports a missing file as RuntimeError.
-    with open(path, "rb"):
-        pass
+    # Checked here first: the OpenEXR binding reports all of these as "Unable to open", and
+    # opening a FIFO would block.
+    try:
+        mode = path.stat().st_mode
+        if stat.S_ISREG(mode):
+            with open(path, "rb"):
+                pass
+    except OSError as error:
+        raise ValueError(f"{path}: cannot be read: {error.strerror or error}") from None
+    if not stat.S_ISREG(mode):
+        kind = "a folder" if stat.S_ISDIR(mode) else "a device, pipe or socket"
+        raise ValueError(f"{path}: is {kind}, not an OpenEXR file")
     try:
         with OpenEXR.File(str(path), separate_channels=True) as exr:
             channels = {name: channel.pixels for name, channel in exr.channels().items()}
     except (RuntimeError, ValueError) as error:
         # A truncated file opens with no parts: the binding's ValueError names no file.
-        raise ValueError(f"{path}: not a readable OpenEXR file ({error})") from None
+        reason = " ".join(str(error).split())  # on one line
+        raise ValueError(f"{path}: not a readable OpenEXR file ({reason})") from None
     found = set(channels)
     if found.issuperset(_RGB):
         names = _RGB

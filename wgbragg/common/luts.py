@@ -1,9 +1,12 @@
 """Look-up-table files and their cache: baked once, verified on every load.
 
 A LUT file is an uncompressed ``.npz`` of named numeric arrays and a JSON ``meta`` entry with a
-checksum; :func:`load_lut` never unpickles and refuses any mismatch with a :class:`LutError`,
-and :func:`cached` keeps one file per (kind, parameters) in :func:`cache_dir`, re-baking an
-invalid one. Its kinds are baked by :func:`wgbragg.bsdf.filter_cache.transmission_filter` and
+checksum; :func:`load_lut` never unpickles, never opens anything but a regular file, and
+refuses any mismatch, non-finite value or (with a kind's ``check``) implausible content with a
+:class:`LutError`. :func:`cached` keeps one file per (kind, parameters) in :func:`cache_dir`,
+re-baking an invalid one; :func:`verify_cache` and :func:`clear_cache` check and empty the
+folder (``wgbragg cache``). Its kinds are baked by
+:func:`wgbragg.bsdf.filter_cache.transmission_filter` and
 :func:`wgbragg.colour.tables.colour_tables`. The format: ``docs/design.md``, "Look-up tables
 and the cache".
 """
@@ -16,7 +19,9 @@ import json
 import math
 import os
 import re
+import stat
 import sys
+import time
 import tokenize
 import warnings
 import zipfile
@@ -32,15 +37,22 @@ __all__ = [
     "COLOUR_TABLES",
     "FORMAT",
     "FORMAT_VERSION",
+    "STALE_TEMPORARY_SECONDS",
     "TRANSMISSION_FILTER",
+    "CacheEntry",
     "CacheEvent",
     "LutError",
     "LutWarning",
     "cache_dir",
     "cached",
+    "check_axis",
+    "check_names",
+    "check_table",
+    "clear_cache",
     "load_lut",
     "lut_path",
     "save_lut",
+    "verify_cache",
 ]
 
 FORMAT = "wgbragg-lut"
@@ -55,6 +67,10 @@ TRANSMISSION_FILTER = "transmission-filter"
 COLOUR_TABLES = "colour-tables"
 """Kind of the colorimetry tables (:mod:`wgbragg.colour.tables`)."""
 
+STALE_TEMPORARY_SECONDS = 3600.0
+"""Age after which a temporary file of an interrupted write in the cache folder is removed (by
+the next write there, or by :func:`verify_cache` with ``repair`` and :func:`clear_cache`)."""
+
 _META = "meta"
 _MAGIC = b"PK\x03\x04"  # every zip archive, hence every .npz, starts with a local file header
 _KIND_PATTERN = re.compile(r"[a-z0-9][a-z0-9-]*")
@@ -62,6 +78,13 @@ _KIND_PATTERN = re.compile(r"[a-z0-9][a-z0-9-]*")
 _NAME_PATTERN = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _NUMERIC_KINDS = "biuf"
 _HASH_CHARS = 16  # 64 bits of the parameter hash in file names: collisions are not a concern
+# The names the cache writes: <kind>-<hash>.npz (lut_path), and the atomic writer's temporary
+# .<kind>-<hash>.<random>.npz (wgbragg.common.atomic.atomic_path: mkstemp with the prefix
+# ".<stem>." and the target's suffix). Nothing else in the folder is ever removed.
+_CACHE_FILE = re.compile(rf"(?P<kind>[a-z0-9][a-z0-9-]*)-[0-9a-f]{{{_HASH_CHARS}}}\.npz")
+_CACHE_TEMPORARY = re.compile(rf"\.[a-z0-9][a-z0-9-]*-[0-9a-f]{{{_HASH_CHARS}}}\.[a-z0-9_]+\.npz")
+# Slack of the range and order checks, relative to the larger bound: rounding, not physics.
+_SLACK = 1e-9
 # What reading damaged bytes can raise: zipfile and numpy's header parser report corruption
 # with all of these (a flipped compression-method byte gives NotImplementedError, a flipped
 # encryption flag RuntimeError; the former is a kind of the latter). A damaged .npy header
@@ -74,24 +97,30 @@ _HEADER_READERS = {(1, 0): np.lib.format.read_array_header_1_0,
 
 
 class LutError(ValueError):
-    """A LUT file that cannot be used: unreadable, of another kind or version, or corrupted.
+    """A LUT file that cannot be used: not a regular file, of another kind or version,
+    corrupted, or with implausible content.
 
     Attributes
     ----------
     path : pathlib.Path
         The file.
     reason : str
-        What is wrong with it, e.g. ``"checksum mismatch"``.
+        What is wrong with it, e.g. ``"checksum mismatch"`` (one line).
+    replaceable : bool
+        False when the path is not a regular file (a folder, a FIFO, a device): the cache then
+        leaves it alone and bakes in memory instead of writing a file there.
     """
 
-    def __init__(self, path, reason: str):
+    def __init__(self, path, reason: str, *, replaceable: bool = True):
         self.path = Path(path)
-        self.reason = reason
-        super().__init__(f"LUT file {self.path} refused: {reason}")
+        self.reason = " ".join(str(reason).splitlines())
+        self.replaceable = replaceable
+        super().__init__(f"LUT file {self.path} refused: {self.reason}")
 
 
 class LutWarning(UserWarning):
-    """A cached LUT file was invalid and is being re-baked."""
+    """A cached LUT file was invalid and is being re-baked, or could not be used and the table
+    is baked in memory. The message is one line and names the file."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -106,11 +135,12 @@ class CacheEvent:
         Its parameters.
     path : pathlib.Path
         The cache file.
-    action : {"loaded", "baked", "re-baked"}
-        Loaded from a valid file, baked because there was none, or baked again because the
-        file was invalid or a re-bake was forced.
+    action : {"loaded", "baked", "re-baked", "baked in memory"}
+        Loaded from a valid file, baked because there was none, baked again because the file
+        was invalid or a re-bake was forced, or baked without writing a file because the path
+        is not a regular file or cannot be read.
     reason : str or None
-        Why it was re-baked (None otherwise).
+        Why it was re-baked or baked in memory (None otherwise).
     """
 
     kind: str
@@ -219,6 +249,16 @@ def _checksum(kind: str, canonical_parameters: str, arrays: dict[str, np.ndarray
     return digest.hexdigest()
 
 
+def _check_finite(arrays: Mapping[str, np.ndarray]) -> None:
+    """ValueError naming the first floating-point array with a NaN or an infinity."""
+    for name, array in sorted(arrays.items()):
+        if array.dtype.kind == "f" and not np.isfinite(array).all():
+            nan = int(np.count_nonzero(np.isnan(array)))
+            infinite = int(np.count_nonzero(np.isinf(array)))
+            raise ValueError(f"array {name!r} is not finite ({nan} NaN, {infinite} infinite "
+                             f"of {array.size} entries)")
+
+
 def _describe(arrays: dict[str, np.ndarray]) -> dict[str, dict]:
     return {name: {"dtype": array.dtype.str, "shape": list(array.shape)}
             for name, array in sorted(arrays.items())}
@@ -242,7 +282,8 @@ def save_lut(path, kind: str, parameters: dict, arrays: dict) -> Path:
         None), floats finite. :func:`load_lut` compares them exactly.
     arrays : dict of str to array_like
         The tables: identifier names other than ``"meta"``, numeric (bool, int or float)
-        values of any shape. Stored C-ordered and little-endian.
+        values of any shape, floating-point values finite. Stored C-ordered and
+        little-endian.
 
     Returns
     -------
@@ -265,6 +306,7 @@ def save_lut(path, kind: str, parameters: dict, arrays: dict) -> Path:
     kind = _check_kind(kind)
     canonical = _canonical_parameters(parameters)
     arrays = _normalise_arrays(arrays)
+    _check_finite(arrays)  # load_lut refuses them: a file that could never be read back
     meta = {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
@@ -386,43 +428,57 @@ def _read_arrays(npz, path: Path, size: int, kind: str,
     return meta, arrays
 
 
-def load_lut(path, kind: str, parameters: dict | None = None) -> dict[str, np.ndarray]:
-    """Read and verify a LUT file written by :func:`save_lut`.
+Check = Callable[[Mapping[str, np.ndarray], dict], None]
+"""A kind's content check: ``check(arrays, parameters)`` raises ValueError (one line, naming
+the array and the rule) unless the arrays are plausible tables for those parameters."""
 
-    Parameters
-    ----------
-    path : path-like
-        The file.
-    kind : str
-        The kind it must have.
-    parameters : dict, optional
-        The parameters it must have been baked from (compared exactly, as canonical JSON);
-        None accepts any.
+_FILE_TYPES = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+               (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+               (stat.S_ISSOCK, "a socket"))
 
-    Returns
-    -------
-    dict of str to numpy.ndarray
-        The arrays (read-only), by name.
 
-    Raises
-    ------
-    LutError
-        If the file is empty, not a zip archive, truncated or corrupted (CRC), has no valid
-        ``meta``, is of another format, format version or kind, was baked from other
-        parameters, holds arrays other than those ``meta`` lists or of another dtype or
-        shape, holds object (pickled) arrays, or fails the checksum. The message names the
-        file and the fault.
-    FileNotFoundError
-        If there is no file (a missing file is not a corrupted one).
-    ValueError
-        If ``kind`` or ``parameters`` are malformed.
-    """
-    kind = _check_kind(kind)
-    canonical = None if parameters is None else _canonical_parameters(parameters)
-    path = Path(path)
+def _not_regular(mode: int) -> str | None:
+    """None for a regular file, else what it is, e.g. ``"a folder, not a regular file"``."""
+    if stat.S_ISREG(mode):
+        return None
+    what = next((name for test, name in _FILE_TYPES if test(mode)), "a special file")
+    return f"{what}, not a regular file"
+
+
+def _open_regular(path: Path):
+    """``path`` opened for binary reading if it is a regular file; anything else is refused
+    (LutError, not replaceable) without being opened: reading a FIFO would block forever and a
+    device may act on being opened. It is stat-ed first and opened non-blocking, and the open
+    file is checked again, so a path swapped in between cannot block either."""
+    problem = _not_regular(os.stat(path).st_mode)  # FileNotFoundError, PermissionError pass
+    if problem is not None:
+        raise LutError(path, problem, replaceable=False)
+    flags = (os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0)
+             | getattr(os, "O_BINARY", 0))
+    descriptor = os.open(path, flags)
+    try:
+        problem = _not_regular(os.fstat(descriptor).st_mode)
+        if problem is not None:
+            raise LutError(path, problem, replaceable=False)
+        return os.fdopen(descriptor, "rb")
+    except BaseException:
+        os.close(descriptor)
+        raise
+
+
+def _check_content(arrays: Mapping[str, np.ndarray], parameters: dict,
+                   check: Check | None) -> None:
+    """ValueError unless every float is finite and the kind's ``check`` accepts the arrays."""
+    _check_finite(arrays)
+    if check is not None:
+        check(arrays, parameters)
+
+
+def _load(path: Path, kind: str, canonical: str | None,
+          check: Check | None) -> tuple[dict, dict[str, np.ndarray]]:
     # The handle is ours, not np.load's: np.load leaks the file it opened when the archive
     # turns out to be unreadable.
-    with open(path, "rb") as handle:
+    with _open_regular(path) as handle:
         head = handle.read(len(_MAGIC))
         if not head:
             raise LutError(path, "empty file")
@@ -442,7 +498,126 @@ def load_lut(path, kind: str, parameters: dict | None = None) -> dict[str, np.nd
             path, f"checksum mismatch (stored {meta['checksum'][:12]}..., computed "
             f"{checksum[:12]}...)"
         )
-    return arrays
+    # A valid checksum proves only that the file is what some writer meant: the content is
+    # checked too (a table of infinities or of negated values has a checksum as well).
+    try:
+        _check_content(arrays, meta["parameters"], check)
+    except ValueError as error:
+        raise LutError(path, str(error)) from error
+    return meta, arrays
+
+
+def load_lut(path, kind: str, parameters: dict | None = None, *,
+             check: Check | None = None) -> dict[str, np.ndarray]:
+    """Read and verify a LUT file written by :func:`save_lut`.
+
+    Parameters
+    ----------
+    path : path-like
+        The file.
+    kind : str
+        The kind it must have.
+    parameters : dict, optional
+        The parameters it must have been baked from (compared exactly, as canonical JSON);
+        None accepts any.
+    check : callable, optional
+        The kind's content check, ``check(arrays, parameters)`` with the file's parameters:
+        raises ValueError unless the tables are plausible (shapes, ranges, axes), e.g.
+        :func:`wgbragg.bsdf.filter_cache.check_filter_tables`.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        The arrays (read-only), by name.
+
+    Raises
+    ------
+    LutError
+        If the path is not a regular file (a folder, FIFO or device: never opened; the
+        error's ``replaceable`` is False), the file is empty, not a zip archive, truncated or
+        corrupted (CRC), has no valid ``meta``, is of another format, format version or kind,
+        was baked from other parameters, holds arrays other than those ``meta`` lists or of
+        another dtype or shape, holds object (pickled) arrays, fails the checksum, holds a NaN
+        or an infinity, or fails ``check``. The message names the file and the fault.
+    FileNotFoundError
+        If there is no file (a missing file is not a corrupted one).
+    OSError
+        If the file cannot be read (e.g. PermissionError); the error names it.
+    ValueError
+        If ``kind`` or ``parameters`` are malformed.
+    """
+    kind = _check_kind(kind)
+    canonical = None if parameters is None else _canonical_parameters(parameters)
+    return _load(Path(path), kind, canonical, check)[1]
+
+
+# --------------------------------------------------------------------------- content checks
+
+
+def check_names(arrays: Mapping[str, np.ndarray], names) -> None:
+    """ValueError unless ``arrays`` holds exactly the arrays ``names``."""
+    if set(arrays) != set(names):
+        raise ValueError(f"arrays are {sorted(arrays)}, expected {sorted(names)}")
+
+
+def _float_array(arrays: Mapping[str, np.ndarray], name: str) -> np.ndarray:
+    array = arrays.get(name)
+    if array is None:
+        raise ValueError(f"no array {name!r}")
+    if array.dtype.kind != "f":
+        raise ValueError(f"{name} must be floating-point, got {array.dtype}")
+    return array
+
+
+def _check_bounds(name: str, array: np.ndarray, low, high) -> None:
+    if array.size == 0:
+        return
+    slack = _SLACK * max([1.0, *(abs(b) for b in (low, high) if b is not None)])
+    if low is not None and array.min() < low - slack:
+        raise ValueError(f"{name} must be >= {low:g}, its minimum is {array.min():.6g}")
+    if high is not None and array.max() > high + slack:
+        raise ValueError(f"{name} must be <= {high:g}, its maximum is {array.max():.6g}")
+
+
+def check_axis(arrays: Mapping[str, np.ndarray], name: str, low: float, high: float, *,
+               size: int | None = None, minimum_size: int = 1) -> np.ndarray:
+    """The axis ``arrays[name]`` once it is a 1-D float array of ``size`` (or at least
+    ``minimum_size``) entries, strictly increasing, inside ``[low, high]``.
+
+    Raises
+    ------
+    ValueError
+        Naming the array and the rule it breaks (a reversed axis: "must be strictly
+        increasing").
+    """
+    axis = _float_array(arrays, name)
+    if axis.ndim != 1:
+        raise ValueError(f"{name} must be 1-D, got shape {axis.shape}")
+    if size is not None and axis.size != size:
+        raise ValueError(f"{name} must have {size} entries, got {axis.size}")
+    if axis.size < minimum_size:
+        raise ValueError(f"{name} must have >= {minimum_size} entries, got {axis.size}")
+    if axis.size > 1 and not (np.diff(axis) > 0.0).all():
+        raise ValueError(f"{name} must be strictly increasing")
+    _check_bounds(name, axis, low, high)
+    return axis
+
+
+def check_table(arrays: Mapping[str, np.ndarray], name: str, shape: tuple[int, ...],
+                low: float | None = None, high: float | None = None) -> np.ndarray:
+    """The table ``arrays[name]`` once it is a float array of ``shape`` with values in
+    ``[low, high]`` (None: unbounded; a relative slack of 1e-9 for rounding).
+
+    Raises
+    ------
+    ValueError
+        Naming the array and the rule it breaks.
+    """
+    table = _float_array(arrays, name)
+    if table.shape != tuple(shape):
+        raise ValueError(f"{name} must have shape {tuple(shape)}, got {table.shape}")
+    _check_bounds(name, table, low, high)
+    return table
 
 
 # --------------------------------------------------------------------------- the cache
@@ -471,9 +646,38 @@ def lut_path(kind: str, parameters: dict, cache=None) -> Path:
     return folder / f"{kind}-{digest}.npz"
 
 
+def _stale(status: os.stat_result, now: float) -> bool:
+    return now - status.st_mtime > STALE_TEMPORARY_SECONDS
+
+
+def _remove_stale_temporaries(folder: Path) -> None:
+    """Remove the atomic writer's temporary files in ``folder`` older than an hour: what a
+    killed write leaves. Younger ones may be another process's write in progress. Best effort:
+    a file that cannot be removed is left."""
+    now = time.time()
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return
+    for entry in entries:
+        if not _CACHE_TEMPORARY.fullmatch(entry.name):
+            continue
+        try:
+            status = entry.stat(follow_symlinks=False)
+            if stat.S_ISREG(status.st_mode) and _stale(status, now):
+                os.unlink(entry.path)
+        except OSError:
+            continue
+
+
+def _warn(message: str) -> None:
+    # One line, whatever the reason held; the CLI prints LutWarnings as "wgbragg: warning: ...".
+    warnings.warn(" ".join(message.splitlines()), LutWarning, stacklevel=3)
+
+
 def cached(kind: str, parameters: dict, bake: Callable[[], dict], *, cache=None,
-           force: bool = False,
-           progress: Callable[[CacheEvent], None] | None = None) -> dict[str, np.ndarray]:
+           force: bool = False, progress: Callable[[CacheEvent], None] | None = None,
+           check: Check | None = None) -> dict[str, np.ndarray]:
     """A table from the cache, baked (and saved) if it is missing or invalid.
 
     Parameters
@@ -491,6 +695,9 @@ def cached(kind: str, parameters: dict, bake: Callable[[], dict], *, cache=None,
         Bake and replace the file even if it is valid.
     progress : callable, optional
         Called once with a :class:`CacheEvent` saying what was done.
+    check : callable, optional
+        The kind's content check (see :func:`load_lut`), applied to a loaded file and to what
+        ``bake`` returns.
 
     Returns
     -------
@@ -501,14 +708,20 @@ def cached(kind: str, parameters: dict, bake: Callable[[], dict], *, cache=None,
     ------
     ValueError
         If ``kind``, ``parameters`` or what ``bake`` returns break the rules of
-        :func:`save_lut`, or ``bake`` is not callable; whatever ``bake`` raises passes
-        through. A failed bake or save leaves the cache as it was.
+        :func:`save_lut` or ``check``, or ``bake`` is not callable; whatever ``bake`` raises
+        passes through. A failed bake or save leaves the cache as it was.
 
     Warns
     -----
     LutWarning
-        If the cached file is invalid (the warning gives the reason); it is then re-baked and
-        replaced.
+        One line naming the file: if the cached file is invalid (with the reason), it is then
+        re-baked and replaced; if the path is not a regular file (a folder, a FIFO, a device:
+        never opened) or cannot be read, the table is baked in memory and nothing is written.
+
+    Notes
+    -----
+    Each write first removes the atomic writer's temporary files in the folder that are older
+    than :data:`STALE_TEMPORARY_SECONDS` (left by a killed process).
 
     Examples
     --------
@@ -522,27 +735,240 @@ def cached(kind: str, parameters: dict, bake: Callable[[], dict], *, cache=None,
     ['baked', 'loaded']
     """
     kind = _check_kind(kind)
-    _canonical_parameters(parameters)
+    canonical = _canonical_parameters(parameters)
     if not callable(bake):
         raise ValueError(f"bake must be callable, got {type(bake).__name__}")
     path = lut_path(kind, parameters, cache)
-    exists = path.exists()
-    action, reason = ("re-baked", "forced") if force and exists else ("baked", None)
-    if exists and not force:
-        try:
-            arrays = load_lut(path, kind, parameters)
-        except LutError as error:
-            warnings.warn(f"{error}; re-baking it", LutWarning, stacklevel=2)
-            action, reason = "re-baked", error.reason
+    action, reason, in_memory = "baked", None, False
+    try:
+        if force:
+            status = os.stat(path)  # only to tell a folder or FIFO in the way
+            problem = _not_regular(status.st_mode)
+            if problem is not None:
+                raise LutError(path, problem, replaceable=False)
+            action, reason = "re-baked", "forced"
         else:
+            arrays = load_lut(path, kind, parameters, check=check)
             if progress is not None:
                 progress(CacheEvent(kind, dict(parameters), path, "loaded"))
             return arrays
-    # Before the bake: a cache that cannot be written must not cost its minutes.
-    check_output_folder(path.parent, "cache" if cache is not None else (
-        "$WGBRAGG_CACHE" if os.environ.get("WGBRAGG_CACHE") else "the cache folder"))
+    except (FileNotFoundError, NotADirectoryError):
+        pass  # nothing there (or a file in place of the folder: refused below)
+    except LutError as error:
+        if error.replaceable:
+            _warn(f"{error}; re-baking it")
+            action, reason = "re-baked", error.reason
+        else:
+            action, reason, in_memory = "baked in memory", error.reason, True
+    except OSError as error:  # no permission to read the file, or to look into the folder
+        reason = f"unreadable ({error.strerror or error})"
+        action, in_memory = "baked in memory", True
+    if in_memory:
+        _warn(f"LUT file {path} cannot be used: {reason}; baking the table in memory, "
+              f"not cached")
+    else:
+        # Before the bake: a cache that cannot be written must not cost its minutes.
+        check_output_folder(path.parent, "cache" if cache is not None else (
+            "$WGBRAGG_CACHE" if os.environ.get("WGBRAGG_CACHE") else "the cache folder"))
     arrays = _normalise_arrays(bake(), name="bake()")
-    save_lut(path, kind, parameters, arrays)
+    try:
+        _check_content(arrays, json.loads(canonical), check)
+    except ValueError as error:
+        # A bake bug: never cached, or every later load would refuse and re-bake it.
+        raise ValueError(f"bake() of {kind} {canonical} returned unusable tables: "
+                         f"{error}") from error
+    if not in_memory:
+        _remove_stale_temporaries(path.parent)
+        save_lut(path, kind, parameters, arrays)
     if progress is not None:
         progress(CacheEvent(kind, dict(parameters), path, action, reason))
     return arrays
+
+
+# --------------------------------------------------------------------------- checking the folder
+
+
+@dataclasses.dataclass(frozen=True)
+class CacheEntry:
+    """One file of the cache folder, as :func:`verify_cache` or :func:`clear_cache` found it.
+
+    Attributes
+    ----------
+    path : pathlib.Path
+        The file.
+    status : {"ok", "bad", "removed", "kept"}
+        A valid table; a problem left in place (a folder or FIFO under a cache name is never
+        removed: wgbragg did not write it; or a file that could not be removed); a file
+        removed; a temporary file under an hour old (a write that may be in progress), kept.
+    reason : str or None
+        What is wrong with it, or why it was removed or kept (None for "ok").
+    """
+
+    path: Path
+    status: str
+    reason: str | None = None
+
+
+def _cache_folder(cache) -> Path | None:
+    """The folder (None if it does not exist), or ValueError if the path is something else."""
+    folder = cache_dir() if cache is None else Path(cache)
+    if not os.fspath(folder):
+        raise ValueError("cache must be a folder path, got ''")
+    try:
+        status = os.stat(folder)
+    except (FileNotFoundError, NotADirectoryError):
+        return None
+    if not stat.S_ISDIR(status.st_mode):
+        raise ValueError(f"cache folder {folder} is not a folder")
+    return folder
+
+
+def _cache_names(folder: Path) -> list[tuple[str, Path]]:
+    """("file" or "temporary", path) of every entry with a name the cache writes, sorted."""
+    found = []
+    for name in sorted(os.listdir(folder)):
+        if _CACHE_FILE.fullmatch(name):
+            found.append(("file", folder / name))
+        elif _CACHE_TEMPORARY.fullmatch(name):
+            found.append(("temporary", folder / name))
+    return found
+
+
+def _remove(path: Path, reason: str | None) -> CacheEntry:
+    try:
+        os.unlink(path)
+    except FileNotFoundError:
+        pass  # gone meanwhile: as good
+    except OSError as error:
+        failure = f"cannot remove it ({error.strerror or error})"
+        return CacheEntry(path, "bad", failure if reason is None else f"{reason}; {failure}")
+    return CacheEntry(path, "removed", reason)
+
+
+def _temporary_entry(path: Path, now: float, remove_stale: bool) -> CacheEntry | None:
+    try:
+        status = os.lstat(path)
+    except FileNotFoundError:
+        return None
+    problem = _not_regular(status.st_mode)
+    if problem is not None:
+        return CacheEntry(path, "bad", f"{problem}: not written by wgbragg, left alone")
+    if not _stale(status, now):
+        return CacheEntry(path, "kept", "temporary file under an hour old: a write in progress?")
+    reason = (f"temporary file of an interrupted write, "
+              f"{(now - status.st_mtime) / 3600.0:.1f} h old")
+    return _remove(path, reason) if remove_stale else CacheEntry(path, "bad", reason)
+
+
+def _file_problem(path: Path, checks: Mapping[str, Check]) -> tuple[str | None, bool]:
+    """(what is wrong with a cache file or None, whether removing it is allowed)."""
+    kind = _CACHE_FILE.fullmatch(path.name)["kind"]
+    try:
+        meta, _ = _load(path, kind, None, checks.get(kind))
+    except LutError as error:
+        if not error.replaceable:
+            return f"{error.reason}: not written by wgbragg, left alone", False
+        return error.reason, True
+    except FileNotFoundError:
+        return None, True  # removed meanwhile: nothing wrong with what is there
+    except OSError as error:
+        return f"unreadable ({error.strerror or error})", True
+    if lut_path(kind, meta["parameters"], path.parent) != path:
+        return "its name does not match its parameters (a renamed or copied file)", True
+    return None, True
+
+
+def verify_cache(cache=None, checks: Mapping[str, Check] | None = None, *,
+                 repair: bool = False) -> list[CacheEntry]:
+    """Check every file of the cache folder that the cache writes.
+
+    Parameters
+    ----------
+    cache : path-like, optional
+        The folder; default :func:`cache_dir`.
+    checks : dict of str to callable, optional
+        Content checks by kind (see :func:`load_lut`); a kind without one gets the generic
+        checks (format, checksum, finite values, a name that matches the parameters).
+    repair : bool
+        Remove every invalid or unreadable cache file (re-baked on next use) and the
+        temporary files of interrupted writes older than an hour.
+
+    Returns
+    -------
+    list of CacheEntry
+        One per ``<kind>-<hash>.npz`` file and per temporary file of the atomic writer, by
+        name. Other files in the folder are not looked at. Empty if the folder does not exist.
+
+    Raises
+    ------
+    ValueError
+        If ``cache`` exists and is not a folder.
+    OSError
+        If the folder cannot be listed (names it).
+    """
+    folder = _cache_folder(cache)
+    if folder is None:
+        return []
+    checks = {} if checks is None else checks
+    now = time.time()
+    entries = []
+    for role, path in _cache_names(folder):
+        if role == "temporary":
+            entry = _temporary_entry(path, now, repair)
+        else:
+            problem, removable = _file_problem(path, checks)
+            if problem is None:
+                entry = CacheEntry(path, "ok")
+            elif repair and removable:
+                entry = _remove(path, problem)
+            else:
+                entry = CacheEntry(path, "bad", problem)
+        if entry is not None:
+            entries.append(entry)
+    return entries
+
+
+def clear_cache(cache=None) -> list[CacheEntry]:
+    """Remove every file the cache wrote: ``<kind>-<hash>.npz`` regular files and temporary
+    files of interrupted writes older than an hour. Nothing else in the folder is touched: a
+    folder or FIFO under a cache name is reported ("bad") and left, and a younger temporary
+    file (a write in progress?) is kept.
+
+    Parameters
+    ----------
+    cache : path-like, optional
+        The folder; default :func:`cache_dir`.
+
+    Returns
+    -------
+    list of CacheEntry
+        What was removed, kept or left, by name; empty if the folder does not exist.
+
+    Raises
+    ------
+    ValueError
+        If ``cache`` exists and is not a folder.
+    OSError
+        If the folder cannot be listed (names it).
+    """
+    folder = _cache_folder(cache)
+    if folder is None:
+        return []
+    now = time.time()
+    entries = []
+    for role, path in _cache_names(folder):
+        if role == "temporary":
+            entry = _temporary_entry(path, now, True)
+        else:
+            try:
+                mode = os.lstat(path).st_mode
+            except FileNotFoundError:
+                continue
+            problem = _not_regular(mode)
+            if problem is not None and not stat.S_ISLNK(mode):  # a link itself is removed
+                entry = CacheEntry(path, "bad", f"{problem}: not written by wgbragg, left alone")
+            else:
+                entry = _remove(path, None)
+        if entry is not None:
+            entries.append(entry)
+    return entries

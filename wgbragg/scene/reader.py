@@ -4,7 +4,9 @@ A scene is read with the standard library's :mod:`tomllib`, so loading one only 
 code in it is ever run. Every value is checked on loading; a mistake is refused with a
 :class:`ValueError` that names the file, the key path (``objects[2].material``) and the accepted
 values or range. Paths inside a scene (meshes, textures, EXR environments) resolve relative to the
-scene file's folder and must exist; reading them is the renderer's job.
+scene file's folder, must exist and, once symlinks are resolved, lie inside that folder unless the
+caller allows otherwise (``allow_outside=True``); messages show a path as the file writes it.
+Reading the files is the renderer's job.
 
 Units and conventions are stated in :mod:`wgbragg.scene.model`; every key in
 ``docs/scenes.md``.
@@ -67,6 +69,7 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
+import json
 import math
 import numbers
 import os
@@ -128,13 +131,17 @@ _LIGHT_TYPES = ("point", "area")
 # ------------------------------------------------------------------------------------- loading
 
 
-def load_scene(path: str | os.PathLike) -> Scene:
+def load_scene(path: str | os.PathLike, *, allow_outside: bool = False) -> Scene:
     """Read a scene file.
 
     Parameters
     ----------
     path : str or os.PathLike
         A TOML file (UTF-8). Paths inside it resolve against its folder.
+    allow_outside : bool, default False
+        Accept paths in the file that lead outside its folder once symlinks are resolved
+        (``../x.obj``, absolute paths, a link to elsewhere). Off, they are refused: a scene
+        file from someone else then reads nothing beyond its own folder.
 
     Returns
     -------
@@ -144,13 +151,14 @@ def load_scene(path: str | os.PathLike) -> Scene:
     ------
     ValueError
         If the file is not valid TOML (the message gives the line) or a value is missing,
-        unknown, of the wrong type, out of range, or names a missing file (the message gives
-        the key path and what is accepted).
+        unknown, of the wrong type, out of range, names a missing file, or (without
+        ``allow_outside``) a file outside the scene file's folder (the message gives the key
+        path, the path as written and what is accepted).
     OSError
         If the file cannot be read.
     """
     path = Path(path).resolve()
-    return _parse(path.read_bytes(), path.name, path.parent)
+    return _parse(path.read_bytes(), path.name, path.parent, allow_outside=allow_outside)
 
 
 def load_preset(name: str) -> Scene:
@@ -176,12 +184,13 @@ def load_preset(name: str) -> Scene:
 class _Context:
     origin: str
     folder: Path
+    allow_outside: bool
 
     def error(self, key: str, message: str) -> ValueError:
         return ValueError(f"{self.origin}: {key}: {message}")
 
 
-def _parse(data: bytes, origin: str, folder: Path) -> Scene:
+def _parse(data: bytes, origin: str, folder: Path, *, allow_outside: bool = False) -> Scene:
     try:
         # utf-8-sig: editors that save "UTF-8 with BOM" put U+FEFF first, which TOML refuses.
         document = tomllib.loads(data.decode("utf-8-sig"))
@@ -191,7 +200,7 @@ def _parse(data: bytes, origin: str, folder: Path) -> Scene:
         raise ValueError(f"{origin}: invalid TOML: {error}") from None
     except RecursionError:
         raise ValueError(f"{origin}: invalid TOML: nested too deeply") from None
-    ctx = _Context(origin, folder)
+    ctx = _Context(origin, folder, allow_outside)
     _keys(ctx, document, "", ("camera", "materials", "objects"),
           ("lights", "environment", "settings"))
     materials = _materials(ctx, document["materials"])
@@ -603,17 +612,37 @@ def _library(ctx: _Context, value, key: str, check: Callable):
 
 
 def _file(ctx: _Context, value, key: str, suffixes: tuple[str, ...]) -> Path:
-    path = ctx.folder / _string(ctx, value, key)
+    """The file a scene names, as ``folder / written``: symlinks stay unresolved, so that later
+    messages (the renderer's) show the path as written, not where a link leads."""
+    written = _string(ctx, value, key)
+    shown = _written(written)
+    path = ctx.folder / written
     if path.suffix.lower() not in suffixes:
-        raise ctx.error(key, f"must name a file of type {', '.join(suffixes)}, got {value!r}")
+        raise ctx.error(key, f"must name a file of type {', '.join(suffixes)}, got {shown}")
+    # Before the existence check: a refused path reveals nothing about what lies outside.
+    if not ctx.allow_outside:
+        try:
+            inside = path.resolve().is_relative_to(ctx.folder.resolve())
+        except (OSError, RuntimeError):  # RuntimeError: a symlink loop
+            raise ctx.error(key, f"cannot be resolved: {shown} (a symlink loop?)") from None
+        if not inside:
+            raise ctx.error(key, f"{shown} lies outside the scene file's folder (symlinks "
+                                 f"resolved); pass allow_outside=True (CLI: "
+                                 f"--allow-outside-paths) to allow it")
     try:
         found = path.is_file()
     except OSError as error:  # a name too long for the file system, say
-        raise ctx.error(key, f"cannot be read: {error.strerror}: {path}") from None
+        raise ctx.error(key, f"cannot be read: {error.strerror}: {shown}") from None
     if not found:
-        raise ctx.error(key, f"no such file: {path} (paths resolve against the scene file's "
+        raise ctx.error(key, f"no such file: {shown} (paths resolve against the scene file's "
                              f"folder {ctx.folder})")
-    return path.resolve()
+    return path
+
+
+def _written(path: str) -> str:
+    """A path as the scene file writes it, in double quotes, with control characters
+    escaped (a TOML basic string): messages stay on one line."""
+    return json.dumps(path, ensure_ascii=False)
 
 
 def _transverse(a: tuple[float, ...], b: tuple[float, ...]) -> bool:
