@@ -11,6 +11,7 @@ One module per benchmark, each run from the repository root::
     python -m benchmarks.render        # the renderer's throughput
     python -m benchmarks.ibl           # filtered image-based lighting
     python -m benchmarks.viewer        # the viewer's interactive budgets
+    python -m benchmarks.memory        # peak RSS of large reflectance calls (bounded work)
 
 ``make bench`` runs them all. A full run rewrites the benchmark's own section of
 ``docs/benchmarks.md`` (between its markers; the rest of the file is left alone); ``--quick``

@@ -1,7 +1,9 @@
 """Colour by spectral integration: ``reference_xyz`` and ``spectral_xyz_stratified``.
 
 numpy tests check the methods against colour-science and invariants (perfect reflector, the
-K = 471 identity, unbiasedness of the jittered estimator, convergence in K); GPU tests hold the
+K = 471 identity, unbiasedness of the jittered stratified sum that "spectral" self-normalises,
+convergence in K; the exact white of "spectral" is tests/test_spectral_white.py's); GPU tests
+hold the
 float32 kernels to the issue's target, numpy and GPU within CIE dE2000 0.1.
 
 Tolerance policy for "spectral" on the GPU. Each of its K nodes carries 1/K of the colour, so
@@ -35,6 +37,7 @@ from wgbragg.colour.reference import (
     STRATA_RANGE_NM,
     integrate_xyz,
     reference_xyz,
+    self_normalised_weights,
     spectral_xyz_stratified,
     stratified_nodes,
 )
@@ -243,26 +246,40 @@ def test_spectral_with_471_centred_strata_is_the_reference(material):
     assert np.allclose(spectral, reference_xyz(material, ANGLES), atol=EXACT_ATOL, rtol=0.0)
 
 
-def test_spectral_perfect_reflector_tends_to_white():
-    errors = [abs(spectral_xyz_stratified(PERFECT_REFLECTOR, 0.0, k)[1] - 1.0)
+def stratified_sum(material, theta, samples, seed=None):
+    """The stratified estimate before "spectral" self-normalises it."""
+    return integrate_xyz(material, theta, *stratified_nodes(samples, seed))
+
+
+def test_stratified_sum_of_a_perfect_reflector_tends_to_white():
+    # What "spectral" divides by: the nodes' own estimate of the white.
+    errors = [abs(stratified_sum(PERFECT_REFLECTOR, 0.0, k)[1] - 1.0)
               for k in (4, 16, 64, 256, 1024)]
     assert errors[0] > 1e-3  # few strata see the shape of ybar * D65
     assert all(b < a for a, b in itertools.pairwise(errors))
     assert errors[-1] < 1e-5
 
 
-def test_jittered_spectral_is_unbiased():
+def test_jittered_stratified_sum_is_unbiased():
     # E[sum_k R(l_k) density(l_k) h] = integral R density over the strata, for any K.
     theta = 0.4
     grid = np.linspace(*STRATA_RANGE_NM, 94201)
     exact = np.trapezoid(SMOOTH.reflectance(grid, theta)[:, None] * xyz_density(grid), grid,
                          axis=0)
-    draws = np.array([spectral_xyz_stratified(SMOOTH, theta, samples=4, seed=seed)
-                      for seed in range(3000)])
+    draws = np.array([stratified_sum(SMOOTH, theta, 4, seed) for seed in range(3000)])
     standard_error = draws.std(axis=0) / math.sqrt(len(draws))
     assert np.all(np.abs(draws.mean(axis=0) - exact) < 4.0 * standard_error)
-    centred = spectral_xyz_stratified(SMOOTH, theta, samples=4)
+    centred = stratified_sum(SMOOTH, theta, 4)
     assert np.any(np.abs(centred - exact) > 10.0 * standard_error)  # the test can tell bias
+
+
+def test_spectral_is_the_stratified_sum_over_its_own_white():
+    theta = np.array([0.0, 0.4, 1.2])
+    for samples, seed in ((4, None), (16, 3), (100, 7)):
+        ratio = (stratified_sum(SMOOTH, theta, samples, seed)
+                 / stratified_sum(PERFECT_REFLECTOR, theta, samples, seed))
+        np.testing.assert_allclose(spectral_xyz_stratified(SMOOTH, theta, samples, seed=seed),
+                                   ratio * xyz_weights()[1].sum(0), rtol=1e-13)
 
 
 @pytest.mark.parametrize("material", [MIRRORS[1], MIRRORS[13], MIRRORS[22], FILMS[3]],
@@ -313,6 +330,7 @@ def test_spectral_gpu_matches_numpy(material):
     plain = []
     for samples, seed in itertools.product((4, 16, 64), (None, 7)):
         wavelength, weights = stratified_nodes(samples, seed)
+        weights = self_normalised_weights(weights)
         gpu_xyz = spectral_xyz_stratified(material, ANGLES, samples, backend="gpu", seed=seed)
         numpy_xyz = spectral_xyz_stratified(material, ANGLES, samples, seed=seed)
         plain.append(delta_e(gpu_xyz, numpy_xyz))

@@ -5,8 +5,10 @@ CIE 1931 XYZ weights of :mod:`wgbragg.colour.colorimetry`, and differ only in th
 
 - ``reference``: every nm from 360 to 830 nm (471 nodes), weights :func:`colorimetry.xyz_weights`.
   This is the ground truth the approximate methods are measured against.
-- ``spectral``: K stratified wavelengths (see :func:`stratified_nodes`), the cheap unbiased
-  estimator a progressive renderer would use.
+- ``spectral``: K stratified wavelengths (see :func:`stratified_nodes`), the cheap estimator a
+  progressive renderer would use, self-normalised (:func:`self_normalised_weights`): a
+  perfect reflector is exactly white for every K and seed, and the estimate converges to
+  the reference as K grows.
 
 ``backend="numpy"`` evaluates ``material.reflectance`` in float64; ``backend="gpu"`` runs one
 float32 WGSL invocation per angle over the same nodes (:mod:`wgbragg.colour.reference_gpu`).
@@ -30,8 +32,10 @@ from wgbragg.common.validation import (
 __all__ = [
     "MAX_SAMPLES",
     "STRATA_RANGE_NM",
+    "WHITE_XYZ",
     "integrate_xyz",
     "reference_xyz",
+    "self_normalised_weights",
     "spectral_xyz_stratified",
     "stratified_nodes",
 ]
@@ -45,6 +49,11 @@ STRATA_RANGE_NM = (
 MAX_SAMPLES = 100_000
 """Most strata of "spectral": far past convergence (strata of 0.005 nm), and the nodes of one
 call stay in memory."""
+
+WHITE_XYZ = colorimetry.xyz_weights()[1].sum(axis=0)
+WHITE_XYZ.setflags(write=False)
+"""XYZ of the perfect reflector by the reference: D65's white point with ``Y = 1``,
+(0.95047, 1, 1.08883). "spectral" gives it exactly (to rounding) for ``R = 1``."""
 
 # Reflectances evaluated per numpy block: bounds memory for large angle arrays.
 _BLOCK = 1 << 20
@@ -200,6 +209,40 @@ def stratified_nodes(samples: int, seed=None) -> tuple[np.ndarray, np.ndarray]:
     return wavelength, colorimetry.xyz_density(wavelength) * width
 
 
+def self_normalised_weights(weights) -> np.ndarray:
+    """Node weights rescaled per channel so that they sum to :data:`WHITE_XYZ`.
+
+    Integrating with them is the ratio estimator of the stratified sum: each channel's
+    ``sum_k R_k w_k`` divided by the same nodes' estimate for ``R = 1``, ``sum_k w_k``, times
+    the reference's white. A perfect reflector is then white to rounding for any nodes, and
+    the estimate converges to the reference wherever the unnormalised one does (its
+    denominator converges to the white).
+
+    Parameters
+    ----------
+    weights : array_like
+        Shape ``(K, 3)``, finite and >= 0 (:func:`stratified_nodes`'s).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(K, 3)``, float64. A channel whose weights are all 0 (e.g. ``zbar`` for
+        K = 1 and a node beyond 650 nm: no node sees its CMF) takes the unweighted mean over
+        the nodes, ``WHITE_XYZ[c] / K`` each.
+
+    Examples
+    --------
+    >>> _, weights = stratified_nodes(16, seed=3)
+    >>> bool(np.allclose(self_normalised_weights(weights).sum(0), WHITE_XYZ, rtol=1e-15))
+    True
+    """
+    weights = np.asarray(weights, np.float64)
+    total = weights.sum(axis=0)
+    seen = total > 0.0
+    scaled = np.where(seen, weights / np.where(seen, total, 1.0), 1.0 / max(len(weights), 1))
+    return scaled * WHITE_XYZ
+
+
 def spectral_xyz_stratified(material, theta, samples=16, backend="numpy", seed=None) -> np.ndarray:
     """Colour from K stratified wavelength samples of the exact reflectance.
 
@@ -220,7 +263,8 @@ def spectral_xyz_stratified(material, theta, samples=16, backend="numpy", seed=N
     Returns
     -------
     numpy.ndarray
-        CIE XYZ under D65 (perfect reflector ``Y ~ 1``), float64, shape ``theta.shape + (3,)``.
+        CIE XYZ under D65, float64, shape ``theta.shape + (3,)``: the perfect reflector
+        exactly :data:`WHITE_XYZ` (to rounding) whatever ``samples`` and ``seed``.
 
     Raises
     ------
@@ -229,8 +273,14 @@ def spectral_xyz_stratified(material, theta, samples=16, backend="numpy", seed=N
 
     Notes
     -----
-    The estimator and its nodes are described in :func:`stratified_nodes`. With K = 471 and
-    ``seed=None`` it reproduces :func:`reference_xyz`.
+    The nodes are those of :func:`stratified_nodes`; their weights are self-normalised
+    (:func:`self_normalised_weights`): ``XYZ_c = W_c sum_k R_k w_kc / sum_k w_kc``, the
+    stratified estimate of each channel over the same nodes' estimate for ``R = 1``, times
+    the white ``W``. Few nodes no longer make a white surface coloured (unnormalised, K = 16
+    gave (0.962, 1.0065, 1.096), K = 1 (4.2, 2.77, 0.004)); the ratio is consistent (it
+    converges to the reference as K grows) but, jittered, not unbiased for a fixed K. With
+    K = 471 and ``seed=None`` the weights already sum to the white, and it reproduces
+    :func:`reference_xyz`. Both backends integrate with the same normalised weights.
 
     Examples
     --------
@@ -240,4 +290,4 @@ def spectral_xyz_stratified(material, theta, samples=16, backend="numpy", seed=N
     (1, 2, 3)
     """
     wavelength, weights = stratified_nodes(samples, seed)
-    return integrate_xyz(material, theta, wavelength, weights, backend)
+    return integrate_xyz(material, theta, wavelength, self_normalised_weights(weights), backend)

@@ -11,8 +11,9 @@ lives in the submodule for its job, whose docstring says more:
 - :mod:`~wgbragg.gpu.specialise`: the ``//! if`` blocks that override constants resolve;
 - :mod:`~wgbragg.gpu.layouts`: WGSL uniform structs and bilinear cell quads;
 - :mod:`~wgbragg.gpu.timing`: GPU timestamps and :func:`pass_clock`;
-- :mod:`~wgbragg.gpu.pipelines`: the "Binding convention", "Dispatch", "Chained dispatches"
-  and "Specialisation" of kernels, device arrays, :func:`submit` and :func:`benchmark`.
+- :mod:`~wgbragg.gpu.pipelines`: the "Binding convention", "Dispatch", "Any element count"
+  (:class:`Rows`), "Chained dispatches" and "Specialisation" of kernels, device arrays,
+  :func:`submit` and :func:`benchmark`.
 """
 
 from wgbragg.gpu.device import (
@@ -35,6 +36,7 @@ from wgbragg.gpu.pipelines import (
     DeviceArray,
     Dispatch,
     Kernel,
+    Rows,
     benchmark,
     compute_pipeline,
     pipeline_cache_info,
@@ -52,6 +54,7 @@ __all__ = [
     "Kernel",
     "LoopBudgetError",
     "PassClock",
+    "Rows",
     "ShaderCompileError",
     "ShaderSource",
     "adapter_info",

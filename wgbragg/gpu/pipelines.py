@@ -33,13 +33,37 @@ Dispatch
 The number of invocations ``count`` is the length of the first axis of the
 first output (its number of WGSL array elements), unless ``count=`` is given.
 The harness dispatches ``G = ceil(count / WORKGROUP_SIZE)`` workgroups as
-``(min(G, 65535), ceil(G / 65535), 1)``, because one dimension holds at most
-65535 workgroups. Kernels include ``gpu/harness.wgsl``, which declares
-``override WORKGROUP_SIZE: u32`` (set by the harness, default 64) and
-``global_index(gid, nwg)``; they declare ``@compute @workgroup_size(WORKGROUP_SIZE)``,
-take ``@builtin(global_invocation_id)`` and ``@builtin(num_workgroups)``, and
-must bounds-check the index (``arrayLength(&out)``, or a count in params),
-because the last row of workgroups is over-dispatched.
+``(min(G, M), ceil(G / M), 1)``, ``M`` the device's
+``max-compute-workgroups-per-dimension`` (65535 on lavapipe). Kernels include
+``gpu/harness.wgsl``, which declares ``override WORKGROUP_SIZE: u32`` (set by the harness,
+default 64) and ``global_index(gid, nwg)``; they declare
+``@compute @workgroup_size(WORKGROUP_SIZE)``, take ``@builtin(global_invocation_id)`` and
+``@builtin(num_workgroups)``, and must bounds-check the index (``arrayLength(&out)``, or a
+count in params), because the last row of workgroups is over-dispatched. One dispatch indexes
+at most :meth:`Kernel.dispatch_limit` invocations (``M^2 x WORKGROUP_SIZE``, and ``2^31`` for
+the u32 index); every buffer it binds holds at most
+:func:`~wgbragg.gpu.device.max_buffer_bytes`.
+
+Any element count: pointwise kernels
+-------------------------------------
+A *pointwise* kernel writes output row ``i`` from row ``i`` of its per-invocation inputs
+(and from its shared inputs and params) and bounds-checks with ``arrayLength`` of a
+per-invocation buffer, never with a count in params. Give :meth:`Kernel.run` its
+per-invocation inputs as :class:`Rows` (made a block at a time by a function of the row
+range, or :meth:`Rows.of` an array) and it takes any count: it plans blocks of rows that fit
+the device's buffer and dispatch limits and at most :data:`DEFAULT_BLOCK_BYTES` a buffer
+(:meth:`Kernel.plan_rows`), allocates the host outputs, uploads the shared inputs once, then
+for each block makes and uploads its rows into buffers reused across blocks, dispatches and
+reads back into the outputs. Host memory stays the outputs plus O(one block), whatever the
+count. Sizes that cannot be run (one row, or a shared input, larger than a buffer) are
+refused with a ValueError naming the input and the limit before any row is made. Without
+:class:`Rows`, a count or a buffer beyond the limits is refused the same way, before
+anything is uploaded::
+
+    def points(start, stop):            # rows start .. stop - 1, formed on demand
+        return make_points(*flat_block((wavelength, theta), start, stop))
+
+    (out,) = kernel.run([Rows(points, (8,), np.float32), table], [(size, np.float32)], params)
 
 Chained dispatches
 ------------------
@@ -69,18 +93,20 @@ mode: 1.2-1.4 s, from 4.6-5 s). Blocks are resolved when a :class:`Kernel` is bu
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import os
 import re
 import statistics
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 import wgpu
 
-from wgbragg.gpu.device import check_buffer_size, get_device
+from wgbragg.gpu import device as device_limits
+from wgbragg.gpu.device import adapter_info, check_buffer_size, get_device
 from wgbragg.gpu.shaders import ShaderCompileError, ShaderSource, load_shader, shader_error
 from wgbragg.gpu.specialise import BlockError, specialise, strip_comments
 from wgbragg.gpu.timing import (
@@ -94,6 +120,16 @@ from wgbragg.gpu.timing import (
 
 DEFAULT_WORKGROUP_SIZE = 64
 """WORKGROUP_SIZE the harness sets when the caller's constants do not."""
+
+DEFAULT_BLOCK_BYTES = 1 << 23
+"""Largest per-invocation buffer of one block of a :class:`Rows` run (8 MiB): bounds the host
+memory a block takes (its rows, their float64 temporaries where the caller forms them, and on
+lavapipe the device buffers, which are host memory too) while a block still holds 262,144
+points of the optics kernels (32 bytes each), so the fixed cost of a dispatch is noise."""
+
+MAX_INDEX = 1 << 31
+"""Most invocations one dispatch indexes whatever the device: ``global_index`` is a u32, and
+over-dispatched rows must not wrap it."""
 
 _BINDING_RE = re.compile(
     r"@(group|binding)\s*\(\s*(\d+)\s*\)\s*@(group|binding)\s*\(\s*(\d+)\s*\)\s*"
@@ -361,32 +397,128 @@ class Kernel:
             raise TypeError(f"{self.source.name}: output {i} is a storage buffer, got {output!r}")
         return output
 
-    def _bind_group(self, resources: Sequence[Any], params: np.ndarray | None) -> Any:
-        """A bind group of ``resources`` (buffers and textures, in binding order) and of a new
-        uniform buffer holding ``params``, where given."""
-        device = self._device
+    def _uniform(self, params: np.ndarray) -> Any:
+        """A new uniform buffer holding ``params``."""
+        return self._device.create_buffer_with_data(
+            data=_as_bytes(params, "params", 16),
+            usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST,
+        )
+
+    def _bind_group(self, resources: Sequence[Any], params: np.ndarray | Any | None,
+                    sizes: Sequence[int | None] | None = None) -> Any:
+        """A bind group of ``resources`` (buffers and textures, in binding order) and of a
+        uniform buffer holding ``params`` (a new one for an array, else the buffer given),
+        where given. ``sizes``: bytes bound of each resource (None: the whole buffer)."""
         bindings: list[Any] = list(resources)
+        sizes = list(sizes) if sizes is not None else [None] * len(bindings)
         if params is not None:
-            bindings.append(
-                device.create_buffer_with_data(
-                    data=_as_bytes(params, "params", 16),
-                    usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST,
-                )
-            )
+            bindings.append(self._uniform(params) if isinstance(params, np.ndarray) else params)
+            sizes.append(None)
         entries = [
             {"binding": i, "resource": r.create_view()}
             if isinstance(r, wgpu.GPUTexture)
-            else {"binding": i, "resource": {"buffer": r, "offset": 0, "size": r.size}}
-            for i, r in enumerate(bindings)
+            else {"binding": i, "resource": {"buffer": r, "offset": 0,
+                                             "size": r.size if size is None else size}}
+            for i, (r, size) in enumerate(zip(bindings, sizes, strict=True))
         ]
-        return device.create_bind_group(layout=self._layout, entries=entries)
+        return self._device.create_bind_group(layout=self._layout, entries=entries)
+
+    def dispatch_limit(self) -> int:
+        """Most invocations one dispatch of this kernel indexes: ``M^2 x WORKGROUP_SIZE``
+        workgroups' worth, ``M`` the device's ``max-compute-workgroups-per-dimension``, and at
+        most :data:`MAX_INDEX` (``global_index`` is a u32)."""
+        return min(self._max_groups**2 * self.workgroup_size, MAX_INDEX)
 
     def _grid(self, count: int) -> tuple[int, int, int]:
+        limit = self.dispatch_limit()
+        if count > limit:
+            raise ValueError(
+                f"{self.source.name}: count {count} exceeds the {limit} invocations one dispatch "
+                f"indexes on this device (max-compute-workgroups-per-dimension "
+                f"{self._max_groups} squared x WORKGROUP_SIZE {self.workgroup_size}, at most "
+                f"2**31); give a pointwise kernel's per-invocation inputs as gpu.Rows to split "
+                "it over dispatches")
         groups = -(-count // self.workgroup_size)
         gx, gy = min(groups, self._max_groups), -(-groups // self._max_groups)
-        if gy > self._max_groups:
-            raise ValueError(f"count {count} needs more than {self._max_groups}**2 workgroups")
         return gx, gy, 1
+
+    def _check_buffers(self, inputs, outputs) -> None:
+        """Refuse, before anything is uploaded, host arrays and new outputs larger than a
+        buffer (textures are checked by :meth:`DeviceArray.upload`)."""
+        largest = device_limits.max_buffer_bytes()
+        named = []
+        # Arrays of a dtype the harness refuses are left to the upload, which says why.
+        for i, a in enumerate(inputs):
+            if not isinstance(a, DeviceArray | Rows) and not self.input_textures[i]:
+                with contextlib.suppress(TypeError, ValueError):
+                    array = np.asarray(a)
+                    named.append((f"input {i}",
+                                  array.size * _check_dtype(array.dtype, "").itemsize))
+        for i, o in enumerate(outputs):
+            if not isinstance(o, DeviceArray):
+                with contextlib.suppress(TypeError, ValueError):
+                    named.append((f"output {i}", _spec_bytes(o, i)))
+        for what, nbytes in named:
+            if nbytes > largest:
+                raise ValueError(
+                    f"{self.source.name}: {what}: {nbytes} bytes exceed this GPU's largest "
+                    f"storage buffer ({largest} bytes, {adapter_info()['name']}); give a "
+                    "pointwise kernel's per-invocation inputs as gpu.Rows to stream them in "
+                    "blocks, or split the work")
+
+    def plan_rows(
+        self,
+        inputs: Sequence[np.ndarray | DeviceArray | Rows],
+        outputs: Sequence[tuple[tuple[int, ...] | int, Any]],
+        count: int,
+        block_rows: int | None = None,
+    ) -> int:
+        """Rows per block of a :meth:`run` with :class:`Rows` inputs.
+
+        The most rows such that every per-invocation buffer (each :class:`Rows` input and
+        each output) fits :func:`~wgbragg.gpu.device.max_buffer_bytes` and
+        :data:`DEFAULT_BLOCK_BYTES`, one dispatch indexes them (:meth:`dispatch_limit`), and
+        at most ``block_rows`` and ``count``.
+
+        Parameters
+        ----------
+        inputs, outputs
+            As for :meth:`run`; outputs as (shape, dtype), first axis ``count``.
+        count : int
+            Invocations in all (>= 1).
+        block_rows : int, optional
+            A smaller cap (host memory, tests).
+
+        Returns
+        -------
+        int
+
+        Raises
+        ------
+        ValueError
+            Naming the input or output, if one row (or a shared input) is larger than a buffer,
+            or ``block_rows`` is not an integer >= 1.
+        """
+        if block_rows is not None and (isinstance(block_rows, bool)
+                                       or not isinstance(block_rows, int) or block_rows < 1):
+            raise ValueError(f"block_rows must be an integer >= 1, got {block_rows!r}")
+        largest = device_limits.max_buffer_bytes()
+        self._check_buffers(inputs, [])
+        rows = [(f"input {i}", a.row_bytes) for i, a in enumerate(inputs) if isinstance(a, Rows)]
+        rows += [(f"output {i}", _spec_bytes(o, i) // max(1, _spec_rows(o))) for i, o in
+                 enumerate(outputs)]
+        for what, nbytes in rows:
+            if nbytes > largest:
+                raise ValueError(
+                    f"{self.source.name}: {what}: one invocation's row of {nbytes} bytes exceeds "
+                    f"this GPU's largest storage buffer ({largest} bytes, "
+                    f"{adapter_info()['name']})")
+        widest = max([nbytes for _, nbytes in rows] + [4])
+        planned = min(largest // widest, max(1, DEFAULT_BLOCK_BYTES // widest),
+                      self.dispatch_limit(), count)
+        if block_rows is not None:
+            planned = min(planned, block_rows)
+        return max(1, planned)
 
     # ---- public
 
@@ -419,46 +551,69 @@ class Kernel:
         Dispatch
         """
         self._check_arity(inputs, outputs, params)
+        if any(isinstance(a, Rows) for a in inputs):
+            raise TypeError(f"{self.source.name}: gpu.Rows inputs are streamed by run(), not "
+                            "bound; bind arrays or DeviceArrays")
         n = self._count(outputs, count)
+        # Checked before anything is uploaded.
+        grid = self._grid(n) if n else (0, 1, 1)
+        self._check_buffers(inputs, outputs)
         resources = [self._input(i, a) for i, a in enumerate(inputs)]
         out = tuple(self._output(i, o) for i, o in enumerate(outputs))
         bind_group = self._bind_group([a.resource for a in (*resources, *out)], params)
-        grid = self._grid(n) if n else (0, 1, 1)
         return Dispatch(self, out, n, grid, bind_group)
 
     def run(
         self,
-        inputs: Sequence[np.ndarray | DeviceArray],
+        inputs: Sequence[np.ndarray | DeviceArray | Rows],
         outputs: Sequence[tuple[tuple[int, ...] | int, Any] | DeviceArray],
         params: np.ndarray | None = None,
         *,
         count: int | None = None,
         timestamps: bool = False,
+        block_rows: int | None = None,
     ) -> list[np.ndarray] | tuple[list[np.ndarray], float]:
-        """Upload, dispatch once and read back.
+        """Upload, dispatch and read back: once, or block by block for :class:`Rows` inputs.
 
         Parameters
         ----------
-        inputs : sequence of numpy.ndarray or DeviceArray
-            Bound read-only at bindings ``0 .. k-1``.
+        inputs : sequence of numpy.ndarray, DeviceArray or Rows
+            Bound read-only at bindings ``0 .. k-1``. :class:`Rows` inputs make the run
+            pointwise (see "Any element count: pointwise kernels" in the module docstring):
+            any count, split over blocks of rows that fit the device.
         outputs : sequence of (shape, dtype) or DeviceArray
             Shapes and dtypes of the read_write buffers at ``k .. k+m-1``
-            (zero-initialised), or existing buffers.
+            (zero-initialised), or existing buffers. With :class:`Rows` inputs, (shape, dtype)
+            whose first axis is the count.
         params : numpy.ndarray, optional
             Structured scalar or 1-element array bound as the uniform at ``k+m``.
         count : int, optional
             Number of invocations; default: first axis of the first output.
         timestamps : bool
-            Also return the GPU time of the compute pass.
+            Also return the GPU time of the compute pass (of all blocks' passes).
+        block_rows : int, optional
+            With :class:`Rows` inputs: at most this many rows a block (default: as many as
+            :meth:`plan_rows` allows).
 
         Returns
         -------
         list of numpy.ndarray or (list of numpy.ndarray, float)
             Outputs with the requested shapes and dtypes; with ``timestamps``,
             also the pass duration in seconds (0.0 when nothing was dispatched).
+
+        Raises
+        ------
+        ValueError
+            Before anything is uploaded or any row made: a count beyond one dispatch
+            (:meth:`dispatch_limit`) or an array beyond a buffer
+            (:func:`~wgbragg.gpu.device.max_buffer_bytes`) without :class:`Rows`; with them,
+            one row or a shared input beyond a buffer; outputs whose first axis is not the
+            count. Each names the input or output and the limit.
         """
         self._check_arity(inputs, outputs, params)
         n = self._count(outputs, count)
+        if any(isinstance(a, Rows) for a in inputs):
+            return self._run_rows(inputs, outputs, params, n, timestamps, block_rows)
         if n == 0:
             # wgpu rejects zero-size buffers; nothing would run anyway.
             empty = _zero_outputs(outputs)
@@ -468,6 +623,60 @@ class Kernel:
             return submit([dispatch], read=dispatch.outputs)
         seconds = pass_timings([dispatch], 1)[0][0]
         return submit([], read=dispatch.outputs), seconds
+
+    def _run_rows(self, inputs, outputs, params, n: int, timestamps: bool,
+                  block_rows: int | None):
+        """:meth:`run` with :class:`Rows` inputs: blocks of rows streamed through buffers
+        reused across blocks, into host outputs allocated first."""
+        specs = []
+        for i, output in enumerate(outputs):
+            if isinstance(output, DeviceArray):
+                raise TypeError(f"{self.source.name}: output {i}: a run with gpu.Rows inputs "
+                                "writes new host outputs; give (shape, dtype)")
+            shape, dtype = output
+            shape = (int(shape),) if isinstance(shape, int | np.integer) else tuple(shape)
+            if not shape or shape[0] != n:
+                raise ValueError(f"{self.source.name}: output {i}: the first axis of shape "
+                                 f"{shape} must be the count {n} (one row an invocation)")
+            specs.append((shape, _check_dtype(dtype, f"output {i}")))
+        if n == 0:
+            empty = [np.zeros(shape, dtype) for shape, dtype in specs]
+            return (empty, 0.0) if timestamps else empty
+        rows = self.plan_rows(inputs, specs, n, block_rows)
+        # Everything that can be refused has been: allocate, then work.
+        host = [np.empty(shape, dtype) for shape, dtype in specs]
+        shared = {i: self._input(i, a) for i, a in enumerate(inputs) if not isinstance(a, Rows)}
+        streamed = {i: DeviceArray.empty((rows, *a.row_shape), a.dtype)
+                    for i, a in enumerate(inputs) if isinstance(a, Rows)}
+        device_out = [DeviceArray.empty((rows, *shape[1:]), dtype) for shape, dtype in specs]
+        uniform = None if params is None else self._uniform(params)
+        seconds = 0.0
+        for start in range(0, n, rows):
+            stop = min(start + rows, n)
+            resources, sizes = [], []
+            for i, a in enumerate(inputs):
+                if i in shared:
+                    resources.append(shared[i].resource)
+                    sizes.append(None)
+                    continue
+                data = a.block(start, stop, f"{self.source.name}: input {i}")
+                self._device.queue.write_buffer(streamed[i].resource, 0, _as_bytes(data, "", 4))
+                resources.append(streamed[i].resource)
+                sizes.append(_padded_size(data.nbytes))
+            views = tuple(DeviceArray(o.resource, (stop - start, *o.shape[1:]), o.dtype, False)
+                          for o in device_out)
+            resources += [v.resource for v in views]
+            sizes += [_padded_size(v.nbytes) for v in views]
+            dispatch = Dispatch(self, views, stop - start, self._grid(stop - start),
+                                self._bind_group(resources, uniform, sizes))
+            if timestamps:
+                seconds += pass_timings([dispatch], 1)[0][0]
+                parts = submit([], read=views)
+            else:
+                parts = submit([dispatch], read=views)
+            for target, part in zip(host, parts, strict=True):
+                target[start:stop] = part
+        return (host, seconds) if timestamps else host
 
     def benchmark(
         self,
@@ -501,6 +710,21 @@ class Kernel:
         return benchmark([self.bind(inputs, outputs, params, count=count)], repeats)[0]
 
 
+def _spec_rows(output) -> int:
+    """First axis of an output given as (shape, dtype)."""
+    shape = output[0]
+    if isinstance(shape, int | np.integer):
+        return int(shape)
+    return int(shape[0]) if len(shape) else 1
+
+
+def _spec_bytes(output, i: int) -> int:
+    """Bytes of an output given as (shape, dtype)."""
+    shape, dtype = output
+    shape = (int(shape),) if isinstance(shape, int | np.integer) else tuple(shape)
+    return math.prod(shape) * _check_dtype(dtype, f"output {i}").itemsize
+
+
 def _zero_outputs(
     outputs: Sequence[tuple[tuple[int, ...] | int, Any] | DeviceArray],
 ) -> list[np.ndarray]:
@@ -511,6 +735,65 @@ def _zero_outputs(
         else np.zeros(o[0], _check_dtype(o[1], f"output {i}"))
         for i, o in enumerate(outputs)
     ]
+
+
+# --------------------------------------------------------------------------- streamed inputs
+
+
+@dataclasses.dataclass(frozen=True)
+class Rows:
+    """A per-invocation input of a pointwise :meth:`Kernel.run`, made a block of rows at a
+    time.
+
+    Row ``i`` is what invocation ``i`` reads (``array<T>`` element ``i``; a trailing
+    ``row_shape`` for vector or struct elements, e.g. ``(8,)`` float32 for two ``vec4``).
+    :meth:`Kernel.run` calls ``make(start, stop)`` for the rows of each block, in order, and
+    uploads them; the rows of the whole count never exist at once (see "Any element count:
+    pointwise kernels" in the module docstring).
+
+    Attributes
+    ----------
+    make : callable
+        ``make(start, stop)`` returns rows ``start .. stop - 1``: shape
+        ``(stop - start, *row_shape)``, dtype ``dtype`` (not cast: convert explicitly).
+    row_shape : tuple of int
+        Shape of one row beyond the first axis.
+    dtype : numpy.dtype
+        One the harness allows (see the module docstring).
+    """
+
+    make: Callable[[int, int], np.ndarray]
+    row_shape: tuple[int, ...] = ()
+    dtype: Any = np.float32
+
+    def __post_init__(self):
+        object.__setattr__(self, "row_shape", tuple(int(n) for n in self.row_shape))
+        object.__setattr__(self, "dtype", _check_dtype(self.dtype, "Rows"))
+
+    @classmethod
+    def of(cls, array: np.ndarray) -> Rows:
+        """The rows of an array already on the host (its first axis)."""
+        array = np.asarray(array)
+        if array.ndim == 0:
+            raise ValueError("Rows.of takes an array with a first axis (one row an invocation)")
+        return cls(lambda start, stop: array[start:stop], array.shape[1:], array.dtype)
+
+    @property
+    def row_bytes(self) -> int:
+        """Bytes of one row."""
+        return math.prod(self.row_shape) * self.dtype.itemsize
+
+    def block(self, start: int, stop: int, what: str = "Rows") -> np.ndarray:
+        """Rows ``start .. stop - 1`` from :attr:`make`, checked."""
+        data = np.asarray(self.make(start, stop))
+        want = (stop - start, *self.row_shape)
+        if data.shape != want:
+            raise ValueError(f"{what}: make({start}, {stop}) returned shape {data.shape}, "
+                             f"expected {want}")
+        if data.dtype.newbyteorder("=") != self.dtype.newbyteorder("="):
+            raise TypeError(f"{what}: make({start}, {stop}) returned dtype {data.dtype}, "
+                            f"expected {self.dtype}; convert explicitly")
+        return data
 
 
 # --------------------------------------------------------------------------- chained dispatches
@@ -671,7 +954,8 @@ def _stage(encoder: Any, arrays: Sequence[DeviceArray]) -> list[Any]:
     for array in arrays:
         if array.is_texture:
             raise TypeError("textures are kernel inputs only and cannot be read back")
-        size = array.resource.size
+        # The array's bytes (a view of a block may be shorter than its buffer).
+        size = min(_padded_size(array.nbytes), array.resource.size)
         buffer = device.create_buffer(
             size=size, usage=wgpu.BufferUsage.MAP_READ | wgpu.BufferUsage.COPY_DST
         )

@@ -122,7 +122,7 @@ PARAMS_DTYPE = gpu.struct_dtype([
     *_CAMERA_FIELDS, *_ENVIRONMENT_FIELDS,
     ("_p0", "u32"), ("count", "u32"), ("width", "u32"), ("point_lights", "u32"),
     ("area_lights", "u32"), ("epsilon", "f32"), ("seed", "u32"), ("samples", "u32"),
-    ("triangles", "u32"), ("spheres", "u32"), ("planes", "u32"), ("_p1", "u32"),
+    ("triangles", "u32"), ("spheres", "u32"), ("planes", "u32"), ("first", "u32"),
 ])
 """``Params`` of render/renderer.wgsl (its nested Camera and Environment flattened: both are 16-byte
 aligned with sizes that are multiples of 16, so the offsets agree)."""
@@ -832,7 +832,8 @@ def _unit(vector: np.ndarray) -> np.ndarray:
 def scene_params(scene: Scene, width: int, height: int, geometry: PackedGeometry,
                  seed: int) -> np.ndarray:
     """The ``Params`` uniform (:data:`PARAMS_DTYPE`) of a ``width`` x ``height`` image of the
-    scene, whose packed geometry is ``geometry``; ``samples`` is left 0."""
+    scene, whose packed geometry is ``geometry``; ``samples`` and ``first`` (the first pixel
+    of a range dispatch) are left 0."""
     cam = scene.camera
     origin = np.asarray(cam.position, np.float64)
     forward = _unit(np.asarray(cam.look_at, np.float64) - origin)
@@ -841,6 +842,12 @@ def scene_params(scene: Scene, width: int, height: int, geometry: PackedGeometry
     half = math.tan(math.radians(cam.fov_deg) / 2.0)
     params = np.zeros((), PARAMS_DTYPE)
     params["origin"], params["forward"] = origin, forward
+    # fov_deg is the vertical field of view of the scene's own frame (settings.size). An image
+    # narrower than that frame keeps its horizontal field of view instead, so the whole frame
+    # stays in view (a 4:3 preset at 1:1 shows more above and below, not less at the sides).
+    frame_width, frame_height = scene.settings.size
+    if width * frame_height < frame_width * height:
+        half *= frame_width * height / (frame_height * width)
     params["right"] = right * half * width / height
     params["up"] = up * half
     params["width_f"], params["height_f"] = width, height

@@ -120,8 +120,8 @@ from wgbragg.scene.model import (
     Scene,
 )
 
-__all__ = ["LIGHT_SAMPLING", "MAX_BOUNCES", "PATHS_PER_DISPATCH", "Renderer", "WorldGeometry",
-           "check_size", "max_lights"]
+__all__ = ["LIGHT_SAMPLING", "MAX_BOUNCES", "PATHS_PER_DISPATCH", "PROBE_PATHS", "SLICE_SECONDS",
+           "PassPlan", "Renderer", "TimeBudget", "WorldGeometry", "check_size", "max_lights"]
 
 WORKGROUP_SIZE = 64
 MAX_BOUNCES = 8
@@ -130,6 +130,16 @@ PATHS_PER_DISPATCH = 65536
 """Paths a submission of :meth:`Renderer.render` traces at least, for an image of at least 2
 pixels (one pixel takes :data:`wgbragg.gpu.SAFE_LOOP_ITERATIONS` samples a submission: the
 kernel that sums them loops over them in one invocation)."""
+PROBE_PATHS = 1024
+"""Paths of the first dispatch of :meth:`Renderer.render` with ``seconds`` when its cost per path
+is not known yet: the probe whose measured time plans the others (16 workgroups; at most a few
+tens of ms for the heaviest scenes on lavapipe)."""
+SLICE_SECONDS = 0.25
+"""Most seconds :meth:`Renderer.render` with ``seconds`` plans for one dispatch, so that a pass
+over a large image is split over pixel ranges and progress (and the end) follow the clock."""
+FILL = 0.5
+"""Share of the time left that :class:`TimeBudget` plans the next dispatch for: it ends in time
+even when the dispatch costs up to 1 / FILL times what the last one measured per path."""
 _SECONDS_BAR = "{desc}: {n:.1f}/{total:.1f} s |{bar}| {postfix}"
 _IBL_CODES = {"monte-carlo": 0, "split-sum": 1, "kneiphof": 2}
 # The accumulation buffer's vec4<f32> a pixel: the largest per-pixel storage buffer.
@@ -259,6 +269,126 @@ def check_size(size) -> tuple[int, int]:
     return int(size[0]), int(size[1])
 
 
+@dataclasses.dataclass(frozen=True)
+class PassPlan:
+    """One dispatch of :meth:`Renderer.render`: pixels ``first .. first + count - 1`` (in
+    row-major order) take ``samples`` paths each."""
+
+    first: int
+    count: int
+    samples: int
+
+    @property
+    def paths(self) -> int:
+        """Paths the dispatch traces."""
+        return self.count * self.samples
+
+
+class TimeBudget:
+    """The dispatches of :meth:`Renderer.render` with ``seconds``, planned from their measured
+    time.
+
+    The first dispatch is a probe of :data:`PROBE_PATHS` paths, unless a cost per path is
+    known (``seconds_per_path``, measured by an earlier call). Each later one is planned for
+    ``min(SLICE_SECONDS, FILL x (seconds - elapsed))`` at the cost per path the last
+    dispatch measured (its wall time, submission and readback included, over its paths),
+    and at most 4 times the paths of the last one; planning stops once the time left is
+    less than the shortest dispatch measured (no dispatch is quicker) or than a workgroup's
+    paths (64). So the render ends within ``seconds`` plus the probe (or plus the first
+    dispatch), whatever the image size, as long as a dispatch costs at most ``1 / FILL``
+    times per path what the one before it measured.
+
+    A dispatch covers the whole image with up to ``batch`` samples a pixel when the pixel
+    cursor is at 0 and it affords that, else one sample a pixel over the next range of pixels
+    from the cursor (to the image's end at most; the cursor then wraps to 0): a pass over a
+    large image is split into ranges, and pixels before the cursor hold one sample more than
+    the others (:meth:`Renderer.sample_counts`).
+
+    Parameters
+    ----------
+    seconds : float
+        Wall-clock budget (> 0).
+    pixels : int
+        Pixels of the image (>= 1).
+    batch : int
+        Most samples a pixel one dispatch takes (>= 1).
+    cursor : int
+        First pixel of the next range (0: every pixel has the same count).
+    seconds_per_path : float, optional
+        A cost per path measured before; None: probe first.
+
+    Attributes
+    ----------
+    cursor : int
+        The pixel cursor after the dispatches recorded so far.
+    seconds_per_path : float or None
+        The last measured cost per path.
+    """
+
+    MIN_PATHS = 64
+    """Fewest paths planned after the first dispatch: one workgroup."""
+    GROWTH = 4
+    """Most paths a dispatch plans, over the last one's."""
+
+    def __init__(self, seconds: float, pixels: int, batch: int, cursor: int = 0,
+                 seconds_per_path: float | None = None):
+        self.seconds = float(seconds)
+        self.pixels = int(pixels)
+        self.batch = int(batch)
+        self.cursor = int(cursor)
+        self.seconds_per_path = seconds_per_path
+        self._last_paths: int | None = None
+        # The shortest dispatch measured: none takes less (the fixed cost of a submission).
+        self._quickest = math.inf
+        self._started = False
+
+    def _shape(self, paths: int) -> PassPlan:
+        """The dispatch of about ``paths`` paths (at least one) from the cursor."""
+        paths = max(1, paths)
+        if self.cursor == 0 and paths >= self.pixels:
+            return PassPlan(0, self.pixels, min(self.batch, paths // self.pixels))
+        return PassPlan(self.cursor, min(paths, self.pixels - self.cursor), 1)
+
+    def next(self, elapsed: float) -> PassPlan | None:
+        """The next dispatch, or None when the time is spent.
+
+        Parameters
+        ----------
+        elapsed : float
+            Seconds since the render began.
+        """
+        if not self._started:
+            self._started = True
+            paths = PROBE_PATHS
+            if self.seconds_per_path is not None:
+                paths = max(paths, self._affordable(elapsed))
+            return self._shape(paths)
+        left = self.seconds - elapsed
+        if left <= self._quickest or self.seconds_per_path is None:
+            return None
+        paths = self._affordable(elapsed)
+        if self._last_paths is not None:
+            paths = min(paths, self.GROWTH * self._last_paths)
+        if paths < self.MIN_PATHS:
+            return None
+        return self._shape(paths)
+
+    def _affordable(self, elapsed: float) -> int:
+        """Paths that fit the next dispatch's share of the time left, at the last cost."""
+        budget = min(SLICE_SECONDS, FILL * (self.seconds - elapsed))
+        if budget <= 0.0:
+            return 0
+        return int(min(budget / self.seconds_per_path, self.pixels * self.batch))
+
+    def record(self, plan: PassPlan, seconds: float) -> None:
+        """Take a dispatch's measured wall time; advance the cursor past its pixels."""
+        self.seconds_per_path = max(float(seconds), 1e-9) / plan.paths
+        self._last_paths = plan.paths
+        self._quickest = min(self._quickest, float(seconds))
+        if plan.count < self.pixels:
+            self.cursor = (plan.first + plan.count) % self.pixels
+
+
 class Renderer:
     """A scene uploaded to the device, ready to render progressively.
 
@@ -305,7 +435,10 @@ class Renderer:
     Attributes
     ----------
     passes : int
-        Samples per pixel accumulated so far.
+        Samples every pixel holds so far (complete passes). :meth:`render` with ``seconds``
+        may end inside a pass: the pixels of its last ranges then hold one sample more
+        (:meth:`sample_counts`), :meth:`image` divides each pixel by its own count, and the
+        next :meth:`render` call continues the pass from there.
     table_seconds : float
         Wall-clock time the last :meth:`update` (or the constructor) spent building the layered
         materials' tables (transmissivity tables, reflectance LUTs, and the filter of a
@@ -401,6 +534,8 @@ class Renderer:
         self._constants = constants
         self._kernel = gpu.compute_pipeline("render/renderer.wgsl", "render", constants)
         self._params = self._make_params()
+        # Cost of a path measured by render(seconds=...), for the next call's plan.
+        self._seconds_per_path = None
         self.reset()
 
     def _options(self, scene: Scene, mode: str | None, colour_method: str | None,
@@ -431,6 +566,9 @@ class Renderer:
                                             np.zeros(self._accum.shape, np.float32))
         self._dispatches = {}
         self.passes = 0
+        # First pixel of the next range of a pass split by render(seconds=...): pixels before
+        # it hold passes + 1 samples.
+        self._cursor = 0
 
     @staticmethod
     def _geometry(scene: Scene):
@@ -604,9 +742,36 @@ class Renderer:
             f"({len(self.scene.lights)}), the BVH traversals ({self.triangles} triangles) and "
             "in-kernel layer colours (period maps): lower them")
 
+    def _range_dispatches(self, plan: PassPlan) -> list:
+        """The render and accumulate dispatches of a range of pixels (not cached: ranges
+        vary)."""
+        params = self._params.copy()
+        params["samples"], params["count"], params["first"] = (plan.samples, plan.count,
+                                                               plan.first)
+        accumulate = gpu.compute_pipeline("render/renderer.wgsl", "accumulate", self._constants)
+        outputs = [self._accum, self._paths, self._loops_cut]
+        return [self._kernel.bind(self._inputs, outputs, params, count=plan.paths),
+                accumulate.bind(self._inputs, outputs, params, count=plan.count)]
+
     def _add_samples(self, samples: int) -> None:
-        gpu.submit([self._dispatch("render", samples), self._dispatch("accumulate", samples)])
-        self.passes += samples
+        self._add(PassPlan(0, self.width * self.height, samples), cache=True)
+
+    def _add(self, plan: PassPlan, cache: bool = False) -> None:
+        """Run one planned dispatch: the whole image, or a range of pixels from the cursor.
+        Whole-image dispatches of ``batch`` samples (or any, with ``cache``) are bound once
+        and kept; the others vary and are bound each time."""
+        pixels = self.width * self.height
+        if plan.count == pixels and (cache or plan.samples == self._batch):
+            dispatches = [self._dispatch("render", plan.samples),
+                          self._dispatch("accumulate", plan.samples)]
+        else:
+            dispatches = self._range_dispatches(plan)
+        gpu.submit(dispatches)
+        if plan.count == pixels:
+            self.passes += plan.samples
+        else:
+            self._cursor = (plan.first + plan.count) % pixels
+            self.passes += int(self._cursor == 0)
         # The flag's readback waits for the submission, so that progress and timing follow
         # the GPU.
         flag = gpu.get_device().queue.read_buffer(self._loops_cut.resource, 0, 4)
@@ -621,6 +786,13 @@ class Renderer:
         dominate; an image of ``PATHS_PER_DISPATCH`` pixels or more takes one sample per pixel
         per submission, the unit of progressive display.
 
+        With ``seconds``, dispatches are planned from their measured time
+        (:class:`TimeBudget`): a probe of :data:`PROBE_PATHS` paths first, then dispatches of
+        at most :data:`SLICE_SECONDS` each, over ranges of pixels when a whole pass would take
+        longer, so that the call ends within ``seconds`` plus that small probe for any image
+        size. It may end inside a pass (see :attr:`passes`); the image after n samples of a
+        pixel does not depend on how they were added.
+
         Parameters
         ----------
         spp : int, optional
@@ -628,8 +800,8 @@ class Renderer:
         progress : bool
             Show a tqdm progress bar.
         seconds : float, optional
-            Instead of ``spp``: add samples until this much wall-clock time has passed
-            (> 0, finite); at least one dispatch runs.
+            Instead of ``spp``: add samples for this much wall-clock time (> 0, finite); at
+            least one dispatch (the probe) runs.
 
         Returns
         -------
@@ -658,17 +830,19 @@ class Renderer:
         return self.image()
 
     def _add_for(self, seconds: float, progress: bool) -> None:
-        """Add samples, a submission at a time, until ``seconds`` have passed (at least one)."""
+        """Add samples in the dispatches a :class:`TimeBudget` of ``seconds`` plans."""
         start = time.perf_counter()
+        budget = TimeBudget(seconds, self.width * self.height, self._batch, self._cursor,
+                            self._seconds_per_path)
         with tqdm(total=round(float(seconds), 1), desc="render", unit="s",
                   disable=not progress, bar_format=_SECONDS_BAR) as bar:
-            while True:
-                self._add_samples(self._batch)
-                elapsed = time.perf_counter() - start
-                bar.n = round(min(elapsed, seconds), 1)
+            while (plan := budget.next(time.perf_counter() - start)) is not None:
+                begun = time.perf_counter()
+                self._add(plan)
+                budget.record(plan, time.perf_counter() - begun)
+                self._seconds_per_path = budget.seconds_per_path
+                bar.n = round(min(time.perf_counter() - start, seconds), 1)
                 bar.set_postfix(spp=self.passes, refresh=True)
-                if elapsed >= seconds:
-                    break
 
     def _add_spp(self, spp: int, progress: bool) -> None:
         """Add ``spp`` samples per pixel, up to a submission's batch at a time."""
@@ -681,14 +855,28 @@ class Renderer:
                 bar.update(samples)
 
     def image(self) -> np.ndarray:
-        """The running mean of the passes so far (zeros before the first).
+        """The running mean of each pixel's samples so far (zeros before the first).
+
+        Each pixel is divided by its own sample count (``accum.w``), which is :attr:`passes`,
+        or one more for the pixels of a pass that :meth:`render` with ``seconds`` left
+        unfinished.
 
         Returns
         -------
         numpy.ndarray, shape (height, width, 3), float32
         """
         total = self._accum.read()
-        return (total[:, :3] / max(self.passes, 1)).reshape(self.height, self.width, 3)
+        return (total[:, :3] / np.maximum(total[:, 3:], 1.0)).reshape(self.height, self.width, 3)
+
+    def sample_counts(self) -> np.ndarray:
+        """Samples each pixel holds: :attr:`passes`, or one more before the cursor of a pass
+        that :meth:`render` with ``seconds`` left unfinished.
+
+        Returns
+        -------
+        numpy.ndarray, shape (height, width), int64
+        """
+        return self._accum.read()[:, 3].astype(np.int64).reshape(self.height, self.width)
 
     def primary_hits(self) -> tuple[np.ndarray, np.ndarray]:
         """Closest hits of the pixel-centre camera rays, traced on the GPU.

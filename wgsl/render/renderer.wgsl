@@ -84,7 +84,7 @@ struct Params {
     camera: Camera,
     environment: Environment,
     _pad0: u32,
-    count: u32,           // pixels
+    count: u32,           // pixels: the image's, or those of a render / accumulate range
     width: u32,
     point_lights: u32,
     area_lights: u32,
@@ -95,7 +95,7 @@ struct Params {
     triangles: u32,       // primitives: triangles, spheres, planes, then area lights
     spheres: u32,
     planes: u32,
-    _pad1: u32,
+    first: u32,           // first pixel of a render / accumulate range (0: the whole image)
 }
 
 @group(0) @binding(0) var<storage, read> vertices: array<vec4<f32>>;
@@ -595,10 +595,12 @@ fn report_cut_loops() {
     }
 }
 
-// One path per invocation: pixel index % count, the pixel's sample (its count so far in
-// accum.w) plus index / count. Looping over samples in one invocation would be cheaper, but
-// llvmpipe ends a loop after 65535 iterations counted over the whole invocation, and BVH
-// traversals add up to thousands a path.
+// One path per invocation: pixel first + index % count (a range of count pixels from first,
+// the whole image by default), the pixel's sample (its count so far in accum.w) plus
+// index / count. The random numbers depend on the pixel and the sample only, so an image of n
+// samples a pixel is the same however its dispatches split the pixels and the samples. Looping
+// over samples in one invocation would be cheaper, but llvmpipe ends a loop after 65535
+// iterations counted over the whole invocation, and BVH traversals add up to thousands a path.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render(@builtin(global_invocation_id) gid: vec3<u32>,
           @builtin(num_workgroups) nwg: vec3<u32>) {
@@ -606,7 +608,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>,
     if (index >= params.count * params.samples) {
         return;
     }
-    let pixel_index = index % params.count;
+    let pixel_index = params.first + index % params.count;
     let sample = u32(accum[pixel_index].w) + index / params.count;
     var state = pcg_hash(pixel_index ^ pcg_hash(sample ^ pcg_hash(params.seed)));
     let pixel = vec2<f32>(f32(pixel_index % params.width) + random(&state),
@@ -619,7 +621,7 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>,
     report_cut_loops();
 }
 
-// Each pixel's paths of a render dispatch added to its running sum.
+// Each pixel's paths of a render dispatch (of the same range) added to its running sum.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn accumulate(@builtin(global_invocation_id) gid: vec3<u32>,
               @builtin(num_workgroups) nwg: vec3<u32>) {
@@ -631,7 +633,7 @@ fn accumulate(@builtin(global_invocation_id) gid: vec3<u32>,
     for (var k = 0u; k < params.samples; k++) {
         total += paths[index + k * params.count];
     }
-    accum[index] += vec4<f32>(total, f32(params.samples));
+    accum[params.first + index] += vec4<f32>(total, f32(params.samples));
     report_cut_loops();
 }
 
