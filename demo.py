@@ -11,7 +11,10 @@ a dielectric or metal base; alpha), which ``--scene thin_film`` opens on. Drag t
 orbit, scroll to zoom; every edit restarts the accumulation.
 
 ``python demo.py --offscreen --spp 64 -o demo.png`` renders the same window without a display
-and prints the image's path (also what happens when no display is found).
+and prints the image's path (also what happens when no display is found); with ``--denoise`` it
+also writes the window with the picture denoised (the panel's toggle, same samples) beside it,
+as ``demo.denoised.png``. The window denoises full-size frames of more than 4 spp by default
+(``--no-denoise`` starts with the toggle off).
 """
 
 from __future__ import annotations
@@ -20,11 +23,12 @@ import argparse
 import os
 import sys
 import time
+from pathlib import Path
 
 from PIL import Image
 
-from wgbragg.app.viewer import Viewer
-from wgbragg.common.atomic import atomic_path
+from wgbragg.app.viewer import DENOISE_AFTER_SPP, Viewer
+from wgbragg.common.atomic import atomic_path, check_output_path
 from wgbragg.scene import MODES, PRESETS, load_preset, load_scene
 
 
@@ -45,7 +49,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("-o", "--output", default="out/demo.png",
                         help="offscreen: the PNG to write (default out/demo.png)")
     parser.add_argument("--size", type=_size, default=(256, 256),
-                        help="WIDTHxHEIGHT of the render in pixels (default 256x256)")
+                        help="WIDTHxHEIGHT of the render in pixels (default 256x256); the "
+                             "scene's whole frame stays in view at any aspect ratio")
     parser.add_argument("--scene", default="teapot",
                         help=f"a preset ({', '.join(PRESETS)}) or a scene file with a "
                              "layered-bragg or thin-film material (default teapot)")
@@ -54,18 +59,34 @@ def main(argv: list[str] | None = None) -> int:
                              "absolute paths, symlinks to elsewhere); refused by default")
     parser.add_argument("--mode", choices=MODES, default=None,
                         help="light transport (default: the scene's)")
+    parser.add_argument("--denoise", action=argparse.BooleanOptionalAction, default=None,
+                        help="the window: start with the denoise toggle on (default) or off; "
+                             "offscreen: also write the denoised picture as NAME.denoised.png "
+                             f"(needs --spp > {DENOISE_AFTER_SPP}; default off)")
     args = parser.parse_args(argv)
     offscreen = args.offscreen
     if not offscreen and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         print("demo.py: no display (DISPLAY, WAYLAND_DISPLAY): rendering offscreen",
               file=sys.stderr)
         offscreen = True
+    denoised_output = None
     try:
         if args.spp < 1:
             raise ValueError(f"--spp must be >= 1, got {args.spp}")
+        if offscreen:
+            check_output_path(args.output, "--output", ".png")
+            if args.denoise:
+                if args.spp <= DENOISE_AFTER_SPP:
+                    raise ValueError(f"--denoise needs --spp > {DENOISE_AFTER_SPP} (fewer "
+                                     f"samples are shown raw), got {args.spp}")
+                output = Path(args.output)
+                denoised_output = output.with_name(f"{output.stem}.denoised{output.suffix}")
+                check_output_path(denoised_output, "--output (denoised)", ".png")
         scene = (load_preset(args.scene) if args.scene in PRESETS
                  else load_scene(args.scene, allow_outside=args.allow_outside_paths))
-        viewer = Viewer(scene, size=args.size, mode=args.mode)
+        # Offscreen, the first picture is the raw one; the denoised one follows.
+        viewer = Viewer(scene, size=args.size, mode=args.mode,
+                        denoise=not offscreen and args.denoise is not False)
     except (ValueError, OSError) as error:
         parser.error(str(error))
     # Imported here: the window needs imgui and rendercanvas, the checks above do not.
@@ -82,12 +103,21 @@ def main(argv: list[str] | None = None) -> int:
         window.draw()  # Dear ImGui places some widgets (the layer tabs) from its second frame
     frame = window.capture()  # each frame adds a sample
     seconds = time.perf_counter() - start
+    frames = [(args.output, frame)]
+    if denoised_output is not None:
+        viewer.denoise = True
+        frames.append((denoised_output, window.capture(sample=False)))
     window.close()
-    with atomic_path(args.output) as temporary:
-        Image.fromarray(frame, "RGB").save(temporary, format="PNG")
+    for path, pixels in frames:
+        with atomic_path(path) as temporary:
+            Image.fromarray(pixels, "RGB").save(temporary, format="PNG")
     width, height = viewer.size
-    print(f"demo.py: {width}x{height}, {viewer.passes} spp in {seconds:.1f} s", file=sys.stderr)
-    print(args.output)
+    denoised = (f", denoised in {viewer.budgets.denoise_ms / 1e3:.2f} s"
+                if denoised_output is not None else "")
+    print(f"demo.py: {width}x{height}, {viewer.passes} spp in {seconds:.1f} s{denoised}",
+          file=sys.stderr)
+    for path, _ in frames:
+        print(path)
     return 0
 
 

@@ -132,6 +132,7 @@ def test_unknown_preset_raises():
         jewel_beetle("blue")
 
 
+@pytest.mark.gpu  # the command's default backend
 def test_cli_scatterogram(tmp_path, capsys):
     out = tmp_path / "beetle.png"
     assert cli.main(["scatterogram", "--preset", "green", "--size", "32", "-o", str(out)]) == 0

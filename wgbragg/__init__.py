@@ -40,24 +40,34 @@ Public API (units: nm and radians, angles in the host medium)::
 The subpackages are layers, each importing only from those below it: ``common`` (validation,
 atomic files, EXR, LUT store, sampling, metrics) < ``gpu`` < ``optics`` < ``colour`` < ``bsdf``
 < ``lighting`` < ``scene`` < ``render`` < ``app`` (CLI, demo window, figures).
+
+``import wgbragg`` is light: each public name above is imported on first use (PEP 562), so a
+program pays for wgpu, colour-science or scipy only when it uses what needs them.
 """
 
-from wgbragg import optics
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
 from wgbragg._version import __version__
-from wgbragg.bsdf import microfacet
-from wgbragg.bsdf.layered.model import LayeredBragg
-from wgbragg.bsdf.materials import BraggMirror, ThinFilm
-from wgbragg.bsdf.rough_layer import RoughBraggLayer
-from wgbragg.bsdf.rough_thin_film import RoughThinFilm
-from wgbragg.bsdf.transmission_filter import TransmissionFilter
-from wgbragg.common.exr import read_exr, write_exr
-from wgbragg.common.metrics import smape
-from wgbragg.common.sampling import ShiftedPoints
-from wgbragg.lighting import ibl
-from wgbragg.lighting.environment_map import EnvironmentMap
-from wgbragg.lighting.environment_prefilter import prefilter_environment
-from wgbragg.render import Renderer, save_png
-from wgbragg.scene import load_preset, load_scene
+
+if TYPE_CHECKING:  # what type checkers and editors see; at run time __getattr__ imports them
+    from wgbragg import optics
+    from wgbragg.bsdf import microfacet
+    from wgbragg.bsdf.layered.model import LayeredBragg
+    from wgbragg.bsdf.materials import BraggMirror, ThinFilm
+    from wgbragg.bsdf.rough_layer import RoughBraggLayer
+    from wgbragg.bsdf.rough_thin_film import RoughThinFilm
+    from wgbragg.bsdf.transmission_filter import TransmissionFilter
+    from wgbragg.common.exr import read_exr, write_exr
+    from wgbragg.common.metrics import smape
+    from wgbragg.common.sampling import ShiftedPoints
+    from wgbragg.lighting import ibl
+    from wgbragg.lighting.environment_map import EnvironmentMap
+    from wgbragg.lighting.environment_prefilter import prefilter_environment
+    from wgbragg.render import Renderer, save_png
+    from wgbragg.scene import load_preset, load_scene
 
 __all__ = [
     "BraggMirror",
@@ -81,3 +91,45 @@ __all__ = [
     "smape",
     "write_exr",
 ]
+
+_HOMES = {
+    "BraggMirror": "wgbragg.bsdf.materials",
+    "EnvironmentMap": "wgbragg.lighting.environment_map",
+    "LayeredBragg": "wgbragg.bsdf.layered.model",
+    "Renderer": "wgbragg.render",
+    "RoughBraggLayer": "wgbragg.bsdf.rough_layer",
+    "RoughThinFilm": "wgbragg.bsdf.rough_thin_film",
+    "ShiftedPoints": "wgbragg.common.sampling",
+    "ThinFilm": "wgbragg.bsdf.materials",
+    "TransmissionFilter": "wgbragg.bsdf.transmission_filter",
+    "load_preset": "wgbragg.scene",
+    "load_scene": "wgbragg.scene",
+    "prefilter_environment": "wgbragg.lighting.environment_prefilter",
+    "read_exr": "wgbragg.common.exr",
+    "save_png": "wgbragg.render",
+    "smape": "wgbragg.common.metrics",
+    "write_exr": "wgbragg.common.exr",
+}
+"""The module each public name of the package comes from."""
+
+_MODULES = {"ibl": "wgbragg.lighting.ibl", "microfacet": "wgbragg.bsdf.microfacet",
+            "optics": "wgbragg.optics"}
+"""Public names that are modules."""
+
+
+def __getattr__(name: str):
+    """Import a public name on first use (PEP 562): ``import wgbragg`` itself stays light, so
+    that the command line starts fast and a command imports only what it runs (the renderer
+    brings wgpu, the colour code colour-science and scipy)."""
+    if name in _MODULES:
+        value = importlib.import_module(_MODULES[name])
+    elif name in _HOMES:
+        value = getattr(importlib.import_module(_HOMES[name]), name)
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    globals()[name] = value  # later look-ups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

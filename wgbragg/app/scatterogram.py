@@ -13,14 +13,17 @@ import numbers
 import os
 
 import numpy as np
+from tqdm import tqdm
 
 from wgbragg.bsdf.layered.model import LayeredBragg
 from wgbragg.bsdf.materials import BraggMirror
 from wgbragg.bsdf.rough_layer import RoughBraggLayer
 from wgbragg.common.atomic import atomic_path, check_output_path
 from wgbragg.common.validation import as_float_array, check_angle, check_integer
+from wgbragg.render.display import gamut_map
 
 __all__ = [
+    "CHUNK_PIXELS",
     "CIRCLES_DEG",
     "JEWEL_BEETLE_ALPHA",
     "JEWEL_BEETLE_AREAS",
@@ -47,6 +50,10 @@ CIRCLES_DEG = (5.0, 30.0, 60.0, 90.0)
 
 SIZE_RANGE = (16, 4096)
 """Smallest and largest image side (pixels) of a scatterogram."""
+
+CHUNK_PIXELS = 4096
+"""Pixels evaluated per BRDF call: the steps of the progress bar, and a bound on the memory of
+the numpy backend's spectral integration."""
 
 
 def jewel_beetle(area: str):
@@ -93,7 +100,7 @@ def _hemisphere_directions(size: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def scatterogram(structure, theta_i=0.0, phi_i=0.0, size=256, method="single-reflection",
-                 backend="numpy") -> Scatterogram:
+                 backend="numpy", progress=False) -> Scatterogram:
     """Render the reflected hemisphere of ``structure`` lit from ``(theta_i, phi_i)``.
 
     Parameters
@@ -106,7 +113,11 @@ def scatterogram(structure, theta_i=0.0, phi_i=0.0, size=256, method="single-ref
     size : int
         Image width and height in pixels, 16 to 4096.
     method, backend : str
-        As for :meth:`LayeredBragg.brdf` (the colour is that of the spectral BRDF).
+        As for :meth:`LayeredBragg.brdf` (the colour is that of the spectral BRDF). The GPU
+        takes seconds at 256 x 256 where numpy takes minutes.
+    progress : bool
+        Show a progress bar (tqdm, on stderr) over the hemisphere's pixels, evaluated
+        :data:`CHUNK_PIXELS` at a time whether shown or not.
 
     Returns
     -------
@@ -132,16 +143,25 @@ def scatterogram(structure, theta_i=0.0, phi_i=0.0, size=256, method="single-ref
     size = check_integer("size", size, *SIZE_RANGE)
     wi = np.array([np.sin(theta) * np.cos(phi_i), np.sin(theta) * np.sin(phi_i), np.cos(theta)])
     directions, inside = _hemisphere_directions(size)
+    outgoing = directions[inside]
+    values = np.zeros((len(outgoing), 3))
+    with tqdm(total=len(outgoing), desc="scatterogram", unit="px", unit_scale=True,
+              disable=not progress) as bar:
+        for start in range(0, len(outgoing), CHUNK_PIXELS):
+            chunk = slice(start, start + CHUNK_PIXELS)
+            values[chunk] = structure.brdf(wi, outgoing[chunk], method=method, backend=backend)
+            bar.update(len(values[chunk]))
     radiance = np.zeros((size, size, 3))
-    radiance[inside] = structure.brdf(wi, directions[inside], method=method,
-                                      backend=backend) * wi[2]
+    radiance[inside] = values * wi[2]
     return Scatterogram(radiance, inside, wi)
 
 
 def _display(result: Scatterogram, exposure: float | None) -> np.ndarray:
     """sRGB in [0, 1]: scaled so the brightest channel of the brightest pixel is 1 unless an
     exposure is given (a specular peak then keeps its hue instead of clipping to white),
-    clipped, encoded; white outside the disk."""
+    brought into the gamut at constant luminance (:func:`wgbragg.render.display.gamut_map`:
+    saturated Bragg colours have negative linear sRGB channels), encoded; white outside the
+    disk."""
     import colour
 
     values = result.radiance[result.inside]
@@ -149,7 +169,7 @@ def _display(result: Scatterogram, exposure: float | None) -> np.ndarray:
         peak = values.max() if values.size else 0.0
         exposure = 1.0 / peak if peak > 0.0 else 1.0
     image = np.ones_like(result.radiance)
-    image[result.inside] = colour.cctf_encoding(np.clip(values * exposure, 0.0, 1.0))
+    image[result.inside] = colour.cctf_encoding(gamut_map(values * exposure))
     return image
 
 
@@ -164,7 +184,8 @@ def save_scatterogram(result: Scatterogram, path: str | os.PathLike, title: str 
         The PNG (suffix ``.png``); its folder is created.
     title : str, optional
     exposure : float, optional
-        Radiance scale before clipping; default: 1 / the largest channel value of the image.
+        Radiance scale before the gamut mapping; default: 1 / the largest channel value of
+        the image.
     """
     if not isinstance(result, Scatterogram):
         raise ValueError(f"result must be a Scatterogram, got {type(result).__name__}")

@@ -4,7 +4,8 @@ edited live.
 A :class:`Viewer` holds a scene, the material being edited, the camera orbit and the display
 settings; :meth:`Viewer.frame` adds one sample per pixel and every edit restarts the
 accumulation. It keeps the interactive budgets (:attr:`Viewer.budgets`), a low-resolution or
-filtered-lighting preview while :attr:`Viewer.interacting` is set, and the side panel's data.
+filtered-lighting preview while :attr:`Viewer.interacting` is set, the denoised display of
+full-resolution frames (:attr:`Viewer.denoise`) and the side panel's data.
 It has no window of its own (:mod:`wgbragg.app.viewer_window` draws it); an example and the
 preview's rules: ``docs/design.md``, "The demo".
 """
@@ -50,6 +51,9 @@ from wgbragg.scene.model import (
 
 __all__ = [
     "DEFAULT_FILM",
+    "DENOISE_AFTER_SPP",
+    "DENOISE_GROWTH",
+    "DENOISE_QUALITY",
     "FILM_COLOUR_METHOD",
     "FILM_FIELDS",
     "FILTER_BUDGET_S",
@@ -89,6 +93,16 @@ DEFAULT_FILM = ThinFilmMaterial(n_film=2.0, thickness_nm=500.0, alpha=0.08, n_ba
 """The film a scene without one starts from (that of the ``thin_film`` preset)."""
 FILM_COLOUR_METHOD = "fourier-table"
 """How the renderer colours films in RGB mode (order 3), and so the film's colour strip."""
+DENOISE_AFTER_SPP = 4
+"""Full-resolution frames of more than this many samples per pixel are shown denoised (while
+:attr:`Viewer.denoise` is on): the first few frames after an edit show the raw samples, which
+the frames' tests (and a user judging an edit's first frames) read as they are."""
+DENOISE_GROWTH = 1.25
+"""The denoised picture is renewed once the samples have grown by this factor since the last
+one (5, 7, 9, 12, 15, 19, ... spp), and shown as it was in between: denoising costs about a
+frame's time at full size, which each frame would otherwise pay."""
+DENOISE_QUALITY = "high"
+"""OIDN's filter quality for the viewer (:data:`wgbragg.render.denoise.QUALITIES`)."""
 
 # Share of a preview frame's time left to the window's own drawing when choosing the scale.
 _PREVIEW_HEADROOM = 0.75
@@ -126,6 +140,8 @@ class Budgets:
         The same for preview frames.
     preview_scale : int or None
         Resolution divisor of the last preview frame.
+    denoise_ms : float or None
+        The last denoising of a full-resolution frame (feature readback and OIDN).
     """
 
     table_ms: float | None = None
@@ -136,6 +152,7 @@ class Budgets:
     fps: float | None = None
     preview_fps: float | None = None
     preview_scale: int | None = None
+    denoise_ms: float | None = None
 
 
 @dataclasses.dataclass
@@ -311,6 +328,8 @@ class Viewer:
     preview_ibl : bool
         Preview with filtered image-based lighting (:data:`PREVIEW_IBL`) where the scene
         allows it; False previews with paths at reduced resolution.
+    denoise : bool
+        The initial :attr:`denoise`.
 
     Raises
     ------
@@ -334,13 +353,19 @@ class Viewer:
     budgets : Budgets
     last_frame : numpy.ndarray or None
         The last image returned by :meth:`frame` or :meth:`refine`.
+    denoise : bool
+        Show full-resolution frames of more than :data:`DENOISE_AFTER_SPP` samples per pixel
+        denoised (:meth:`wgbragg.render.Renderer.denoised`, renewed as :data:`DENOISE_GROWTH`
+        says); previews are never denoised. Only the display changes: the accumulation goes on.
+    denoised : bool
+        Whether :attr:`last_frame` was denoised.
     """
 
     def __init__(self, scene: Scene | str = "teapot", size: tuple[int, int] = (256, 256),
                  material: str | None = None, mode: str | None = None,
                  colour_method: str = "averaged", seed: int = 0, max_bounces: int = 8,
                  preview_scale: int | None = None, environment_path=None,
-                 preview_ibl: bool = True):
+                 preview_ibl: bool = True, denoise: bool = True):
         if isinstance(scene, str):
             scene = load_preset(scene)
         if not isinstance(scene, Scene):
@@ -358,6 +383,11 @@ class Viewer:
         self._interaction_ibl = "monte-carlo"
         self.budgets = Budgets()
         self.last_frame: np.ndarray | None = None
+        self.denoise = denoise
+        self.denoised = False
+        # (renderer, scene version, passes, denoised linear image) of the last denoising.
+        self._denoised_image: tuple | None = None
+        self._last_scale = 1
         self.scene = self._with_material(scene, self.material)
         if environment_path is None and scene.environment.type == "exr":
             environment_path = scene.environment.path
@@ -439,6 +469,16 @@ class Viewer:
     def passes(self) -> int:
         """Samples per pixel behind :attr:`last_frame`."""
         return self._last_slot.renderer.passes
+
+    @property
+    def denoise(self) -> bool:
+        return self._denoise
+
+    @denoise.setter
+    def denoise(self, value: bool) -> None:
+        if not isinstance(value, bool | np.bool_):
+            raise ValueError(f"denoise must be True or False, got {value!r}")
+        self._denoise = bool(value)
 
     @property
     def interacting(self) -> bool:
@@ -705,6 +745,20 @@ class Viewer:
         slot = self._slot(1, "monte-carlo")
         return self._show(slot, slot.renderer.render(check_count("spp", spp)), 1)
 
+    def display(self) -> np.ndarray:
+        """The image of :attr:`last_frame` shown again without adding a sample, after a display
+        setting changed (:attr:`exposure`, :attr:`denoise`).
+
+        Returns
+        -------
+        numpy.ndarray, shape (height, width, 3), uint8
+            As :meth:`frame`; None before the first frame.
+        """
+        if self.last_frame is None:
+            return None
+        slot = self._last_slot
+        return self._show(slot, slot.renderer.image(), self._last_scale)
+
     @property
     def preview_lighting(self) -> str:
         """How the preview lights the scene: :data:`PREVIEW_IBL`, or ``"monte-carlo"`` (paths)
@@ -888,13 +942,33 @@ class Viewer:
         return slot
 
     def _show(self, slot: _Slot, image: np.ndarray, scale: int) -> np.ndarray:
+        renderer = slot.renderer
+        self.denoised = (self._denoise and scale == 1 and renderer.ibl == "monte-carlo"
+                         and renderer.passes > DENOISE_AFTER_SPP)
+        if self.denoised:
+            image = self._denoised(slot)
         pixels = display_transform(image, self.exposure)
         if scale > 1:
             width, height = self.size
             pixels = np.repeat(np.repeat(pixels, scale, axis=0), scale, axis=1)[:height, :width]
-        self._last_slot = slot
+        self._last_slot, self._last_scale = slot, scale
         self.last_frame = pixels
         return pixels
+
+    def _denoised(self, slot: _Slot) -> np.ndarray:
+        """The full-resolution image denoised: renewed when the scene, the renderer or the
+        samples changed (:data:`DENOISE_GROWTH`), else the last one."""
+        renderer, passes = slot.renderer, slot.renderer.passes
+        if self._denoised_image is not None:
+            known, version, known_passes, image = self._denoised_image
+            if (known is renderer and version == slot.version
+                    and known_passes <= passes < known_passes * DENOISE_GROWTH):
+                return image
+        start = time.perf_counter()
+        image = renderer.denoised(DENOISE_QUALITY)
+        self.budgets.denoise_ms = 1e3 * (time.perf_counter() - start)
+        self._denoised_image = (renderer, slot.version, passes, image)
+        return image
 
     def _measure(self, preview: bool, scale: int, ibl: str, seconds: float,
                  pixels: int) -> None:

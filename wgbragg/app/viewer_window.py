@@ -16,6 +16,7 @@ import numpy as np
 
 from wgbragg import gpu
 from wgbragg.app.viewer import (
+    DENOISE_AFTER_SPP,
     FILM_COLOUR_METHOD,
     FILTER_BUDGET_S,
     LAYER_FIELDS,
@@ -153,6 +154,7 @@ class ViewerWindow:
         # Running mean time between frames, previews (True) and full-resolution ones (False).
         self._frame_seconds: dict[bool, float] = {}
         self._capture = False
+        self._add_sample = True
         self._captured: np.ndarray | None = None
         self._error: Exception | None = None
         self.canvas.add_event_handler(self.on_pointer, "pointer_down", "pointer_move",
@@ -188,19 +190,25 @@ class ViewerWindow:
             error, self._error = self._error, None
             raise error
 
-    def capture(self) -> np.ndarray:
+    def capture(self, sample: bool = True) -> np.ndarray:
         """Draw one frame and return what it put on the canvas.
+
+        Parameters
+        ----------
+        sample : bool
+            Add a sample per pixel, as every frame does; False shows the image so far again
+            (:meth:`wgbragg.app.viewer.Viewer.display`: after a display setting changed).
 
         Returns
         -------
         numpy.ndarray, shape (height, width, 3), uint8
             sRGB, the whole canvas (picture and panel).
         """
-        self._capture = True
+        self._capture, self._add_sample = True, bool(sample)
         try:
             self.draw()
         finally:
-            self._capture = False
+            self._capture, self._add_sample = False, True
         captured, self._captured = self._captured, None
         if captured is None:
             raise RuntimeError("the canvas drew no frame (closed, or of zero size)")
@@ -301,7 +309,9 @@ class ViewerWindow:
         viewer.interacting = (self._dragging or self._gui_active
                               or now - self._wheel_time < _WHEEL_SECONDS)
         self._last_draw, self._last_interacting = now, viewer.interacting
-        pixels = viewer.frame()
+        pixels = viewer.display() if not self._add_sample else None
+        if pixels is None:
+            pixels = viewer.frame()
         self._upload(pixels)
         texture = self._context.get_current_texture()
         canvas_width, canvas_height = texture.size[:2]
@@ -406,7 +416,10 @@ class ViewerWindow:
         imgui = self._imgui
         viewer, budgets = self.viewer, self.viewer.budgets
         width, height = viewer.size
-        imgui.text(f"{width} x {height}, {viewer.passes} spp, {viewer.mode.upper()} mode")
+        denoised = (f", denoised ({budgets.denoise_ms:.0f} ms)"
+                    if viewer.denoised and budgets.denoise_ms is not None else "")
+        imgui.text(f"{width} x {height}, {viewer.passes} spp, {viewer.mode.upper()} mode"
+                   f"{denoised}")
         imgui.separator_text("budgets (wall clock, green: met)")
         if self.fps is not None:
             self._budget_line(f"full size: {self.fps:.1f} frames/s (render "
@@ -515,6 +528,12 @@ class ViewerWindow:
                                                "%.1f EV")
         if changed:
             viewer.edit(exposure=exposure)
+        changed, denoise = imgui.checkbox(f"denoise after {DENOISE_AFTER_SPP} spp",
+                                          viewer.denoise)
+        imgui.set_item_tooltip("Intel Open Image Denoise on the CPU, guided by the first hits' "
+                               "albedo and normal: full-size frames only, the samples go on")
+        if changed:
+            viewer.denoise = denoise
         methods = tuple(COLOUR_METHODS)
         changed, index = imgui.combo("colour method", methods.index(viewer.colour_method),
                                      methods)

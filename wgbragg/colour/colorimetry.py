@@ -19,17 +19,20 @@ from wgbragg.common.validation import check_broadcast
 
 __all__ = [
     "CMFS_NAME",
+    "COLOUR_SPACES",
     "HERO_SEGMENTS",
     "HERO_WAVELENGTHS",
     "ILLUMINANT_NAME",
     "WAVELENGTH_RANGE_NM",
     "WAVELENGTH_STEP_NM",
     "XYZ_TO_LINEAR_SRGB",
+    "colour_space_chromaticities",
     "cumulative_table",
     "cumulative_xyz",
     "delta_e_2000",
     "hero_inverse_cdf",
     "hero_wavelengths",
+    "linear_srgb_to",
     "linear_srgb_to_xyz",
     "spectral_xyz",
     "xyz_density",
@@ -62,6 +65,27 @@ _LINEAR_SRGB_TO_XYZ = np.linalg.inv(XYZ_TO_LINEAR_SRGB)
 _LINEAR_SRGB_TO_XYZ.setflags(write=False)
 
 _D65_XY = np.array(colour.CCS_ILLUMINANTS[CMFS_NAME][ILLUMINANT_NAME], dtype=np.float64)
+
+COLOUR_SPACES = ("srgb", "xyz", "acescg")
+"""Linear colour spaces an image can be converted to (:func:`linear_srgb_to`): linear sRGB
+(Rec. 709 primaries, D65 white), CIE 1931 XYZ (the perfect reflector under D65 at ``Y = 1``)
+and ACEScg (ACES AP1 primaries, the ACES white)."""
+
+_ACESCG = colour.RGB_COLOURSPACES["ACEScg"]
+# colour-science's default chromatic adaptation for RGB_to_RGB, CAT02: D65 -> the ACES white.
+_FROM_LINEAR_SRGB = {
+    "srgb": np.eye(3),
+    "xyz": _LINEAR_SRGB_TO_XYZ,
+    "acescg": np.array(colour.matrix_RGB_to_RGB(_RGB_SPACE, _ACESCG, "CAT02"), np.float64),
+}
+for _matrix in _FROM_LINEAR_SRGB.values():
+    _matrix.setflags(write=False)
+_CHROMATICITIES = {
+    "srgb": (*np.ravel(_RGB_SPACE.primaries), *_RGB_SPACE.whitepoint),
+    # OpenEXR's convention for XYZ data: X, Y, Z as primaries, the white of X = Y = Z.
+    "xyz": (1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0 / 3.0, 1.0 / 3.0),
+    "acescg": (*np.ravel(_ACESCG.primaries), *_ACESCG.whitepoint),
+}
 
 
 # --------------------------------------------------------------------------- tables
@@ -345,6 +369,57 @@ def xyz_to_linear_srgb(xyz) -> np.ndarray:
 def linear_srgb_to_xyz(rgb) -> np.ndarray:
     """Inverse of :func:`xyz_to_linear_srgb` (the exact matrix inverse), shape ``(..., 3)``."""
     return _xyz_array("rgb", rgb) @ _LINEAR_SRGB_TO_XYZ.T
+
+
+def _colour_space(space) -> str:
+    if space not in COLOUR_SPACES:
+        raise ValueError(f"space must be one of {COLOUR_SPACES}, got {space!r}")
+    return space
+
+
+def linear_srgb_to(rgb, space: str) -> np.ndarray:
+    """Linear sRGB in another linear colour space of :data:`COLOUR_SPACES`.
+
+    ``"xyz"`` is :func:`linear_srgb_to_xyz`, the exact inverse of the renderer's XYZ -> sRGB
+    matrix: the XYZ of every spectrum, monochromatic light included, is >= 0, and so is a
+    spectral render's, at any sample count. ``"acescg"`` is colour-science's
+    ``RGB_to_RGB(rgb, "sRGB", "ACEScg")`` on linear values, whose default chromatic
+    adaptation is CAT02 (D65 to the ACES white): its gamut holds the sRGB gamut and most
+    surface colours, not monochromatic light (see ``docs/physics.md``, "Negative values").
+
+    Parameters
+    ----------
+    rgb : array_like
+        Shape ``(..., 3)``, finite.
+    space : {"srgb", "xyz", "acescg"}
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(..., 3)``, float64.
+
+    Raises
+    ------
+    ValueError
+        If ``space`` is not one of :data:`COLOUR_SPACES`, the last axis is not 3 or a value is
+        not finite.
+    """
+    matrix = _FROM_LINEAR_SRGB[_colour_space(space)]
+    return _xyz_array("rgb", rgb) @ matrix.T
+
+
+def colour_space_chromaticities(space: str) -> tuple[float, ...]:
+    """The CIE xy chromaticities of a space of :data:`COLOUR_SPACES`: red, green and blue
+    primaries and white, ``(rx, ry, gx, gy, bx, by, wx, wy)``, as OpenEXR's
+    ``chromaticities`` header attribute holds them (for ``"xyz"``: X, Y and Z as primaries,
+    white ``(1/3, 1/3)``).
+
+    Raises
+    ------
+    ValueError
+        If ``space`` is not one of :data:`COLOUR_SPACES`.
+    """
+    return tuple(float(v) for v in _CHROMATICITIES[_colour_space(space)])
 
 
 def delta_e_2000(rgb_a, rgb_b) -> np.ndarray:

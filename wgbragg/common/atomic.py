@@ -1,4 +1,11 @@
-"""Atomic file writes: a reader, or an interrupted run, never sees a half-written file."""
+"""Atomic file writes: a reader, or an interrupted run, never sees a half-written file.
+
+Output paths are checked before the work they are for (:func:`check_output_path`,
+:func:`check_output_folder`) by creating and removing a real file in the destination folder:
+permission bits (``os.access``) say nothing for root, nor for read-only or virtual file
+systems such as ``/proc``. Errors name the path as the caller gave it, never the temporary file
+of :func:`atomic_path`.
+"""
 
 from __future__ import annotations
 
@@ -24,20 +31,45 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     The temporary file keeps the final suffix so writers that infer the format from it
     (matplotlib, Pillow) behave as for the final name. The result gets the permissions an
     ordinary new file would (``mkstemp`` creates 0600).
+
+    Raises
+    ------
+    OSError
+        When the folder, the temporary file or the rename fails, or the writer raises one: the
+        same error (errno and kind) naming ``path`` instead of the temporary file.
     """
     target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(
-        prefix=f".{target.stem}.", suffix=target.suffix, dir=target.parent
-    )
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        handle, temporary = tempfile.mkstemp(
+            prefix=f".{target.stem}.", suffix=target.suffix, dir=target.parent
+        )
+    except OSError as error:
+        raise _naming(error, path, None) from None
     os.close(handle)
     try:
-        yield Path(temporary)
-        os.chmod(temporary, 0o666 & ~_umask())
-        os.replace(temporary, target)
+        try:
+            yield Path(temporary)
+            os.chmod(temporary, 0o666 & ~_umask())
+            os.replace(temporary, target)
+        except OSError as error:
+            raise _naming(error, path, temporary) from error
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(temporary)
+
+
+def _naming(error: OSError, path, temporary: str | None) -> OSError:
+    """``error`` about the file the caller asked for: its errno (so its kind, e.g.
+    PermissionError) with ``path`` as the file name, or its message with the temporary file's
+    name replaced by ``path``."""
+    text = os.fspath(path)
+    if error.errno is not None and error.strerror:
+        return OSError(error.errno, error.strerror, text)
+    message = str(error)
+    if temporary is not None:
+        message = message.replace(temporary, text)
+    return OSError(f"{message} (writing {text!r})" if text not in message else message)
 
 
 def check_output_path(path, name: str, suffix: str) -> Path:
@@ -84,9 +116,22 @@ def _check_creatable(folder: Path, name: str, text: str) -> None:
             raise ValueError(f"{name} cannot be written: {folder} is a link to nothing "
                              f"(for {text!r})")
         folder = folder.parent
-    if not folder.is_dir() or not os.access(folder, os.W_OK | os.X_OK):
-        raise ValueError(f"{name} cannot be written: {folder} is not a writable folder "
-                         f"(for {text!r})")
+    reason = "not a folder"
+    if folder.is_dir():
+        # A real file, created and removed: os.access passes for root, and says nothing of
+        # read-only or virtual file systems (/proc).
+        try:
+            handle, probe = tempfile.mkstemp(prefix=".wgbragg-probe.", dir=folder)
+        except OSError as error:
+            reason = error.strerror or type(error).__name__
+        else:
+            try:
+                os.close(handle)
+            finally:
+                os.unlink(probe)
+            return
+    raise ValueError(f"{name} cannot be written: {folder} is not a writable folder ({reason}; "
+                     f"for {text!r})")
 
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> None:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import os
 import stat
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +22,10 @@ _RGB = ("R", "G", "B")
 # Luminance-chroma files carry colour in RY and BY; replicating their Y would drop it.
 _CHROMA = frozenset({"RY", "BY"})
 _FLOAT_TYPES = (np.float16, np.float32)
+# Header attributes write_exr sets itself or OpenEXR derives from the pixels.
+_RESERVED_ATTRIBUTES = frozenset({"channels", "compression", "dataWindow", "displayWindow",
+                                  "lineOrder", "pixelAspectRatio", "screenWindowCenter",
+                                  "screenWindowWidth", "type"})
 
 
 def read_exr(path: str | os.PathLike) -> np.ndarray:
@@ -88,7 +93,8 @@ def read_exr(path: str | os.PathLike) -> np.ndarray:
     return image
 
 
-def write_exr(path: str | os.PathLike, image) -> None:
+def write_exr(path: str | os.PathLike, image,
+              attributes: Mapping[str, object] | None = None) -> None:
     """Write a linear RGB image as an OpenEXR file of float32 channels, atomically.
 
     Parameters
@@ -99,13 +105,21 @@ def write_exr(path: str | os.PathLike, image) -> None:
     image : array_like, shape (H, W, 3)
         Linear RGB, row 0 at the top, finite in float32; stored as float32 (ZIP compressed,
         lossless), so :func:`read_exr` returns ``image.astype(np.float32)`` exactly.
+    attributes : Mapping of str to value, optional
+        Extra header attributes, e.g. ``{"colorInteropID": "lin_ap1_scene"}`` or
+        ``{"chromaticities": (rx, ry, gx, gy, bx, by, wx, wy)}``: a ``str`` is stored as a
+        string, an ``int`` as an int, a ``float`` as a float, and the ``chromaticities`` 8-tuple
+        as OpenEXR's chromaticities type (``OpenEXR.File(path).header()`` reads them back).
 
     Raises
     ------
     ValueError
         If ``image`` is not a real ``(H, W, 3)`` array with ``H, W >= 1``, or is not finite
         in float32; if ``path`` cannot take the file (see
-        :func:`wgbragg.common.atomic.check_output_path`).
+        :func:`wgbragg.common.atomic.check_output_path`); if an attribute's name is empty, not
+        a string or one the file's layout sets (channels, compression, windows, ...), or its
+        value is not a str, an int, a finite float or (for ``chromaticities``) 8 finite
+        floats.
     """
     check_output_path(path, "path", ".exr")
     array = np.asarray(image)
@@ -120,6 +134,38 @@ def write_exr(path: str | os.PathLike, image) -> None:
         raise ValueError("image must be finite in float32 (no NaN, infinity or |x| > 3.4e38)")
     # OpenEXR.File fills in the header it is given, so each write builds its own.
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    header.update(_checked_attributes(attributes))
     planes = {name: np.ascontiguousarray(array[..., k]) for k, name in enumerate(_RGB)}
     with atomic_path(path) as temporary, OpenEXR.File(header, planes) as exr:
         exr.write(str(temporary))
+
+
+def _checked_attributes(attributes: Mapping[str, object] | None) -> dict:
+    """``attributes`` as header entries the OpenEXR binding stores as their documented types."""
+    if attributes is None:
+        return {}
+    if not isinstance(attributes, Mapping):
+        raise ValueError(f"attributes must be a mapping of names to values, got "
+                         f"{type(attributes).__name__}")
+    header = {}
+    for name, value in attributes.items():
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"attribute names must be non-empty strings, got {name!r}")
+        if name in _RESERVED_ATTRIBUTES:
+            raise ValueError(f"attribute {name!r} is set by write_exr itself")
+        if name == "chromaticities":
+            values = np.asarray(value, dtype=object)
+            if values.shape != (8,) or not all(
+                    isinstance(v, int | float | np.floating | np.integer)
+                    and not isinstance(v, bool) and np.isfinite(v) for v in values):
+                raise ValueError("attribute 'chromaticities' must be 8 finite numbers (red, "
+                                 f"green, blue and white x, y), got {value!r}")
+            header[name] = tuple(float(v) for v in values)
+        elif isinstance(value, str) or (isinstance(value, int) and not isinstance(value, bool)):
+            header[name] = value
+        elif isinstance(value, float) and np.isfinite(value):
+            header[name] = value
+        else:
+            raise ValueError(f"attribute {name!r} must be a str, an int or a finite float, got "
+                             f"{value!r}")
+    return header

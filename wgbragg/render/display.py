@@ -3,6 +3,12 @@
 :func:`display_transform` applies the exposure, tone maps and sRGB-encodes an image;
 :func:`save_png` writes the result atomically. The linear image itself is written with
 :func:`wgbragg.common.exr.write_exr`.
+
+Linear sRGB pixels can hold negative channels (colours outside the sRGB gamut, and Monte Carlo
+noise of spectral renders: ``docs/physics.md``, "Negative values"), and tone-mapped saturated
+highlights channels above 1. Such a pixel is not clipped channel by channel, which shifts its
+hue, but desaturated towards the grey of its own luminance until it fits: see
+:func:`gamut_map`.
 """
 
 from __future__ import annotations
@@ -15,20 +21,59 @@ from PIL import Image
 from wgbragg.common.atomic import atomic_path, check_output_path
 from wgbragg.scene.model import MAX_EXPOSURE
 
-__all__ = ["display_transform", "save_png"]
+__all__ = ["LUMINANCE_WEIGHTS", "display_transform", "gamut_map", "save_png"]
+
+LUMINANCE_WEIGHTS = np.array([0.2126, 0.7152, 0.0722])
+"""Rec. 709 luminance ``Y`` of linear sRGB (the middle row of its XYZ matrix, rounded)."""
+LUMINANCE_WEIGHTS.setflags(write=False)
+
+
+def gamut_map(rgb: np.ndarray) -> np.ndarray:
+    """Linear RGB into the unit cube by desaturation at constant luminance.
+
+    A pixel ``c`` with luminance ``Y = c . LUMINANCE_WEIGHTS`` in [0, 1] and a channel outside
+    [0, 1] moves along the line to the grey ``(Y, Y, Y)`` just far enough for every channel to
+    lie in [0, 1]: ``Y + t (c - Y)`` with the largest ``t`` in [0, 1] that fits. ``Y`` and the
+    hue (the direction of ``c - Y`` in the chroma plane, e.g. the HSV hue of the linear values)
+    are kept; only the saturation drops. Pixels inside the cube come back unchanged; one with
+    ``Y <= 0`` becomes black, one with ``Y >= 1`` white.
+
+    Parameters
+    ----------
+    rgb : numpy.ndarray, shape (..., 3)
+        Finite linear RGB.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 3), float64, in [0, 1]
+    """
+    rgb = np.asarray(rgb, dtype=np.float64)
+    luminance = np.clip(rgb @ LUMINANCE_WEIGHTS, 0.0, 1.0)[..., None]
+    chroma = rgb - luminance
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # The largest t per channel: where Y + t chroma reaches 0 (below) or 1 (above).
+        limit = np.where(rgb < 0.0, luminance / -chroma,
+                         np.where(rgb > 1.0, (1.0 - luminance) / chroma, 1.0))
+    t = np.clip(np.nan_to_num(limit, nan=0.0, posinf=1.0).min(axis=-1, keepdims=True), 0.0, 1.0)
+    inside = ((rgb >= 0.0) & (rgb <= 1.0)).all(axis=-1, keepdims=True)
+    return np.where(inside, rgb, np.clip(luminance + t * chroma, 0.0, 1.0))
 
 
 def display_transform(image: np.ndarray, exposure: float = 0.0) -> np.ndarray:
     """Linear radiance to 8-bit sRGB.
 
     Scales by ``2**exposure``, tone maps the luminance Y (Rec. 709 weights) by Reinhard's
-    ``Y / (1 + Y)`` keeping the chromaticity (each channel times ``1 / (1 + Y)``), clips to
-    [0, 1] and applies the sRGB transfer function.
+    ``Y / (1 + Y)`` keeping the chromaticity (each channel times ``1 / (1 + Y)``), brings
+    colours outside the display's gamut into it by :func:`gamut_map` (desaturation towards
+    the pixel's tone-mapped luminance: a channel below 0 or above 1 is not clipped alone) and
+    applies the sRGB transfer function. Pixels whose tone-mapped channels all lie in [0, 1]
+    are exactly what a plain clip gives; a pixel of luminance <= 0 is black.
 
     Parameters
     ----------
     image : array_like, shape (H, W, 3)
-        Linear sRGB radiance, >= 0.
+        Linear sRGB radiance; negative channels (out-of-gamut colours, spectral noise) are
+        allowed.
     exposure : float
         EV stops, in [-64, 64] (:data:`wgbragg.scene.model.MAX_EXPOSURE`).
 
@@ -47,9 +92,13 @@ def display_transform(image: np.ndarray, exposure: float = 0.0) -> np.ndarray:
             -MAX_EXPOSURE <= exposure <= MAX_EXPOSURE):
         raise ValueError(f"exposure must be a number of EV stops in [{-MAX_EXPOSURE:g}, "
                          f"{MAX_EXPOSURE:g}], got {exposure!r}")
-    scaled = np.nan_to_num(image, nan=0.0, posinf=0.0, neginf=0.0).clip(0.0) * 2.0**exposure
-    luminance = scaled @ np.array([0.2126, 0.7152, 0.0722])
-    mapped = (scaled / (1.0 + luminance)[..., None]).clip(0.0, 1.0)
+    scaled = np.nan_to_num(image, nan=0.0, posinf=0.0, neginf=0.0) * 2.0**exposure
+    luminance = scaled @ LUMINANCE_WEIGHTS
+    # Y <= 0 (noise, or a negative channel outweighing the others) displays black.
+    lit = luminance > 0.0
+    mapped = np.where(lit[..., None], scaled, 0.0) / (1.0 + np.where(lit, luminance, 0.0))[
+        ..., None]
+    mapped = gamut_map(mapped)
     encoded = np.where(mapped <= 0.0031308, 12.92 * mapped,
                        1.055 * np.power(mapped, 1.0 / 2.4) - 0.055)
     return np.round(encoded * 255.0).astype(np.uint8)

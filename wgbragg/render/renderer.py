@@ -67,6 +67,11 @@ landmark colour in RGB mode (its cost: docs/performance.md). As in the Bragg pap
 a mapped material must be a single layer over an absorbing base: nothing sees the
 transmission through it, whose filter would otherwise have to be integrated at every point.
 
+Denoising: every camera path also records its first hit's albedo and shading normal, summed
+per pixel beside the colour (:meth:`Renderer.features`); :meth:`Renderer.denoised` (or
+``render(..., denoise=True)``) runs Intel Open Image Denoise on the CPU with them
+(:mod:`wgbragg.render.denoise`), leaving :meth:`Renderer.image` raw.
+
 Limits: area lights are not seen directly by the camera or by mirror bounces. On llvmpipe
 (lavapipe), which ends an invocation's loops after 65535 iterations (:mod:`wgbragg.gpu`, "Loop
 budget"), a path's loops must stay within that budget: its bounces, its shadow rays to every
@@ -84,6 +89,7 @@ import dataclasses
 import math
 import numbers
 import time
+from collections.abc import Callable
 
 import numpy as np
 from tqdm import tqdm
@@ -91,6 +97,7 @@ from tqdm import tqdm
 from wgbragg import gpu
 from wgbragg.bsdf.layered.model_gpu import FACTORED_COLOUR_METHODS
 from wgbragg.colour.methods import COLOUR_METHODS
+from wgbragg.render.denoise import denoise_image
 from wgbragg.render.packing import (
     PackedGeometry,
     PackedMaterials,
@@ -480,6 +487,12 @@ class Renderer:
         self._loops_cut = gpu.DeviceArray.empty(1, np.uint32)
         # vec3 in a storage array: 16 bytes a path.
         self._paths = gpu.DeviceArray.empty((width * height * self._batch, 4), np.float32)
+        # The denoiser's features: per pixel, the sums of the first hits' albedos and normals
+        # (16 bytes each); per path, both packed in 16 bytes (render/renderer.wgsl).
+        self._albedo_sum = gpu.DeviceArray.empty((width * height, 4), np.float32)
+        self._normal_sum = gpu.DeviceArray.empty((width * height, 4), np.float32)
+        self._path_features = gpu.DeviceArray.empty((width * height * self._batch, 4),
+                                                    np.uint32)
         self._geometry_of = None
         self._world = None
         # id -> (material, its LayeredBragg): a material left unchanged by update() keeps its
@@ -562,8 +575,9 @@ class Renderer:
 
     def reset(self) -> None:
         """Forget the samples accumulated so far."""
-        gpu.get_device().queue.write_buffer(self._accum.resource, 0,
-                                            np.zeros(self._accum.shape, np.float32))
+        zeros = np.zeros(self._accum.shape, np.float32)
+        for sums in (self._accum, self._albedo_sum, self._normal_sum):
+            gpu.get_device().queue.write_buffer(sums.resource, 0, zeros)
         self._dispatches = {}
         self.passes = 0
         # First pixel of the next range of a pass split by render(seconds=...): pixels before
@@ -708,9 +722,15 @@ class Renderer:
     @property
     def gpu_bytes(self) -> int:
         """GPU memory the scene holds: geometry, BVH, materials and their tables, lights and
-        the accumulation buffers, in bytes (pipelines and the uniform not counted)."""
-        return (sum(array.nbytes for array in self._inputs) + self._accum.nbytes
-                + self._paths.nbytes + self._loops_cut.nbytes)
+        the accumulation buffers (the denoiser's features included), in bytes (pipelines and
+        the uniform not counted)."""
+        return (sum(array.nbytes for array in self._inputs)
+                + sum(array.nbytes for array in self._outputs()))
+
+    def _outputs(self) -> list:
+        """The read_write buffers of render/renderer.wgsl, in binding order."""
+        return [self._accum, self._paths, self._loops_cut, self._albedo_sum, self._normal_sum,
+                self._path_features]
 
     def _make_params(self) -> np.ndarray:
         return scene_params(self.scene, self.width, self.height, self._world[0], self._seed)
@@ -723,8 +743,8 @@ class Renderer:
             params = self._params.copy()
             params["samples"] = samples
             count = self.width * self.height * (samples if entry == "render" else 1)
-            self._dispatches[key] = kernel.bind(
-                self._inputs, [self._accum, self._paths, self._loops_cut], params, count=count)
+            self._dispatches[key] = kernel.bind(self._inputs, self._outputs(), params,
+                                                count=count)
         return self._dispatches[key]
 
     def _check_loops(self, flag) -> None:
@@ -749,7 +769,7 @@ class Renderer:
         params["samples"], params["count"], params["first"] = (plan.samples, plan.count,
                                                                plan.first)
         accumulate = gpu.compute_pipeline("render/renderer.wgsl", "accumulate", self._constants)
-        outputs = [self._accum, self._paths, self._loops_cut]
+        outputs = self._outputs()
         return [self._kernel.bind(self._inputs, outputs, params, count=plan.paths),
                 accumulate.bind(self._inputs, outputs, params, count=plan.count)]
 
@@ -778,8 +798,10 @@ class Renderer:
         self._check_loops(np.frombuffer(flag, np.uint32))
 
     def render(self, spp: int | None = None, progress: bool = False,
-               seconds: float | None = None) -> np.ndarray:
-        """Add samples per pixel, a given number or for a given time, and return the mean.
+               seconds: float | None = None, denoise: bool = False,
+               stop: Callable[[], bool] | None = None) -> np.ndarray:
+        """Add samples per pixel, a given number or for a given time, and return the mean
+        (or, with ``denoise``, the mean denoised).
 
         Small images add several samples per pixel per submission (about
         ``PATHS_PER_DISPATCH`` paths in all), so that the fixed cost of a submission does not
@@ -802,6 +824,12 @@ class Renderer:
         seconds : float, optional
             Instead of ``spp``: add samples for this much wall-clock time (> 0, finite); at
             least one dispatch (the probe) runs.
+        denoise : bool
+            Return :meth:`denoised` instead of :meth:`image` (which still holds the raw mean).
+        stop : callable, optional
+            Asked before each dispatch: once it returns True, no more samples are added and the
+            image so far is returned (a Ctrl-C, say; see :attr:`passes` and
+            :meth:`sample_counts` for what it holds).
 
         Returns
         -------
@@ -822,14 +850,15 @@ class Renderer:
             if isinstance(seconds, bool) or not isinstance(seconds, numbers.Real) or not (
                     0.0 < seconds < math.inf):
                 raise ValueError(f"seconds must be a finite number > 0, got {seconds!r}")
-            self._add_for(seconds, progress)
-            return self.image()
-        if isinstance(spp, bool) or not isinstance(spp, int) or spp < 1:
-            raise ValueError(f"spp must be an integer >= 1, got {spp!r}")
-        self._add_spp(spp, progress)
-        return self.image()
+            self._add_for(seconds, progress, stop)
+        else:
+            if isinstance(spp, bool) or not isinstance(spp, int) or spp < 1:
+                raise ValueError(f"spp must be an integer >= 1, got {spp!r}")
+            self._add_spp(spp, progress, stop)
+        return self.denoised() if denoise else self.image()
 
-    def _add_for(self, seconds: float, progress: bool) -> None:
+    def _add_for(self, seconds: float, progress: bool,
+                 stop: Callable[[], bool] | None = None) -> None:
         """Add samples in the dispatches a :class:`TimeBudget` of ``seconds`` plans."""
         start = time.perf_counter()
         budget = TimeBudget(seconds, self.width * self.height, self._batch, self._cursor,
@@ -837,6 +866,8 @@ class Renderer:
         with tqdm(total=round(float(seconds), 1), desc="render", unit="s",
                   disable=not progress, bar_format=_SECONDS_BAR) as bar:
             while (plan := budget.next(time.perf_counter() - start)) is not None:
+                if stop is not None and stop():
+                    break
                 begun = time.perf_counter()
                 self._add(plan)
                 budget.record(plan, time.perf_counter() - begun)
@@ -844,11 +875,12 @@ class Renderer:
                 bar.n = round(min(time.perf_counter() - start, seconds), 1)
                 bar.set_postfix(spp=self.passes, refresh=True)
 
-    def _add_spp(self, spp: int, progress: bool) -> None:
+    def _add_spp(self, spp: int, progress: bool,
+                 stop: Callable[[], bool] | None = None) -> None:
         """Add ``spp`` samples per pixel, up to a submission's batch at a time."""
         with tqdm(total=spp, desc="render", unit="spp", disable=not progress) as bar:
             done = 0
-            while done < spp:
+            while done < spp and not (stop is not None and stop()):
                 samples = min(self._batch, spp - done)
                 self._add_samples(samples)
                 done += samples
@@ -867,6 +899,49 @@ class Renderer:
         """
         total = self._accum.read()
         return (total[:, :3] / np.maximum(total[:, 3:], 1.0)).reshape(self.height, self.width, 3)
+
+    def features(self) -> tuple[np.ndarray, np.ndarray]:
+        """The denoiser's feature images: each pixel's first-hit albedo and shading normal,
+        averaged over its samples like :meth:`image` (zeros before the first).
+
+        What the camera ray's first hit contributes (``wgsl/render/renderer.wgsl``): on a
+        Lambertian material its albedo; on a layered Bragg or thin-film material the first
+        bounce's BSDF sample weight ``f cos / pdf`` in linear sRGB, clipped to [0, 1] (a
+        one-sample estimate of the directional albedo at the viewing angle, so the mean is the
+        reflectance colour seen there); on an area light its radiance clipped to [0, 1]; for a
+        miss the environment's radiance clipped to [0, 1]. Normals are world-space shading
+        normals turned towards the viewer (an area light's own normal), zero for a miss; their
+        mean is not renormalised (OIDN's convention). Each path writes them once, packed in 16
+        bytes (half-float albedo, 16-bit normal components).
+
+        Returns
+        -------
+        albedo : numpy.ndarray, shape (height, width, 3), float32
+            In [0, 1].
+        normal : numpy.ndarray, shape (height, width, 3), float32
+            In [-1, 1].
+        """
+        counts = np.maximum(self._accum.read()[:, 3:], 1.0)
+        shape = (self.height, self.width, 3)
+        return tuple((total.read()[:, :3] / counts).reshape(shape)
+                     for total in (self._albedo_sum, self._normal_sum))
+
+    def denoised(self, quality: str = "high") -> np.ndarray:
+        """:meth:`image` denoised by Intel Open Image Denoise on the CPU, guided by
+        :meth:`features` (:func:`wgbragg.render.denoise.denoise_image`).
+
+        Parameters
+        ----------
+        quality : {"high", "balanced", "fast"}
+            :data:`wgbragg.render.denoise.QUALITIES`.
+
+        Returns
+        -------
+        numpy.ndarray, shape (height, width, 3), float32
+            Linear sRGB radiance.
+        """
+        albedo, normal = self.features()
+        return denoise_image(self.image(), albedo, normal, quality=quality)
 
     def sample_counts(self) -> np.ndarray:
         """Samples each pixel holds: :attr:`passes`, or one more before the cursor of a pass

@@ -1,6 +1,7 @@
 // Entry points of the progressive path tracer, run by wgbragg/render/renderer.py:
 //   render:        `samples` paths per pixel, their linear sRGB radiance written to paths
-//   accumulate:    each pixel's paths added to accum (rgb, and their number in w)
+//   accumulate:    each pixel's paths added to accum (rgb, and their number in w), their
+//                  denoising features to albedo_sum and normal_sum
 //   primary_hits:  the closest hit of each pixel-centre camera ray, accum = (t, primitive, 0,
 //                  0), primitive -1 and t = 3.4e38 for a miss (to check the traversal against numpy)
 // Each sets loops_cut[0] = 1 where llvmpipe ended an invocation's loops early (wgbragg.gpu,
@@ -142,7 +143,15 @@ struct Params {
 // The radiance of each path of a render dispatch, for accumulate.
 @group(0) @binding(24) var<storage, read_write> paths: array<vec3<f32>>;
 @group(0) @binding(25) var<storage, read_write> loops_cut: array<u32>;
-@group(0) @binding(26) var<uniform> params: Params;
+// The denoiser's feature images (wgbragg/render/denoise.py): each pixel's sums over its samples
+// of its camera ray's first-hit albedo (rgb) and shading normal (xyz, world space), w unused;
+// the samples' count is accum.w.
+@group(0) @binding(26) var<storage, read_write> albedo_sum: array<vec4<f32>>;
+@group(0) @binding(27) var<storage, read_write> normal_sum: array<vec4<f32>>;
+// The features of each path of a render dispatch, for accumulate, packed in 16 bytes: the
+// albedo as half floats (r, g), (b, 0), the normal as 16-bit snorms (x, y), (z, 0).
+@group(0) @binding(28) var<storage, read_write> path_features: array<vec4<u32>>;
+@group(0) @binding(29) var<uniform> params: Params;
 
 // ----------------------------------------------------------------------------- spectra
 
@@ -506,9 +515,26 @@ fn area_light_radiance(k: u32, direction: vec3<f32>, distance: f32, specular: bo
     return upsample(lights[base + 3u].xyz) * weight;
 }
 
+// ----------------------------------------------------------------------------- denoising features
+
+// What the camera ray's first hit shows the denoiser (OIDN's albedo and normal images), set by
+// path_radiance: a miss, the environment's radiance clipped to [0, 1] and a zero normal; an
+// area light, its radiance clipped and its normal; a surface, its shading normal (world space,
+// towards the viewer) and the albedo: a Lambertian material's own, else the first bounce's
+// BSDF sample weight f cos / pdf in linear sRGB clipped to [0, 1], a one-sample estimate of the
+// directional albedo at the viewing angle (the reflectance colour a viewer sees there).
+var<private> first_albedo: vec3<f32>;
+var<private> first_normal: vec3<f32>;
+
+fn sample_weight_albedo(weight: vec4<f32>) -> vec3<f32> {
+    return clamp(to_rgb(weight), vec3<f32>(0.0), vec3<f32>(1.0));
+}
+
 fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u32>)
     -> vec4<f32> {
     let e = params.environment;
+    first_albedo = vec3<f32>(0.0);
+    first_normal = vec3<f32>(0.0);
     var origin = start;
     var d = direction;
     var throughput = vec4<f32>(1.0);
@@ -527,13 +553,23 @@ fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u3
             if (!specular) {
                 weight = power_heuristic(last_pdf, light_probability(0u) * sky_pdf(e, d));
             }
-            radiance += throughput * upsample(sky_radiance(e, d)) * weight;
+            let sky = sky_radiance(e, d);
+            if (depth == 0u) {
+                first_albedo = clamp(sky, vec3<f32>(0.0), vec3<f32>(1.0));
+            }
+            radiance += throughput * upsample(sky) * weight;
             break;
         }
         let first_light = i32(params.triangles + params.spheres + params.planes);
         if (hit.primitive >= first_light) {
-            radiance += throughput * area_light_radiance(u32(hit.primitive - first_light), d,
-                                                         hit.t, specular, last_pdf);
+            let k = u32(hit.primitive - first_light);
+            if (depth == 0u) {
+                let base = 2u * params.point_lights + 4u * k;
+                let normal = normalize(cross(lights[base + 1u].xyz, lights[base + 2u].xyz));
+                first_albedo = clamp(lights[base + 3u].xyz, vec3<f32>(0.0), vec3<f32>(1.0));
+                first_normal = select(normal, -normal, dot(normal, d) > 0.0);
+            }
+            radiance += throughput * area_light_radiance(k, d, hit.t, specular, last_pdf);
             break;
         }
         if (depth == MAX_BOUNCES) {
@@ -554,6 +590,10 @@ fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u3
         }
         let frame = frame_about(surface.shading);
         let wi = to_local(frame, -d);
+        if (depth == 0u) {
+            first_normal = surface.shading;
+            first_albedo = select(vec3<f32>(0.0), m.albedo, m.kind == MATERIAL_LAMBERTIAN);
+        }
         // Interpolated normals can face away from a viewer that the face itself sees.
         if (wi.z <= 0.0) {
             break;
@@ -564,9 +604,18 @@ fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u3
         radiance += throughput * direct_light(m, frame, wi, next, surface.geometric, state);
         //! if IBL != IBL_MONTE_CARLO
         radiance += throughput * ibl_radiance(m, surface.shading, -d);
+        if (m.kind != MATERIAL_LAMBERTIAN) {
+            // Drawn after the path's last random number: the image does not change.
+            let drawn = bsdf_sample(m, wi, vec3<f32>(random(state), random(state),
+                                                     random(state)));
+            first_albedo = sample_weight_albedo(drawn.weight);
+        }
         break;
         //! else
         let drawn = bsdf_sample(m, wi, vec3<f32>(random(state), random(state), random(state)));
+        if (depth == 0u && m.kind != MATERIAL_LAMBERTIAN) {
+            first_albedo = sample_weight_albedo(drawn.weight);
+        }
         d = to_world(frame, drawn.wo);
         if (lanes_max(drawn.weight) <= 0.0 || dot(d, surface.geometric) <= 0.0) {
             break;
@@ -618,6 +667,10 @@ fn render(@builtin(global_invocation_id) gid: vec3<u32>,
     }
     let c = params.camera;
     paths[index] = to_rgb(path_radiance(c.origin, camera_direction(c, pixel), &state));
+    path_features[index] = vec4<u32>(pack2x16float(first_albedo.xy),
+                                     pack2x16float(vec2<f32>(first_albedo.z, 0.0)),
+                                     pack2x16snorm(first_normal.xy),
+                                     pack2x16snorm(vec2<f32>(first_normal.z, 0.0)));
     report_cut_loops();
 }
 
@@ -630,10 +683,19 @@ fn accumulate(@builtin(global_invocation_id) gid: vec3<u32>,
         return;
     }
     var total = vec3<f32>(0.0);
+    var albedo = vec3<f32>(0.0);
+    var normal = vec3<f32>(0.0);
     for (var k = 0u; k < params.samples; k++) {
-        total += paths[index + k * params.count];
+        let path = index + k * params.count;
+        total += paths[path];
+        let f = path_features[path];
+        albedo += vec3<f32>(unpack2x16float(f.x), unpack2x16float(f.y).x);
+        normal += vec3<f32>(unpack2x16snorm(f.z), unpack2x16snorm(f.w).x);
     }
-    accum[params.first + index] += vec4<f32>(total, f32(params.samples));
+    let pixel = params.first + index;
+    accum[pixel] += vec4<f32>(total, f32(params.samples));
+    albedo_sum[pixel] += vec4<f32>(albedo, 0.0);
+    normal_sum[pixel] += vec4<f32>(normal, 0.0);
     report_cut_loops();
 }
 
