@@ -57,6 +57,9 @@ bench: setup
 # where that fails, its rows say why (scalar_rgb is measured either way).
 LLVM_CACHE := .cache/llvm
 
+	$(PY) -m benchmarks.cli
+	$(PY) -m benchmarks.denoise
+	$(PY) -m benchmarks.memory
 bench-peer: setup
 	$(PY) -m pip install -q -e '.[test,bench]' || $(PY) -m pip install -q 'mitsuba>=3.6' \
 		|| echo "wgbragg: mitsuba not installed, continuing"
