@@ -38,7 +38,7 @@ spectral mode with its spectral LUT (``method="single-reflection-lut"`` at the h
 wavelengths). All layered materials of a scene share one pipeline specialisation
 (:mod:`wgbragg.render.packing` pads them to it). A Bragg peak's factored colour may lie outside
 the sRGB gamut, so pixels of layered materials can have slightly negative channels (kept in
-the linear image, clipped by the display transform).
+the linear image, gamut-mapped by the display transform).
 
 Thin films (``type = "thin-film"``): GGX microfacets each coated by a film over a dielectric or
 metal base (Belcour & Barla 2017, :class:`wgbragg.bsdf.rough_thin_film.RoughThinFilm`), the

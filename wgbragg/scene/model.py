@@ -117,7 +117,9 @@ class Camera:
     up : tuple of 3 floats
         A direction not parallel to the view direction; the image's up is its projection.
     fov_deg : float
-        Vertical field of view in degrees, in (0, 180).
+        Vertical field of view in degrees, in (0, 180), of the scene's own frame
+        (``settings.size``); an image narrower than that frame keeps its horizontal field of
+        view instead.
     """
 
     position: tuple[float, float, float]
