@@ -49,6 +49,9 @@ bench: setup
 	$(PY) -m benchmarks.render
 	$(PY) -m benchmarks.ibl
 	$(PY) -m benchmarks.viewer
+	$(PY) -m benchmarks.cli
+	$(PY) -m benchmarks.denoise
+	$(PY) -m benchmarks.memory
 
 # Mitsuba 3 as a peer (benchmarks/mitsuba_peer.py): scalar_rgb, and llvm_ad_rgb on a libLLVM
 # that its drjit can use. The system's LLVM 15 (lavapipe's) makes drjit 1.5 abort, so Debian's
@@ -57,9 +60,6 @@ bench: setup
 # where that fails, its rows say why (scalar_rgb is measured either way).
 LLVM_CACHE := .cache/llvm
 
-	$(PY) -m benchmarks.cli
-	$(PY) -m benchmarks.denoise
-	$(PY) -m benchmarks.memory
 bench-peer: setup
 	$(PY) -m pip install -q -e '.[test,bench]' || $(PY) -m pip install -q 'mitsuba>=3.6' \
 		|| echo "wgbragg: mitsuba not installed, continuing"
