@@ -62,7 +62,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--denoise", action=argparse.BooleanOptionalAction, default=None,
                         help="the window: start with the denoise toggle on (default) or off; "
                              "offscreen: also write the denoised picture as NAME.denoised.png "
-                             f"(needs --spp > {DENOISE_AFTER_SPP}; default off)")
+                             f"(needs --spp >= {DENOISE_AFTER_SPP}; default off)")
     args = parser.parse_args(argv)
     offscreen = args.offscreen
     if not offscreen and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
@@ -76,8 +76,8 @@ def main(argv: list[str] | None = None) -> int:
         if offscreen:
             check_output_path(args.output, "--output", ".png")
             if args.denoise:
-                if args.spp <= DENOISE_AFTER_SPP:
-                    raise ValueError(f"--denoise needs --spp > {DENOISE_AFTER_SPP} (fewer "
+                if args.spp < DENOISE_AFTER_SPP:
+                    raise ValueError(f"--denoise needs --spp >= {DENOISE_AFTER_SPP} (fewer "
                                      f"samples are shown raw), got {args.spp}")
                 output = Path(args.output)
                 denoised_output = output.with_name(f"{output.stem}.denoised{output.suffix}")

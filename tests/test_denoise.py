@@ -223,7 +223,7 @@ def test_render_denoise_writes_the_denoised_images_beside_the_raw_ones(tmp_path,
 def test_the_viewer_denoises_full_size_frames_after_a_few_samples():
     viewer = Viewer("teapot", size=(32, 24), preview_scale=2)
     assert viewer.denoise and viewer.display() is None
-    for _ in range(DENOISE_AFTER_SPP):
+    for _ in range(DENOISE_AFTER_SPP - 1):
         viewer.frame()
         assert not viewer.denoised
     first = viewer.frame()
@@ -231,7 +231,7 @@ def test_the_viewer_denoises_full_size_frames_after_a_few_samples():
     # The toggle changes the display only: the same samples, shown raw, then denoised again.
     viewer.denoise = False
     raw = viewer.display()
-    assert not viewer.denoised and viewer.passes == DENOISE_AFTER_SPP + 1
+    assert not viewer.denoised and viewer.passes == DENOISE_AFTER_SPP
     assert np.abs(raw.astype(int) - first).mean() > 1.0
     viewer.denoise = True
     np.testing.assert_array_equal(viewer.display(), first)
@@ -257,13 +257,25 @@ def test_the_viewer_denoises_full_size_frames_after_a_few_samples():
 def test_demo_writes_the_denoised_window_beside_the_raw_one(tmp_path):
     target = tmp_path / "demo.png"
     environment = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
-    result = subprocess.run([sys.executable, str(ROOT / "demo.py"), "--offscreen", "--spp", "6",
-                             "--size", "32x32", "--denoise", "-o", str(target)],
+    result = subprocess.run([sys.executable, str(ROOT / "demo.py"), "--offscreen", "--spp",
+                             str(DENOISE_AFTER_SPP), "--size", "32x32", "--denoise", "-o",
+                             str(target)],
                             env=environment, capture_output=True, text=True, check=True)
     twin = tmp_path / "demo.denoised.png"
     assert result.stdout.strip().splitlines()[-2:] == [str(target), str(twin)]
-    assert "32x32, 6 spp" in result.stderr and "denoised in" in result.stderr
+    assert f"32x32, {DENOISE_AFTER_SPP} spp" in result.stderr and "denoised in" in result.stderr
     raw, denoised = (np.asarray(Image.open(p).convert("RGB")) for p in (target, twin))
     assert raw.shape == denoised.shape == (760, 1040, 3)
     assert not np.array_equal(raw, denoised)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["demo.denoised.png", "demo.png"]
+
+
+def test_demo_refuses_to_denoise_fewer_samples_than_the_window_shows_denoised(tmp_path):
+    target = tmp_path / "demo.png"
+    environment = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    result = subprocess.run([sys.executable, str(ROOT / "demo.py"), "--offscreen", "--spp",
+                             str(DENOISE_AFTER_SPP - 1), "--denoise", "-o", str(target)],
+                            env=environment, capture_output=True, text=True)
+    assert result.returncode != 0 and "Traceback" not in result.stderr
+    assert f"--denoise needs --spp >= {DENOISE_AFTER_SPP}" in result.stderr
+    assert not any(tmp_path.iterdir())

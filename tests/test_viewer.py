@@ -358,7 +358,10 @@ def display(tmp_path_factory):
 def window(display):
     from wgbragg.app.viewer_window import ViewerWindow
 
-    shown = ViewerWindow(Viewer("teapot", size=SIZE, preview_scale=2), size=(1040, 760))
+    # The frames' tests read the raw samples at 4 spp: the denoised display has tests of its own
+    # (tests/test_denoise.py).
+    shown = ViewerWindow(Viewer("teapot", size=SIZE, preview_scale=2, denoise=False),
+                         size=(1040, 760))
     yield shown
     shown.close()
 

@@ -94,9 +94,9 @@ DEFAULT_FILM = ThinFilmMaterial(n_film=2.0, thickness_nm=500.0, alpha=0.08, n_ba
 FILM_COLOUR_METHOD = "fourier-table"
 """How the renderer colours films in RGB mode (order 3), and so the film's colour strip."""
 DENOISE_AFTER_SPP = 4
-"""Full-resolution frames of more than this many samples per pixel are shown denoised (while
-:attr:`Viewer.denoise` is on): the first few frames after an edit show the raw samples, which
-the frames' tests (and a user judging an edit's first frames) read as they are."""
+"""Full-resolution frames of at least this many samples per pixel are shown denoised (while
+:attr:`Viewer.denoise` is on): the first few frames after an edit show the raw samples, for a
+user judging an edit's first frames as they are."""
 DENOISE_GROWTH = 1.25
 """The denoised picture is renewed once the samples have grown by this factor since the last
 one (5, 7, 9, 12, 15, 19, ... spp), and shown as it was in between: denoising costs about a
@@ -354,7 +354,7 @@ class Viewer:
     last_frame : numpy.ndarray or None
         The last image returned by :meth:`frame` or :meth:`refine`.
     denoise : bool
-        Show full-resolution frames of more than :data:`DENOISE_AFTER_SPP` samples per pixel
+        Show full-resolution frames of at least :data:`DENOISE_AFTER_SPP` samples per pixel
         denoised (:meth:`wgbragg.render.Renderer.denoised`, renewed as :data:`DENOISE_GROWTH`
         says); previews are never denoised. Only the display changes: the accumulation goes on.
     denoised : bool
@@ -944,7 +944,7 @@ class Viewer:
     def _show(self, slot: _Slot, image: np.ndarray, scale: int) -> np.ndarray:
         renderer = slot.renderer
         self.denoised = (self._denoise and scale == 1 and renderer.ibl == "monte-carlo"
-                         and renderer.passes > DENOISE_AFTER_SPP)
+                         and renderer.passes >= DENOISE_AFTER_SPP)
         if self.denoised:
             image = self._denoised(slot)
         pixels = display_transform(image, self.exposure)

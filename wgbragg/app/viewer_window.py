@@ -528,7 +528,7 @@ class ViewerWindow:
                                                "%.1f EV")
         if changed:
             viewer.edit(exposure=exposure)
-        changed, denoise = imgui.checkbox(f"denoise after {DENOISE_AFTER_SPP} spp",
+        changed, denoise = imgui.checkbox(f"denoise from {DENOISE_AFTER_SPP} spp",
                                           viewer.denoise)
         imgui.set_item_tooltip("Intel Open Image Denoise on the CPU, guided by the first hits' "
                                "albedo and normal: full-size frames only, the samples go on")
