@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: setup vulkan xvfb test demo lint bench bench-peer clean
+.PHONY: setup vulkan xvfb test fuzz demo lint bench bench-peer clean
 
 setup: vulkan $(STAMP)
 
@@ -25,6 +25,14 @@ $(STAMP): pyproject.toml
 
 test: setup xvfb
 	$(PY) -m pytest -q
+
+# The float32 kernels against their float64 twins over the whole documented domain
+# (tests/test_float32_domain.py): the suite runs its property tests with 300 examples each,
+# this with FUZZ_EXAMPLES of them; FUZZ_SEED=n explores other cases than the fixed seed's.
+FUZZ_EXAMPLES ?= 20000
+fuzz: setup
+	WGBRAGG_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(if $(FUZZ_SEED),WGBRAGG_FUZZ_SEED=$(FUZZ_SEED)) \
+		$(PY) -m pytest -q tests/test_float32_domain.py -k over_the_domain
 
 # The window where there is a display; otherwise the same window rendered offscreen as a PNG.
 demo: setup

@@ -6,6 +6,14 @@ Units, stated once: thicknesses and wavelengths in nanometres, angles in radians
 host (incident) medium, ``theta`` in ``[0, pi/2]``. Inputs broadcast numpy-style. ``backend``
 selects the float64 numpy reference (``"numpy"``) or the float32 WGSL kernel (``"gpu"``), with
 the same semantics.
+
+Energy: ``reflectance + transmittance + absorptance = 1`` at every wavelength, angle and
+polarisation. Transmittance is the normal flux of the Poynting vector that the exit medium
+(a mirror's ``n1`` substrate, a film's base) carries away over the incident one, in the
+convention of ``tmm.coh_tmm`` (``Re(n_out cos theta_out) / Re(n_in cos theta_in) |t|^2`` for
+s, ``Re(n_out conj(cos theta_out)) / Re(n_in conj(cos theta_in)) |t|^2`` for p). Every layer
+is lossless; only a film's base may absorb (``k > 0``), and a semi-infinite absorber absorbs
+all the flux that enters it (tmm's ``T`` there), so over it ``T = 0`` and ``A = 1 - R``.
 """
 
 from __future__ import annotations
@@ -14,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wgbragg.common.blocks import blockwise
 from wgbragg.common.validation import (
     check_angle,
     check_backend,
@@ -28,8 +37,8 @@ from wgbragg.common.validation import (
 from wgbragg.optics import thin_film_gpu, yeh_gpu
 from wgbragg.optics.landmarks import find_landmarks_many
 from wgbragg.optics.metals import METALS, SpectralIndex, metal
-from wgbragg.optics.thin_film import thin_film_reflectance
-from wgbragg.optics.yeh import yeh_reflectance
+from wgbragg.optics.thin_film import base_flux, thin_film_reflectance
+from wgbragg.optics.yeh import yeh_reflectance, yeh_transmittance
 
 __all__ = ["BraggStack", "ThinFilmStack"]
 
@@ -94,7 +103,31 @@ class BraggStack:
         args = (self.n1, self.n2, self.d1, self.d2, self.N, wavelength, angle, polarization)
         if backend == "gpu":
             return yeh_gpu.bragg_reflectance(*args, self.host)
-        return yeh_reflectance(*args, host=self.host)
+        return blockwise(lambda w, t: yeh_reflectance(*args[:5], w, t, polarization,
+                                                      host=self.host), wavelength, angle)
+
+    def transmittance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy"):
+        """Transmittance into the ``n1`` substrate, in [0, 1], O(1) in N.
+
+        The Poynting flux carried into the substrate over the incident one, as
+        ``tmm.coh_tmm``'s ``T``; the layers are lossless, so ``R + T = 1``. It is formed
+        directly, not as ``1 - R``, so it keeps its relative accuracy deep inside band gaps
+        (on the GPU down to float32's range, about 1e-38). 0 beyond the critical angle of
+        ``n1`` under a denser host. Arguments and shape as :meth:`reflectance`
+        (``"unpolarized"``: the mean of the s and p transmittances).
+        """
+        wavelength, angle = _checked_inputs(wavelength_nm, theta, polarization, backend)
+        args = (self.n1, self.n2, self.d1, self.d2, self.N, wavelength, angle, polarization)
+        if backend == "gpu":
+            return yeh_gpu.bragg_transmittance(*args, self.host)
+        return blockwise(lambda w, t: yeh_transmittance(*args[:5], w, t, polarization,
+                                                        host=self.host), wavelength, angle)
+
+    def absorptance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy"):
+        """Absorptance: 0, every layer and the substrate being lossless; arguments and shape as
+        :meth:`transmittance` (``R + T + A = 1``)."""
+        wavelength, angle = _checked_inputs(wavelength_nm, theta, polarization, backend)
+        return np.zeros(np.broadcast_shapes(wavelength.shape, angle.shape))
 
     def landmarks(self, theta, polarization="s"):
         """Ordered spectral landmarks (modes, Airy points, band edges, zero points).
@@ -175,12 +208,45 @@ class ThinFilmStack:
         """Specular reflectance in [0, 1]; arguments as :meth:`BraggStack.reflectance`."""
         wavelength, angle = _checked_inputs(wavelength_nm, theta, polarization, backend)
         if backend == "gpu":
-            base = None if self.base is None else self.base_index(wavelength)
             return thin_film_gpu.thin_film_reflectance(
                 self.host, self.n_film, self.d, self.n_base, self.k_base, wavelength, angle,
-                polarization, base,
+                polarization, self.base,
             )
-        return thin_film_reflectance(
-            self.host, self.n_film, self.d, self.base_index(wavelength), wavelength, angle,
-            polarization,
-        )
+        return blockwise(lambda w, t: thin_film_reflectance(
+            self.host, self.n_film, self.d, self.base_index(w), w, t, polarization),
+            wavelength, angle)
+
+    def _base_flux(self, wavelength_nm, theta, polarization, backend):
+        """(flux entering the base, whether the base absorbs) for the public quantities."""
+        wavelength, angle = _checked_inputs(wavelength_nm, theta, polarization, backend)
+        if backend == "gpu":
+            flux = thin_film_gpu.base_flux(
+                self.host, self.n_film, self.d, self.n_base, self.k_base, wavelength, angle,
+                polarization, self.base,
+            )
+        else:
+            flux = blockwise(lambda w, t: base_flux(
+                self.host, self.n_film, self.d, self.base_index(w), w, t, polarization),
+                wavelength, angle)
+        absorbing = np.broadcast_to(self.base_index(wavelength).imag > 0, flux.shape)
+        return flux, absorbing
+
+    def transmittance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy"):
+        """Transmittance into a lossless base, in [0, 1]; 0 over an absorbing base.
+
+        The Poynting flux the base carries away over the incident one, as ``tmm.coh_tmm``'s
+        ``T`` for a base with ``k = 0`` (0 beyond its critical angle). A base with ``k > 0``
+        absorbs all the flux that enters it (:meth:`absorptance`). ``R + T + A = 1``.
+        Arguments and shape as :meth:`BraggStack.reflectance`, the wavelengths within a
+        dispersive base's tabulated range (``"unpolarized"``: the mean of the s and p values).
+        """
+        flux, absorbing = self._base_flux(wavelength_nm, theta, polarization, backend)
+        return np.where(absorbing, 0.0, flux)
+
+    def absorptance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy"):
+        """The fraction of the incident power an absorbing base (``k > 0``) absorbs, in [0, 1]:
+        the flux that enters it (``tmm.coh_tmm``'s ``T`` there), ``1 - R``; 0 over a lossless
+        base (the host and the film are lossless). Arguments and shape as
+        :meth:`transmittance`; ``R + T + A = 1``."""
+        flux, absorbing = self._base_flux(wavelength_nm, theta, polarization, backend)
+        return np.where(absorbing, flux, 0.0)

@@ -6,7 +6,7 @@ import numpy as np
 
 from wgbragg.common.validation import MAX_THICKNESS_NM, as_float_array
 from wgbragg.optics.checks import check_complex_index, check_light
-from wgbragg.optics.fresnel import normal_component
+from wgbragg.optics.fresnel import normal_component_at
 from wgbragg.optics.series import sinc
 
 __all__ = ["transfer_matrix_reflectance"]
@@ -78,9 +78,9 @@ def _reflectance(indices, thicknesses, wavelength, angle, polarization):
     # eta = q (s) or q / n^2 (p) and S = sin(d) / eta in sinc form: finite where a layer turns
     # evanescent (q = 0), where interface matrices would be singular.
     wavelength, angle = np.broadcast_arrays(wavelength, angle)
-    s = indices[0].real * np.sin(angle)
     k0 = 2.0 * np.pi / wavelength
-    q = [normal_component(n, s) for n in indices]
+    # Normal components from the angle without cancellation (fresnel.normal_square).
+    q = [normal_component_at(n, indices[0].real, angle) for n in indices]
     factor = [1.0 if polarization == "s" else n * n for n in indices]
     eta = [q_j / f for q_j, f in zip(q, factor, strict=True)]
     B = np.ones(wavelength.shape, np.complex128)

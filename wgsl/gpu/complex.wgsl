@@ -24,9 +24,14 @@ fn c_exp_i(phase: f32) -> vec2<f32> {
 }
 
 // Principal square root with Im >= 0 for Im(z) >= 0 (the decaying branch of n cos(theta)).
+// The part whose formula would subtract (m - |z.x|) is taken as |z.y| / (2 x the other):
+// a metal with k = 1e4 kept Re sqrt(n^2 - k^2 + 2 i n k) = n, which sqrt((m + z.x) / 2)
+// rounded to 0.
 fn c_sqrt(z: vec2<f32>) -> vec2<f32> {
     let m = length(z);
-    let re = sqrt(max(0.5 * (m + z.x), 0.0));
-    let im = sqrt(max(0.5 * (m - z.x), 0.0));
+    let large = sqrt(max(0.5 * (m + abs(z.x)), 0.0));
+    let small = select(0.5 * abs(z.y) / large, 0.0, large == 0.0);
+    let re = select(small, large, z.x >= 0.0);
+    let im = select(large, small, z.x >= 0.0);
     return vec2<f32>(re, select(im, -im, z.y < 0.0));
 }
