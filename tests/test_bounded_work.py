@@ -15,8 +15,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from wgbragg import gpu
+from wgbragg import BraggMirror, ThinFilm, gpu
+from wgbragg.common import blocks as blocks_module
 from wgbragg.common.blocks import DEFAULT_BLOCK, block_ranges, blockwise, flat_block
+from wgbragg.optics import pointwise_gpu, stacks
 from wgbragg.render import renderer as renderer_module
 from wgbragg.render.renderer import PassPlan, Renderer, TimeBudget
 from wgbragg.scene.reader import load_preset
@@ -230,6 +232,59 @@ def test_rows_refusals_name_the_input_and_the_limit(monkeypatch):
         kernel.bind([gpu.Rows(rows), x], [(n, np.float32)], params)
     (empty,) = kernel.run([gpu.Rows(rows), gpu.Rows(rows)], [(0, np.float32)], params)
     assert empty.shape == (0,) and made == []
+
+
+@pytest.mark.parametrize("structure", [
+    BraggMirror(1.0, 1.5, 125.0, 375.0, 20, host=1.2),
+    ThinFilm(1.33, 300.0, base="Au"),
+], ids=["mirror", "film-over-gold"])
+def test_numpy_quantities_run_in_blocks_bit_identical_to_one_call(structure, monkeypatch):
+    wavelength = np.linspace(380.0, 780.0, 61)[:, None]
+    theta = np.linspace(0.0, 1.5, 37)[None, :]
+    quantities = ("reflectance", "transmittance", "absorptance")
+    whole = [getattr(structure, q)(wavelength, theta, "p") for q in quantities]
+    sizes = []
+    real = blocks_module.blockwise
+
+    def small_blocks(function, *arrays, **options):
+        def counted(*parts):
+            sizes.append(math.prod(np.broadcast_shapes(*(np.shape(p) for p in parts))))
+            return function(*parts)
+        return real(counted, *arrays, block=100)
+
+    monkeypatch.setattr(stacks, "blockwise", small_blocks)
+    for quantity, expected in zip(quantities, whole, strict=True):
+        np.testing.assert_array_equal(getattr(structure, quantity)(wavelength, theta, "p"),
+                                      expected)
+    assert max(sizes) <= 100 and sum(sizes) >= 61 * 37
+
+
+@pytest.mark.gpu
+@pytest.mark.parametrize("structure", [
+    BraggMirror(1.0, 1.5, 125.0, 375.0, 20, host=1.2),
+    ThinFilm(1.33, 300.0, base="Au"),
+], ids=["mirror", "film-over-gold"])
+def test_gpu_reflectance_forms_its_points_a_block_at_a_time(structure, monkeypatch):
+    # A largest buffer of 4 KiB: 256 points of 4 words a block, formed on demand from flat
+    # ranges of the broadcast; the same values as in one block.
+    wavelength = np.linspace(380.0, 780.0, 61)[:, None]
+    theta = np.linspace(0.0, 1.5, 37)[None, :]
+    whole = structure.reflectance(wavelength, theta, "s", backend="gpu")
+    assert np.abs(whole - structure.reflectance(wavelength, theta, "s")).max() < 2e-3
+    ranges = []
+    real = pointwise_gpu.flat_block
+
+    def spy(arrays, start, stop):
+        ranges.append((start, stop))
+        return real(arrays, start, stop)
+
+    monkeypatch.setattr(pointwise_gpu, "flat_block", spy)
+    monkeypatch.setattr(gpu.device, "max_buffer_bytes", lambda: 4096)
+    np.testing.assert_array_equal(structure.reflectance(wavelength, theta, "s", backend="gpu"),
+                                  whole)
+    size = 61 * 37
+    assert max(stop - start for start, stop in ranges) == 256
+    assert sorted(set(ranges)) == [(s, min(s + 256, size)) for s in range(0, size, 256)]
 
 
 # --------------------------------------------------------------------------- time planning
