@@ -60,6 +60,8 @@ bench: setup
 	$(PY) -m benchmarks.cli
 	$(PY) -m benchmarks.denoise
 	$(PY) -m benchmarks.memory
+	$(PY) -m benchmarks.sweep
+	$(PY) -m benchmarks.design
 
 # Mitsuba 3 as a peer (benchmarks/mitsuba_peer.py): scalar_rgb, and llvm_ad_rgb on a libLLVM
 # that its drjit can use. The system's LLVM 15 (lavapipe's) makes drjit 1.5 abort, so Debian's

@@ -43,8 +43,10 @@ MODULE = "benchmarks.cli"
 BEGIN_MARKER, END_MARKER = report.markers("bench_cli")
 TARGET_S = 1.0
 """Most seconds a ``--help`` may take."""
-COMMANDS = ("info", "reflectance", "map", "bake", "cache", "scatterogram", "render")
-HEAVY = ("colour", "matplotlib", "trimesh", "wgpu", "scipy")
+COMMANDS = ("info", "reflectance", "map", "bake", "cache", "scatterogram", "render", "sweep",
+            "atlas", "render-batch", "fit", "design")
+HEAVY = ("colour", "matplotlib", "trimesh", "wgpu", "scipy", "dask", "distributed", "xarray",
+         "zarr", "cma")
 """Top-level packages only the commands that compute may import."""
 
 # Runs a command line's module as __main__ and reports the heavy packages loaded at exit

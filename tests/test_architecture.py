@@ -19,7 +19,8 @@ PACKAGE = ROOT / "wgbragg"
 SHADERS = ROOT / "wgsl"
 MODULES = sorted(PACKAGE.rglob("*.py"))
 
-LAZY_IMPORTS_ALLOWED = {PACKAGE / "app" / "cli.py"}
+LAZY_IMPORTS_ALLOWED = {PACKAGE / "app" / "cli.py", PACKAGE / "app" / "sweep_cli.py",
+                        PACKAGE / "app" / "design_cli.py"}
 """Modules that import our own modules inside functions: the CLI, whose commands import what
 they run when they run."""
 
@@ -49,6 +50,8 @@ ENTRY_POINT_TWIN_TESTS = {
         "test_layered_simulation.py::test_single_ballistic_reproduces_the_model_without_variance",
     "lighting/environment_prefilter.wgsl": "test_environment_prefilter.py::test_gpu_matches_numpy",
     "render/renderer.wgsl": "test_render_ibl.py::test_the_gpu_shades_a_plane_as_its_float64_twin",
+    "design/population_bragg.wgsl": "test_design.py::test_population_gpu_matches_numpy",
+    "design/population_film.wgsl": "test_design.py::test_population_gpu_matches_numpy",
 }
 """Each compute entry point and the test that compares it with its float64 numpy twin."""
 

@@ -16,8 +16,10 @@ import pytest
 import wgbragg
 from wgbragg.app import cli
 
-HEAVY = ("colour", "matplotlib", "trimesh", "wgpu", "scipy")
-COMMANDS = ("info", "reflectance", "map", "bake", "cache", "scatterogram", "render")
+HEAVY = ("colour", "matplotlib", "trimesh", "wgpu", "scipy", "dask", "distributed", "xarray",
+         "zarr", "cma")
+COMMANDS = ("info", "reflectance", "map", "bake", "cache", "scatterogram", "render", "sweep",
+            "atlas", "render-batch", "fit", "design")
 
 # Run in a fresh interpreter: this process has imported everything already.
 PROBE = """

@@ -41,6 +41,10 @@ The subpackages are layers, each importing only from those below it: ``common`` 
 atomic files, EXR, LUT store, sampling, metrics) < ``gpu`` < ``optics`` < ``colour`` < ``bsdf``
 < ``lighting`` < ``scene`` < ``render`` < ``app`` (CLI, demo window, figures).
 
+``wgbragg.sweep`` computes sweeps on Dask into Zarr atlases (``docs/sweeps.md``).
+``wgbragg.design`` fits structures to spectra, designs them for target colours and predicts
+their tolerance (``docs/inverse_design.md``).
+
 ``import wgbragg`` is light: each public name above is imported on first use (PEP 562), so a
 program pays for wgpu, colour-science or scipy only when it uses what needs them.
 """
@@ -53,7 +57,7 @@ from typing import TYPE_CHECKING
 from wgbragg._version import __version__
 
 if TYPE_CHECKING:  # what type checkers and editors see; at run time __getattr__ imports them
-    from wgbragg import optics
+    from wgbragg import design, optics, sweep
     from wgbragg.bsdf import microfacet
     from wgbragg.bsdf.layered.model import LayeredBragg
     from wgbragg.bsdf.materials import BraggMirror, ThinFilm
@@ -80,6 +84,7 @@ __all__ = [
     "ThinFilm",
     "TransmissionFilter",
     "__version__",
+    "design",
     "ibl",
     "load_preset",
     "load_scene",
@@ -89,6 +94,7 @@ __all__ = [
     "read_exr",
     "save_png",
     "smape",
+    "sweep",
     "write_exr",
 ]
 
@@ -113,7 +119,7 @@ _HOMES = {
 """The module each public name of the package comes from."""
 
 _MODULES = {"ibl": "wgbragg.lighting.ibl", "microfacet": "wgbragg.bsdf.microfacet",
-            "optics": "wgbragg.optics"}
+            "optics": "wgbragg.optics", "sweep": "wgbragg.sweep", "design": "wgbragg.design"}
 """Public names that are modules."""
 
 

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from wgbragg.app import design_cli, sweep_cli
 from wgbragg.common.atomic import check_output_folder, check_output_path
 from wgbragg.common.luts import LutWarning
 
@@ -490,6 +491,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_cache_command(commands)
     _add_scatterogram_command(commands)
     _add_render_command(commands)
+    sweep_cli.add_commands(commands, _command, _size)  # sweep, atlas, render-batch (Dask)
+    design_cli.add_design_commands(commands, _command)  # fit, design (inverse design)
     return parser
 
 

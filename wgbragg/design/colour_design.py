@@ -1,0 +1,231 @@
+"""Designing structures for target colours over angle: :func:`design_colour`.
+
+The global stage searches the family's parameters with whole populations in one GPU dispatch a
+generation (colours from :mod:`wgbragg.design.colour_targets` on a 2 nm grid); the archive of
+evaluated structures gives the best one per complexity (N for a Bragg mirror, the film
+thickness in bins for a film); those on the Pareto front of (dE2000, complexity) are polished
+in float64 with the reference colour (every nm, ``method="reference"``) and reported with both
+the reference and the chosen fast colour method.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from wgbragg.common.validation import check_angle
+from wgbragg.design.colour_targets import (
+    delta_e,
+    grid_xyz_weights,
+    parse_targets,
+    xyz_to_lab,
+)
+from wgbragg.design.families import parameter_space
+from wgbragg.design.fit import check_search_options, population_evaluator
+from wgbragg.design.search import global_search
+
+__all__ = ["Candidate", "colour_objective", "design_colour", "pareto_front"]
+
+_FAST_METHOD = {"bragg": "averaged", "film": "fourier-table"}
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A designed structure.
+
+    Attributes
+    ----------
+    structure : BraggMirror or ThinFilm
+    delta_e : float
+        The objective (mean or max over angles) of dE2000 to the targets, colour by
+        ``method="reference"`` (exact R every nm).
+    delta_e_per_angle : numpy.ndarray
+        dE2000 at each angle (reference).
+    delta_e_method : float
+        The same objective with the fast colour method (``method``: "averaged" for mirrors,
+        "fourier-table" for films).
+    method : str
+        That method.
+    xyz : numpy.ndarray
+        Achieved XYZ ``(len(theta), 3)`` (reference).
+    complexity : float
+        N for a Bragg mirror, the total thickness in nm for a film.
+    """
+
+    structure: object
+    delta_e: float
+    delta_e_per_angle: np.ndarray
+    delta_e_method: float
+    method: str
+    xyz: np.ndarray
+    complexity: float
+
+
+def colour_objective(lab_target, reduce="mean"):
+    """``objective(xyz (P, A, 3)) -> (P,)``: mean or max over angles of dE2000."""
+    def objective(xyz):
+        de = delta_e(xyz_to_lab(np.maximum(xyz, 0.0)), lab_target)
+        return de.max(axis=-1) if reduce == "max" else de.mean(axis=-1)
+    return objective
+
+
+def pareto_front(points) -> np.ndarray:
+    """Indices of the non-dominated ``(cost, complexity)`` rows (both minimised), by cost."""
+    points = np.asarray(points, np.float64)
+    order = np.lexsort((points[:, 1], points[:, 0]))
+    keep, best_complexity = [], math.inf
+    for i in order:
+        if points[i, 1] < best_complexity:
+            keep.append(i)
+            best_complexity = points[i, 1]
+    return np.array(keep, int)
+
+
+def _complexity(space, x) -> np.ndarray:
+    m = space.members(np.atleast_2d(x))
+    if space.family.name == "bragg":
+        return m["N"]
+    return m["d"]
+
+
+def _buckets(space, x, cost, count=8):
+    """The best archive vector per complexity bucket (each N, or thickness bins)."""
+    complexity = _complexity(space, x)
+    if space.family.name == "film":
+        lo, hi = complexity.min(), complexity.max()
+        keys = np.floor((complexity - lo) / max(hi - lo, 1e-9) * count).astype(int)
+    else:
+        keys = complexity.astype(int)
+    best = {}
+    for i in np.argsort(cost, kind="stable"):
+        best.setdefault(int(keys[i]), i)
+    return [x[i] for i in best.values()], np.array([cost[i] for i in best.values()])
+
+
+def _reference_cost(space, angle, objective_of_xyz):
+    """``cost(x)``: the structure and its reference XYZ; ``value(x)``: the objective."""
+    def cost(x):
+        structure = space.structure(x)
+        return structure, structure.xyz(angle, method="reference")
+
+    def value(x):
+        try:
+            _, xyz = cost(x)
+        except ValueError:
+            return math.inf
+        return float(objective_of_xyz(xyz[None])[0])
+    return cost, value
+
+
+def _polish(space, x0, value, max_evaluations):
+    from scipy.optimize import minimize
+
+    free = ~space.integer
+    x = np.array(x0, np.float64)
+    if not np.any(free):
+        return x
+    lo, hi = space.lower[free], space.upper[free]
+
+    def f(u):
+        y = x.copy()
+        y[free] = lo + np.clip(u, 0.0, 1.0) * (hi - lo)
+        return value(y)
+
+    u0 = (x[free] - lo) / (hi - lo)
+    result = minimize(f, u0, method="Nelder-Mead",
+                      options={"maxfev": max_evaluations, "xatol": 1e-5, "fatol": 1e-4,
+                               "initial_simplex": np.vstack([u0] + [
+                                   u0 + 0.02 * np.eye(len(u0))[i] for i in range(len(u0))])})
+    x[free] = lo + np.clip(result.x, 0.0, 1.0) * (hi - lo)
+    return x
+
+
+def design_colour(targets, theta, family, bounds=None, fixed=None, space="srgb", *,
+                  objective="mean", method=None, candidates=5, backend="gpu", population=None,
+                  generations=60, max_seconds=None, seed=None, progress=False) -> list:
+    """Structures of ``family`` whose colour over angle matches ``targets``.
+
+    Parameters
+    ----------
+    targets : array_like or sequence of str
+        One colour per angle, ``(len(theta), 3)`` in ``space``; with ``space="srgb"`` also
+        ``"#rrggbb"`` strings. Colours outside the sRGB gamut can be asked for exactly in
+        ``"linear-srgb"``, ``"xyz"`` or ``"lab"``.
+    theta : array_like
+        Angles of incidence in the host, radians in ``[0, pi/2]``, shape ``(A,)``.
+    family : {"bragg", "film"} or BraggMirror or ThinFilm
+    bounds, fixed : dict, optional
+        As :func:`~wgbragg.design.fit_spectrum`.
+    space : {"srgb", "linear-srgb", "xyz", "lab"}
+        XYZ and Lab relative to D65 with the perfect reflector ``Y = 1``, as ``.xyz`` returns.
+    objective : {"mean", "max"}
+        dE2000 over the angles.
+    method : str, optional
+        Fast colour method reported beside the reference: default "averaged" (mirrors) or
+        "fourier-table" (films).
+    candidates : int
+        Most candidates returned (the Pareto set of dE2000 against complexity).
+    backend : {"gpu", "numpy"}
+        Evaluator of the global stage.
+    population, generations, max_seconds, seed, progress
+        As :func:`~wgbragg.design.fit_spectrum`.
+
+    Returns
+    -------
+    list of Candidate
+        Sorted by ``delta_e``, best first, at least one.
+        A target no structure of the family reaches returns its best achievable structures
+        and their dE2000, not an error.
+    """
+    started = time.perf_counter()
+    check_search_options(backend, max_seconds, population, generations)
+    if objective not in ("mean", "max"):
+        raise ValueError(f"objective must be 'mean' or 'max', got {objective!r}")
+    if not isinstance(candidates, int | np.integer) or not 1 <= candidates <= 50:
+        raise ValueError(f"candidates must be an integer in [1, 50], got {candidates!r}")
+    angle = check_angle(theta)
+    if angle.ndim != 1 or angle.size == 0:
+        angle = angle.reshape(-1)
+        if angle.size == 0:
+            raise ValueError("theta must hold at least one angle")
+    lab = parse_targets(targets, angle.size, space)
+    pspace = parameter_space(family, bounds, fixed)
+    method = _FAST_METHOD[pspace.family.name] if method is None else method
+    nodes, weights = grid_xyz_weights()
+    wl = np.tile(nodes, angle.size)
+    th = np.repeat(angle, nodes.size)
+    reflect = population_evaluator(pspace, wl, th, "unpolarized", backend)
+    of_xyz = colour_objective(lab, objective)
+
+    def search_cost(x):
+        spectra = reflect(x).reshape(len(x), angle.size, nodes.size)
+        return of_xyz(spectra @ weights)
+
+    budget = None if max_seconds is None else 0.6 * max_seconds
+    _, archive, _ = global_search(pspace, search_cost, population=population,
+                                  generations=generations, seed=seed, max_seconds=budget,
+                                  progress=progress,
+                                  description=f"design {pspace.family.name}")
+    x, cost = archive.arrays()
+    seeds, seed_cost = _buckets(pspace, x, cost)
+    front = pareto_front(np.column_stack([seed_cost, _complexity(pspace, np.array(seeds))]))
+    reference, value = _reference_cost(pspace, angle, of_xyz)
+    results = []
+    if front.size > candidates:  # spread over the front: the best, the simplest, between
+        front = front[np.unique(np.round(np.linspace(0, front.size - 1, candidates)).astype(int))]
+    for i in front:
+        polished = seeds[i]
+        if max_seconds is None or time.perf_counter() - started < max_seconds:
+            polished = _polish(pspace, seeds[i], value, 150 if max_seconds is None else 60)
+        structure, xyz = reference(polished)
+        per_angle = delta_e(xyz_to_lab(np.maximum(xyz, 0.0)), lab)
+        fast = structure.xyz(angle, method=method)
+        results.append(Candidate(
+            structure=structure, delta_e=float(of_xyz(xyz[None])[0]),
+            delta_e_per_angle=per_angle, delta_e_method=float(of_xyz(fast[None])[0]),
+            method=method, xyz=xyz, complexity=float(_complexity(pspace, polished)[0])))
+    keep = pareto_front([(c.delta_e, c.complexity) for c in results])
+    return sorted((results[i] for i in keep), key=lambda c: c.delta_e)

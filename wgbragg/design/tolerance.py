@@ -1,0 +1,215 @@
+"""Fabrication tolerance of a structure's colour: :func:`tolerance`.
+
+Monte Carlo on the GPU: ``samples`` perturbed copies of the structure, every thickness moved by
+a normal error of ``sigma_thickness_nm`` and every index by one of ``sigma_index``, are
+evaluated as one population (one dispatch), and their colour over angle is compared with the
+nominal one by CIE dE2000. The errors are per parameter: all the ``d1`` layers of a Bragg mirror
+move together (a deposition-rate calibration error), since the population kernel evaluates
+periodic mirrors (independent per-layer errors need a non-periodic stack: not done here).
+The sensitivities are float64 finite differences of the reference colour.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from wgbragg.bsdf.materials import BraggMirror, ThinFilm
+from wgbragg.common.validation import check_angle
+from wgbragg.design import population, population_gpu
+from wgbragg.design.colour_targets import delta_e, grid_xyz_weights, xyz_to_lab
+from wgbragg.optics.transfer_matrix import transfer_matrix_reflectance
+
+__all__ = ["DEFAULT_THETA", "ToleranceResult", "perturb", "perturbations", "tolerance"]
+
+DEFAULT_THETA = (0.0, math.radians(30.0), math.radians(60.0))
+"""Angles of :func:`tolerance` by default: 0, 30 and 60 degrees (radians)."""
+
+_THICKNESSES = {"bragg": ("d1", "d2"), "film": ("d",)}
+_INDICES = {"bragg": ("n1", "n2"), "film": ("n_film",)}
+
+
+@dataclass(frozen=True)
+class ToleranceResult:
+    """What :func:`tolerance` found.
+
+    Attributes
+    ----------
+    delta_e : numpy.ndarray
+        ``(samples,)`` mean over the angles of dE2000 between each perturbed structure and the
+        nominal one.
+    delta_e_per_angle : numpy.ndarray
+        ``(samples, len(theta))``.
+    sensitivity : dict
+        dE2000 (mean over angles) per nm of each thickness, per unit of each index, from a
+        float64 finite difference (1 nm, 1e-3).
+    percentiles : dict
+        The 50th, 90th and 99th percentiles of ``delta_e``.
+    """
+
+    delta_e: np.ndarray
+    delta_e_per_angle: np.ndarray
+    sensitivity: dict
+    percentiles: dict
+
+    def share_below(self, threshold: float = 1.0) -> float:
+        """Share of samples with ``delta_e <= threshold``."""
+        return float(np.mean(self.delta_e <= threshold))
+
+
+def perturbations(family: str, samples: int, sigma_thickness_nm: float, sigma_index: float,
+                  seed=None) -> dict[str, np.ndarray]:
+    """Normal errors ``(samples,)`` of each thickness (nm) and index of ``family``."""
+    rng = np.random.default_rng(seed)
+    out = {name: sigma_thickness_nm * rng.standard_normal(samples)
+           for name in _THICKNESSES[family]}
+    out.update({name: sigma_index * rng.standard_normal(samples) for name in _INDICES[family]})
+    return out
+
+
+def perturb(family: str, members, errors) -> dict[str, np.ndarray]:
+    """Every member of a population (``(P,)`` arrays) under every error of
+    :func:`perturbations` (``(K,)``): ``(P * K,)`` arrays, member-major. Thicknesses stay >= 0
+    and indices >= 0.01; a mirror whose host is its ``n1`` keeps it so."""
+    size = len(next(iter(members.values())))
+    count = len(next(iter(errors.values())))
+    out = {k: np.repeat(np.asarray(v, np.float64), count) for k, v in members.items()}
+    matched = out["host"] == out["n1"] if family == "bragg" else None
+    for name, error in errors.items():
+        floor = 0.0 if name in _THICKNESSES[family] else 0.01
+        out[name] = np.maximum(out[name] + np.tile(error, size), floor)
+    if matched is not None:
+        out["host"] = np.where(matched, out["n1"], out["host"])
+    return out
+
+
+def _family(structure) -> str:
+    if isinstance(structure, BraggMirror):
+        return "bragg"
+    if isinstance(structure, ThinFilm):
+        return "film"
+    raise ValueError(f"structure must be a BraggMirror or a ThinFilm, got {type(structure)}")
+
+
+def _members(structure, family: str, size: int) -> dict[str, np.ndarray]:
+    names = (("n1", "n2", "d1", "d2", "N", "host") if family == "bragg"
+             else ("n_film", "d", "n_base", "k_base", "host"))
+    return {n: np.full(size, float(getattr(structure, n))) for n in names}
+
+
+def _sigma(name: str, value) -> float:
+    try:
+        sigma = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number >= 0, got {value!r}") from None
+    if not (math.isfinite(sigma) and sigma >= 0):
+        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    return sigma
+
+
+def tolerance(structure, sigma_thickness_nm=2.0, sigma_index=0.0, samples=1000,
+              theta=DEFAULT_THETA, *, per_layer=False, backend="gpu",
+              seed=None) -> ToleranceResult:
+    """The dE2000 distribution of ``structure``'s colour under fabrication errors.
+
+    Parameters
+    ----------
+    structure : BraggMirror or ThinFilm
+    sigma_thickness_nm : float
+        Standard deviation of each thickness's error, nm (>= 0).
+    sigma_index : float
+        Standard deviation of each index's error (>= 0); a mirror whose host is its ``n1``
+        keeps it so.
+    samples : int
+        Monte Carlo samples, in [1, 10**6].
+    theta : array_like
+        Angles of incidence in the host, radians.
+    per_layer : bool
+        Give each of a mirror's 2N layers its own errors (independent deposition errors)
+        instead of moving all layers of one kind together. The perturbed stacks are no longer
+        periodic, so they run on the float64 transfer-matrix solver on the CPU
+        (:func:`~wgbragg.optics.transfer_matrix_reflectance`, one call per sample) whatever
+        ``backend``; the host and the substrate keep their index. A film has one layer: the
+        same as the default.
+    backend : {"gpu", "numpy"}
+    seed : int, optional
+
+    Returns
+    -------
+    ToleranceResult
+    """
+    family = _family(structure)
+    sig_d = _sigma("sigma_thickness_nm", sigma_thickness_nm)
+    sig_n = _sigma("sigma_index", sigma_index)
+    if not isinstance(samples, int | np.integer) or not 1 <= samples <= 10**6:
+        raise ValueError(f"samples must be an integer in [1, 1000000], got {samples!r}")
+    if backend not in ("gpu", "numpy"):
+        raise ValueError(f"backend must be 'gpu' or 'numpy', got {backend!r}")
+    angle = check_angle(theta).reshape(-1)
+    if angle.size == 0:
+        raise ValueError("theta must hold at least one angle")
+    matched = family == "bragg" and structure.host == structure.n1
+    nodes, weights = grid_xyz_weights()
+    wl, th = np.tile(nodes, angle.size), np.repeat(angle, nodes.size)
+    if per_layer and family == "bragg":
+        spectra = _layer_spectra(structure, sig_d, sig_n, samples, wl, th, seed)
+    else:
+        nominal = _members(structure, family, 1)
+        errors = perturbations(family, samples, sig_d, sig_n, seed)
+        members = {k: np.concatenate([nominal[k], v])
+                   for k, v in perturb(family, nominal, errors).items()}
+        base_index = (structure.base(wl) if family == "film" and structure.base is not None
+                      else None)
+        twin = population_gpu if backend == "gpu" else population
+        spectra = twin.population_reflectance(family, members, wl, th, "unpolarized",
+                                              base_index)
+    lab = xyz_to_lab(np.maximum(spectra.reshape(-1, angle.size, nodes.size) @ weights, 0.0))
+    per_angle = delta_e(lab[1:], lab[0])
+    spread = per_angle.mean(axis=-1)
+    return ToleranceResult(
+        delta_e=spread, delta_e_per_angle=per_angle,
+        sensitivity=_sensitivity(structure, family, angle, matched),
+        percentiles={q: float(np.percentile(spread, q)) for q in (50, 90, 99)})
+
+
+def _layer_spectra(mirror, sigma_d, sigma_n, samples, wavelength, theta, seed):
+    """Spectra ``(1 + samples, L)`` of the mirror and of copies whose 2N layers each carry
+    their own normal errors, by the float64 transfer-matrix solver."""
+    rng = np.random.default_rng(seed)
+    layers = 2 * mirror.N
+    indices = np.tile([mirror.n1, mirror.n2], mirror.N)
+    thicknesses = np.tile([mirror.d1, mirror.d2], mirror.N)
+    out = np.empty((samples + 1, wavelength.size))
+    for k in range(samples + 1):
+        n, d = indices, thicknesses
+        if k:
+            n = np.maximum(indices + sigma_n * rng.standard_normal(layers), 0.01)
+            d = np.maximum(thicknesses + sigma_d * rng.standard_normal(layers), 0.0)
+        stack = np.concatenate([[mirror.host], n, [mirror.n1]])
+        out[k] = transfer_matrix_reflectance(stack, d, wavelength, theta)
+    return out
+
+
+def _sensitivity(structure, family, angle, matched) -> dict:
+    nominal = xyz_to_lab(structure.xyz(angle, method="reference"))
+    out = {}
+    steps = {**{n: 1.0 for n in _THICKNESSES[family]}, **{n: 1e-3 for n in _INDICES[family]}}
+    for name, step in steps.items():
+        changes = {name: float(getattr(structure, name)) + step}
+        if matched and name == "n1":
+            changes["host"] = changes["n1"]
+        moved = _replace(structure, changes)
+        lab = xyz_to_lab(moved.xyz(angle, method="reference"))
+        out[name] = float(delta_e(lab, nominal).mean() / step)
+    return out
+
+
+def _replace(structure, changes):
+    if isinstance(structure, BraggMirror):
+        fields = {n: getattr(structure, n) for n in ("n1", "n2", "d1", "d2", "N", "host")}
+        return BraggMirror(**{**fields, **changes})
+    fields = {n: getattr(structure, n) for n in ("n_film", "d", "n_base", "k_base", "host",
+                                                 "base")}
+    return ThinFilm(**{**fields, **changes})

@@ -1,0 +1,73 @@
+"""One chunk of a sweep, evaluated where it runs: on a Dask worker, the batch kernels run on
+that process's own wgpu device (:func:`wgbragg.gpu.get_device`, created on first use and kept,
+with its compiled pipelines, for every later chunk); one kernel call per structure covers all
+the chunk's angles (and wavelengths, for spectra)."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from wgbragg.colour.colorimetry import xyz_to_linear_srgb
+from wgbragg.sweep.spec import ALBEDO, ANGLE, WAVELENGTH, Quantity, Sweep
+
+__all__ = ["evaluate_block", "xyz_to_lab"]
+
+
+def xyz_to_lab(xyz) -> np.ndarray:
+    """CIELAB of CIE 1931 XYZ (D65, perfect reflector ``Y = 1``) by colour-science, with the
+    D65 white point, so a perfect reflector is ``L* = 100``."""
+    import colour  # heavy: only the workers that compute Lab load it
+
+    white = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
+    return colour.XYZ_to_Lab(np.asarray(xyz, dtype=np.float64), white)
+
+
+def _colour(structure, theta, quantity: Quantity, backend: str) -> np.ndarray:
+    if quantity.kind == ALBEDO:
+        return structure.albedo(theta, None, quantity.options["samples"],
+                                quantity.options["seed"], backend=backend)
+    xyz = structure.xyz(theta, quantity.method, backend, **quantity.options)
+    if quantity.kind == "rgb":
+        return xyz_to_linear_srgb(xyz)
+    if quantity.kind == "lab":
+        return xyz_to_lab(xyz)
+    return xyz
+
+
+def _spectrum(structure, theta, wavelength, quantity: Quantity, backend: str) -> np.ndarray:
+    function = getattr(structure, quantity.kind)  # reflectance or transmittance
+    return function(wavelength[None, :], theta[:, None], quantity.polarization, backend)
+
+
+def evaluate_block(sweep: Sweep, quantity: Quantity, index) -> np.ndarray:
+    """Chunk ``index`` (one integer per :meth:`Sweep.grid_dims`) of ``quantity``.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape of the chunk (``channel`` last for colours), dtype ``sweep.dtype``: the values
+        the store holds there, identical wherever the chunk is computed on the same adapter.
+    """
+    ranges = sweep.block_slices(quantity, index)
+    structure_dims = sweep.structure_dims
+    theta = np.radians(sweep.angle_deg(ranges.get(ANGLE)))
+    wavelength = sweep.coords[WAVELENGTH][ranges[WAVELENGTH]] if quantity.spectral else None
+    shape = [ranges[d].stop - ranges[d].start for d in structure_dims]
+    if ANGLE in ranges:
+        shape.append(theta.size)
+    shape.append(wavelength.size if quantity.spectral else 3)
+    out = np.empty(shape, dtype=sweep.dtype)
+    for local in itertools.product(*(range(n) for n in shape[:len(structure_dims)])):
+        values = {d: float(sweep.coords[d][ranges[d].start + i])
+                  for d, i in zip(structure_dims, local, strict=True)}
+        structure = sweep.structure(values)
+        if quantity.spectral:
+            result = _spectrum(structure, theta, wavelength, quantity, sweep.backend)
+        else:
+            result = _colour(structure, theta, quantity, sweep.backend)
+        if ANGLE not in ranges:
+            result = result[0]
+        out[local] = result
+    return out
