@@ -162,3 +162,64 @@ def test_parse_vary():
     key, values = parse_vary(VARY)
     assert key == "materials.coat.layers[0].period_nm"
     np.testing.assert_array_equal(values, [150.0, 225.0, 300.0])
+
+
+FILM = SCENE.replace('''type = "layered-bragg"
+layers = [{ n1 = 1.0, n2 = 1.5, d1_nm = 100.0, d2_nm = 100.0, N = 10, alpha = 0.1 }]''',
+                     '''type = "thin-film"
+n_film = 1.33
+alpha = 0.2
+thickness_nm = 400.0
+n_base = 1.5''')
+
+
+@pytest.mark.parametrize("key", [
+    "materials.coat.layers[0].n2", "'materials.coat.layers[0].n2'",
+    '"materials.coat.layers[0].n2"', 'materials."coat".layers[0].n2',
+    "materials . 'coat' . layers[ 0 ] . n2"])
+def test_quoted_key_paths_name_the_same_value(key):
+    document = tomllib.loads(SCENE)
+    set_key(document, key, 1.7)
+    assert document["materials"]["coat"]["layers"][0]["n2"] == 1.7
+    assert parse_vary(f"{key}=1:2:3")[0] == key
+
+
+def test_a_quoted_name_may_hold_dots_and_equals_signs():
+    document = {"materials": {"a.b=c": {"type": "thin-film", "n_film": 1.3}}}
+    set_key(document, 'materials."a.b=c".n_film', 1.5)
+    assert document["materials"]["a.b=c"]["n_film"] == 1.5
+    key, values = parse_vary("materials.'a.b=c'.n_film=1.4,1.6")
+    assert key == "materials.'a.b=c'.n_film" and values == ["1.4", "1.6"]
+
+
+def test_a_list_of_values_varies_numbers_booleans_and_a_films_base(tmp_path):
+    scene = tmp_path / "film.toml"
+    scene.write_text(FILM, encoding="utf-8")
+    frames = plan_frames(scene, vary="materials.coat.base=Au, Ag,Cu")
+    films = [tomllib.loads(f.scene_text)["materials"]["coat"] for f in frames]
+    assert [f["base"] for f in films] == ["Au", "Ag", "Cu"]
+    assert all("n_base" not in f for f in films)  # base replaces n_base and k_base
+    assert [f.label for f in frames][1] == "materials.coat.base = Ag"
+    frames = plan_frames(scene, vary="materials.coat.thickness_nm=250,400.5")
+    assert [tomllib.loads(f.scene_text)["materials"]["coat"]["thickness_nm"]
+            for f in frames] == [250.0, 400.5]
+    document = tomllib.loads(SCENE)
+    document["materials"]["coat"]["base_interreflection"] = False
+    set_key(document, "materials.coat.base_interreflection", "true")
+    assert document["materials"]["coat"]["base_interreflection"] is True
+    set_key(document, "materials.coat.layers[0].N", "12")
+    assert document["materials"]["coat"]["layers"][0]["N"] == 12
+
+
+@pytest.mark.parametrize(("vary", "message"), [
+    ("materials.coat.base=Au,Xx", r"frame 1 \(materials.coat.base = Xx\): .*base"),
+    ("materials.coat.n_film=1.3,abc", "is a number of the scene; the list gives 'abc'"),
+    ("materials.coat.n_film=1.3,,1.4", "non-empty values"),
+    ("materials.coat.type=thin-film,2", "type"),
+    ("materials.'coat.n_film=1:2:3", "is not a key path"),
+])
+def test_bad_lists_are_refused_before_any_frame(tmp_path, vary, message):
+    scene = tmp_path / "film.toml"
+    scene.write_text(FILM, encoding="utf-8")
+    with pytest.raises(ValueError, match=message):
+        plan_frames(scene, vary=vary)

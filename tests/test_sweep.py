@@ -326,9 +326,12 @@ def test_the_albedo_of_a_layered_structure_is_the_library_albedo():
                              base_albedo=0.2)
     expected = structure.albedo(np.radians([0.0, 45.0]), None, 64, 0, backend="numpy")
     np.testing.assert_array_equal(albedo.values[0, 0], expected.astype(np.float32))
-    with pytest.raises(ValueError, match=r"kind must be one of \('albedo',\) for a layered"):
+    with pytest.raises(ValueError, match=r"method must be one of \('single-reflection',"):
         parse_sweep({**_with(), "material": "layered-bragg",
                      "fixed": {**BASE["fixed"], "alpha": 0.1}})
+    with pytest.raises(ValueError, match=r"kind must be one of \('albedo', 'xyz', 'rgb', 'l"):
+        parse_sweep({**_with(), "material": "layered-bragg", "quantities": [
+            {"kind": "reflectance"}], "fixed": {**BASE["fixed"], "alpha": 0.1}})
     with pytest.raises(ValueError, match="below 90 degrees"):
         parse_sweep({"material": "layered-bragg", "fixed": {**BASE["fixed"], "alpha": 0.1},
                      "coords": {"period_nm": [200.0], "theta_deg": [0.0, 90.0]},

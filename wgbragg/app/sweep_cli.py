@@ -59,14 +59,32 @@ def _selection(items) -> dict:
 
 
 def _atlas(args) -> int:
-    from wgbragg.app.atlas import colour_chart, save_colour_chart
+    from wgbragg.app.atlas import (
+        colour_chart,
+        is_spectrum,
+        save_colour_chart,
+        save_spectrum_plot,
+        spectrum_plot,
+    )
     from wgbragg.sweep import open_atlas
 
     check_output_path(args.output, "--output", ".png")
     dataset = open_atlas(args.atlas, allow_incomplete=args.allow_incomplete)
-    chart = colour_chart(dataset, args.x, args.y, variable=args.var, facet=args.facet,
-                         select=_selection(args.sel))
-    save_colour_chart(chart, dataset, args.output)
+    select = _selection(args.sel)
+    spectra = [name for name in dataset.data_vars if is_spectrum(dataset, name)]
+    only_spectra = len(spectra) == len(dataset.data_vars)
+    if is_spectrum(dataset, args.var) or (args.var is None and spectra and (
+            args.y is None or only_spectra)):
+        plot = spectrum_plot(dataset, args.x, args.y, variable=args.var, facet=args.facet,
+                             lines=args.lines, select=select)
+        save_spectrum_plot(plot, dataset, args.output)
+    else:
+        if args.y is None or args.lines is not None:
+            raise ValueError("a colour chart needs --y (and takes no --lines: that is for "
+                             "spectra, --var reflectance)")
+        chart = colour_chart(dataset, args.x, args.y, variable=args.var, facet=args.facet,
+                             select=select)
+        save_colour_chart(chart, dataset, args.output)
     missing = dataset.attrs.get("missing_chunks", 0)
     note = f" ({missing} chunks not written yet, shown blank)" if missing else ""
     print(f"{args.output}{note}")
@@ -118,13 +136,19 @@ def add_commands(commands, command, size) -> None:
     sweep.set_defaults(run=_sweep, interrupted=INTERRUPTED_SWEEP)
 
     atlas = command(commands, "atlas", "draw colour charts of an atlas as a PNG: colours over "
-                    "two coordinates, one panel per value of a third")
+                    "two coordinates, one panel per value of a third; or its spectra, as a "
+                    "map over two coordinates or lines over one")
     atlas.add_argument("atlas", help="an atlas folder written by 'wgbragg sweep'")
     atlas.add_argument("--x", required=True, help="coordinate across, e.g. period_nm")
-    atlas.add_argument("--y", required=True, help="coordinate up, e.g. theta (theta_deg)")
+    atlas.add_argument("--y", default=None,
+                       help="coordinate up, e.g. theta (theta_deg); a spectrum without --y is "
+                            "drawn as lines over --x")
     atlas.add_argument("--facet", default=None, help="coordinate of the panels")
+    atlas.add_argument("--lines", default=None,
+                       help="spectra without --y: one line per value of this coordinate")
     atlas.add_argument("--var", default=None,
-                       help="the colour quantity (default: the atlas's first colour)")
+                       help="the quantity: a colour (default: the atlas's first colour) or a "
+                            "spectrum, e.g. reflectance")
     atlas.add_argument("--sel", action="append", default=None, metavar="NAME=VALUE",
                        help="fix another coordinate at its nearest value (repeatable)")
     atlas.add_argument("--allow-incomplete", action="store_true",
@@ -138,9 +162,11 @@ def add_commands(commands, command, size) -> None:
     what = batch.add_mutually_exclusive_group(required=True)
     what.add_argument("--turntable", type=int, default=None, metavar="FRAMES",
                       help="frames of a camera orbit about look_at (the scene's +y axis)")
-    what.add_argument("--vary", default=None, metavar="KEY=START:STOP:COUNT",
-                      help="a number of the scene file varied over COUNT frames, e.g. "
-                           "materials.coat.layers[0].period_nm=150:300:16")
+    what.add_argument("--vary", default=None, metavar="KEY=VALUES",
+                      help="a value of the scene file varied: KEY=START:STOP:COUNT, e.g. "
+                           "materials.coat.layers[0].period_nm=150:300:16, or KEY=A,B,C, "
+                           "e.g. materials.film.base=Au,Ag,Cu (key parts may be quoted as "
+                           "in TOML)")
     batch.add_argument("-o", "--output", default="out/frames",
                        help="folder of the frames (frame_0000.png, ...)")
     batch.add_argument("--animation", default=None,

@@ -2,8 +2,9 @@
 renders as Dask tasks.
 
 A sweep (:class:`~wgbragg.sweep.spec.Sweep`, read from TOML by :func:`load_sweep`, format in
-``docs/sweeps.md``) is a grid of named coordinates over a Bragg mirror or a thin film and
-the quantities evaluated on it; :func:`sweep_dataset` makes it a lazy :class:`xarray.Dataset`,
+``docs/sweeps.md``) is a grid of named coordinates over a Bragg mirror, a thin film or a rough
+structure (layered Bragg mirrors, a rough thin film) and the quantities evaluated on it;
+:func:`sweep_dataset` makes it a lazy :class:`xarray.Dataset`,
 :func:`run_sweep` stores it as Zarr through a Dask client (:func:`dask_client`), computing only
 the chunks not stored yet, and :func:`open_atlas` reads it back.
 

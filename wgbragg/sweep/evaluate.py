@@ -9,8 +9,10 @@ import itertools
 
 import numpy as np
 
-from wgbragg.colour.colorimetry import xyz_to_linear_srgb
-from wgbragg.sweep.spec import ALBEDO, ANGLE, WAVELENGTH, Quantity, Sweep
+from wgbragg.bsdf.layered.model import LayeredBragg
+from wgbragg.bsdf.rough_thin_film import RoughThinFilm
+from wgbragg.colour.colorimetry import linear_srgb_to_xyz, xyz_to_linear_srgb
+from wgbragg.sweep.spec import ALBEDO, ALBEDO_SPECTRUM, ANGLE, WAVELENGTH, Quantity, Sweep
 
 __all__ = ["evaluate_block", "xyz_to_lab"]
 
@@ -24,10 +26,27 @@ def xyz_to_lab(xyz) -> np.ndarray:
     return colour.XYZ_to_Lab(np.asarray(xyz, dtype=np.float64), white)
 
 
+def _albedo(structure, theta, quantity: Quantity, backend: str,
+            wavelength=None) -> np.ndarray:
+    """The directional albedo of a rough structure at every angle at once, linear sRGB
+    (angles, 3) or spectral (angles, wavelengths): LayeredBragg's batch kernels on
+    ``backend``; RoughThinFilm's quadrature (numpy, the only path the library has),
+    vectorised over angles and quadrature nodes."""
+    if isinstance(structure, LayeredBragg):
+        if wavelength is not None:
+            theta, wavelength = theta[:, None], wavelength[None, :]
+        return structure.albedo(theta, wavelength, quantity.options["samples"],
+                                quantity.options["seed"], quantity.method, backend)
+    return structure.albedo(theta, wavelength, quantity.method, **quantity.options)
+
+
 def _colour(structure, theta, quantity: Quantity, backend: str) -> np.ndarray:
-    if quantity.kind == ALBEDO:
-        return structure.albedo(theta, None, quantity.options["samples"],
-                                quantity.options["seed"], backend=backend)
+    if isinstance(structure, LayeredBragg | RoughThinFilm):
+        rgb = _albedo(structure, theta, quantity, backend)
+        if quantity.kind in (ALBEDO, "rgb"):
+            return rgb
+        xyz = linear_srgb_to_xyz(rgb)
+        return xyz_to_lab(xyz) if quantity.kind == "lab" else xyz
     xyz = structure.xyz(theta, quantity.method, backend, **quantity.options)
     if quantity.kind == "rgb":
         return xyz_to_linear_srgb(xyz)
@@ -37,6 +56,8 @@ def _colour(structure, theta, quantity: Quantity, backend: str) -> np.ndarray:
 
 
 def _spectrum(structure, theta, wavelength, quantity: Quantity, backend: str) -> np.ndarray:
+    if quantity.kind == ALBEDO_SPECTRUM:
+        return _albedo(structure, theta, quantity, backend, wavelength)
     function = getattr(structure, quantity.kind)  # reflectance or transmittance
     return function(wavelength[None, :], theta[:, None], quantity.polarization, backend)
 

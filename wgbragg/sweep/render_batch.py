@@ -1,6 +1,7 @@
 """Batch renders as Dask tasks (``wgbragg render-batch``): the frames of a turntable (the
 camera orbiting its ``look_at`` point about the scene's +y axis) or of one scene value varied
-over a range (``materials.coat.layers[0].period_nm=150:300:16``), each frame one task.
+over a range (``materials.coat.layers[0].period_nm=150:300:16``) or a list
+(``materials.film.base=Au,Ag,Cu``), each frame one task.
 
 Each frame is rendered where its task runs (the worker's own device) and written atomically
 as ``frame_0000.png`` ...; a frame whose PNG exists is not rendered again, so a rerun resumes
@@ -41,8 +42,12 @@ __all__ = ["ANIMATION_SUFFIXES", "BatchReport", "Frame", "assemble", "parse_vary
 ANIMATION_SUFFIXES = (".gif", ".webp")
 MAX_FRAMES = 100_000
 MANIFEST = "frames.json"
-_KEY = re.compile(r"[A-Za-z0-9_-]+(?:\.[A-Za-z0-9_-]+|\[\d+\])*")
-_PART = re.compile(r"\[(\d+)\]|[A-Za-z0-9_-]+")
+_BARE = re.compile(r"[A-Za-z0-9_-]+")
+_INDEX = re.compile(r"\[\s*(\d+)\s*\]")
+_BASIC = re.compile(r'"((?:[^"\\\x00-\x1f]|\\.)*)"')
+_LITERAL = re.compile(r"'([^'\x00-\x1f]*)'")
+_QUOTES = {'"': _BASIC, "'": _LITERAL}
+_BOOLEANS = {"true": True, "false": False}
 
 
 @dataclass(frozen=True)
@@ -84,18 +89,101 @@ def toml_text(document: dict) -> str:
     return "".join(f"{json.dumps(k)} = {value(v)}\n" for k, v in document.items())
 
 
+def _name(match: re.Match, quote: str) -> str:
+    if quote == "'":
+        return match.group(1)
+    try:
+        return json.loads(f'"{match.group(1)}"')
+    except json.JSONDecodeError:
+        raise ValueError(f"--vary: bad escape in the quoted key {match.group(0)}") from None
+
+
+def _read_key(text: str, stop: str = "") -> tuple[list, int]:
+    """The segments of the key path at the start of ``text`` (names and ``[i]`` indices) and
+    where it ends: before ``stop`` (a character outside quotes) or at the end. Names are bare
+    (``A-Za-z0-9_-``) or quoted as TOML keys (``"my coat"``, ``'my coat'``), dots between them
+    with optional spaces, as TOML's dotted keys."""
+    parts: list = []
+    pos, expect_name = 0, True
+    while True:
+        while pos < len(text) and text[pos] in " \t":
+            pos += 1
+        if expect_name:
+            quote = text[pos:pos + 1]
+            match = (_QUOTES[quote].match(text, pos) if quote in _QUOTES
+                     else _BARE.match(text, pos))
+            if not match:
+                raise ValueError("not a key path")
+            parts.append(_name(match, quote) if quote in _QUOTES else match.group(0))
+            pos, expect_name = match.end(), False
+            continue
+        index = _INDEX.match(text, pos)
+        if index:
+            parts.append(int(index.group(1)))
+            pos = index.end()
+        elif text[pos:pos + 1] == ".":
+            pos, expect_name = pos + 1, True
+        elif pos == len(text) or text[pos] == stop:
+            return parts, pos
+        else:
+            raise ValueError("not a key path")
+
+
 def _segments(key: str) -> list:
-    if not _KEY.fullmatch(key):
+    """A key path's segments. A path given whole inside one pair of quotes
+    (``'materials.coat.layers[0].period_nm'``) is read as the path it quotes: no scene key
+    holds a dot or a bracket at the top level."""
+    try:
+        parts, _ = _read_key(key)
+        if len(parts) == 1 and isinstance(parts[0], str) and key.strip()[:1] in _QUOTES and (
+                re.search(r"[.\[]", parts[0])):
+            parts, _ = _read_key(parts[0])
+    except ValueError:
         raise ValueError(f"--vary: {key!r} is not a key path such as "
-                         "materials.coat.layers[0].period_nm")
-    return [int(m.group(1)) if m.group(1) else m.group(0) for m in _PART.finditer(key)]
+                         "materials.coat.layers[0].period_nm (names bare or quoted as TOML "
+                         "keys, [i] indices)") from None
+    return parts
 
 
-def set_key(document: dict, key: str, number: float) -> None:
-    """Set the number at key path ``key`` (``materials.coat.layers[0].period_nm``) of a scene
-    file's data. A Bragg layer's ``period_nm`` or ``delta`` may be set on a layer that gives
-    ``d1_nm`` and ``d2_nm`` (and these on one that gives ``period_nm`` and ``delta``): the
-    other pair is converted, keeping the layer's other thickness value."""
+def _typed(key: str, old, value):
+    """``value`` (a number, or a string from a list of values) as the type of the scene's
+    ``old`` value at ``key``."""
+    if isinstance(value, str) and not isinstance(old, str | None):
+        text = value.strip()
+        if isinstance(old, bool):
+            if text not in _BOOLEANS:
+                raise ValueError(f"--vary: {key} is true or false, got {value!r}")
+            return _BOOLEANS[text]
+        try:
+            value = float(text)
+        except ValueError:
+            raise ValueError(f"--vary: {key} is a number of the scene; the list gives "
+                             f"{value!r}") from None
+        if not math.isfinite(value):
+            raise ValueError(f"--vary: {key} must be finite, got {text!r}")
+    if isinstance(old, str) or (old is None and isinstance(value, str)):
+        if not isinstance(value, str):
+            raise ValueError(f"--vary: {key} is not a number of the scene (it holds {old!r}): "
+                             "give its values as a list, KEY=A,B,C")
+        return value.strip()
+    if isinstance(old, bool) or not isinstance(old, int | float):
+        raise ValueError(f"--vary: {key} is not a number of the scene (it holds {old!r})")
+    if isinstance(old, int):
+        if value != round(value):
+            raise ValueError(f"--vary: {key} is an integer; the range gives {value:g}")
+        return int(value)  # integral, checked above
+    return float(value)
+
+
+def set_key(document: dict, key: str, value) -> None:
+    """Set the value at key path ``key`` (``materials.coat.layers[0].period_nm``) of a scene
+    file's data: a number, or a string (from a list of values) read as the type the scene
+    holds there (number, ``true``/``false``, or text such as a film's ``base = "Au"``).
+
+    A Bragg layer's ``period_nm`` or ``delta`` may be set on a layer that gives ``d1_nm`` and
+    ``d2_nm`` (and these on one that gives ``period_nm`` and ``delta``): the other pair is
+    converted, keeping the layer's other thickness value. A thin film's ``base`` may be set on
+    a film without one: it replaces ``n_base`` and ``k_base``."""
     parts = _segments(key)
     node = document
     for depth, part in enumerate(parts[:-1]):
@@ -106,7 +194,7 @@ def set_key(document: dict, key: str, number: float) -> None:
             raise ValueError(f"--vary: the scene has no {where}") from None
     last = parts[-1]
     if not isinstance(node, dict) or not isinstance(last, str):
-        raise ValueError(f"--vary: {key} is not a number of the scene")
+        raise ValueError(f"--vary: {key} is not a value of the scene")
     pair = {"period_nm": ("d1_nm", "d2_nm"), "delta": ("d1_nm", "d2_nm"),
             "d1_nm": ("period_nm", "delta"), "d2_nm": ("period_nm", "delta")}
     if last not in node and last in pair and all(k in node for k in pair[last]):
@@ -118,22 +206,35 @@ def set_key(document: dict, key: str, number: float) -> None:
             period, delta = float(node.pop("period_nm")), float(node.pop("delta"))
             node["d1_nm"], node["d2_nm"] = delta * period, (1.0 - delta) * period
     old = node.get(last)
-    if isinstance(old, bool) or not isinstance(old, int | float):
-        raise ValueError(f"--vary: {key} is not a number of the scene (it holds {old!r})")
-    if isinstance(old, int):
-        if number != round(number):
-            raise ValueError(f"--vary: {key} is an integer; the range gives {number:g}")
-        node[last] = int(number)  # integral, checked above
-    else:
-        node[last] = float(number)
+    if last == "base" and node.get("type") == "thin-film" and isinstance(value, str):
+        node.pop("n_base", None)
+        node.pop("k_base", None)
+    elif old is None:
+        raise ValueError(f"--vary: the scene has no {key} (it holds None)")
+    node[last] = _typed(key, old, value)
 
 
-def parse_vary(text: str) -> tuple[str, np.ndarray]:
-    """``KEY=START:STOP:COUNT`` as the key and its ``COUNT`` values from START to STOP."""
-    key, sep, spec = text.partition("=")
+def parse_vary(text: str) -> tuple[str, np.ndarray | list[str]]:
+    """``KEY=START:STOP:COUNT`` as the key and its ``COUNT`` values from START to STOP, or
+    ``KEY=A,B,C`` as the key and its listed values (strings, read as the scene's type by
+    :func:`set_key`). ``KEY`` is a key path, names bare or quoted as TOML keys."""
+    try:
+        _, end = _read_key(text, stop="=")
+    except ValueError:
+        end = text.find("=")
+    if end < 0 or end >= len(text) or text[end] != "=":
+        raise ValueError(f"--vary must be KEY=START:STOP:COUNT or KEY=A,B,C, got {text!r}")
+    key, spec = text[:end].strip(), text[end + 1:]
+    _segments(key)
+    if "," in spec or ":" not in spec:
+        values = [v.strip() for v in spec.split(",")]
+        if not all(values) or not 1 <= len(values) <= MAX_FRAMES:
+            raise ValueError(f"--vary: a list KEY=A,B,C of 1 to {MAX_FRAMES} non-empty values, "
+                             f"got {text!r}")
+        return key, values
     fields = spec.split(":")
-    if not sep or len(fields) != 3:
-        raise ValueError(f"--vary must be KEY=START:STOP:COUNT, got {text!r}")
+    if len(fields) != 3:
+        raise ValueError(f"--vary must be KEY=START:STOP:COUNT or KEY=A,B,C, got {text!r}")
     try:
         start, stop, count = float(fields[0]), float(fields[1]), int(fields[2])
     except ValueError:
@@ -142,8 +243,7 @@ def parse_vary(text: str) -> tuple[str, np.ndarray]:
     if not (math.isfinite(start) and math.isfinite(stop)) or not 1 <= count <= MAX_FRAMES:
         raise ValueError(f"--vary: finite START and STOP and a COUNT in [1, {MAX_FRAMES}], "
                          f"got {text!r}")
-    _segments(key.strip())
-    return key.strip(), np.linspace(start, stop, count)
+    return key, np.linspace(start, stop, count)
 
 
 def _absolute_paths(document: dict, folder: Path) -> None:
@@ -175,7 +275,8 @@ def _turntable(document: dict, angle_deg: float) -> None:
 def plan_frames(scene_path, *, turntable: int | None = None, vary: str | None = None,
                 allow_outside: bool = False) -> list[Frame]:
     """The frames of a turntable of ``turntable`` frames, or of ``vary``
-    (``KEY=START:STOP:COUNT``), each checked by the scene reader.
+    (``KEY=START:STOP:COUNT`` or ``KEY=A,B,C``, :func:`parse_vary`), each checked by the scene
+    reader.
 
     Raises
     ------
@@ -184,7 +285,8 @@ def plan_frames(scene_path, *, turntable: int | None = None, vary: str | None = 
         whose value is out of range (naming its key).
     """
     if (turntable is None) == (vary is None):
-        raise ValueError("give one of --turntable FRAMES and --vary KEY=START:STOP:COUNT")
+        raise ValueError("give one of --turntable FRAMES and --vary KEY=START:STOP:COUNT "
+                         "(or KEY=A,B,C)")
     path = Path(scene_path)
     load_scene(path, allow_outside=allow_outside)  # the file as written, paths checked
     document = tomllib.loads(path.read_bytes().decode("utf-8-sig"))
@@ -199,7 +301,8 @@ def plan_frames(scene_path, *, turntable: int | None = None, vary: str | None = 
                  for k in range(turntable)]
     else:
         key, values = parse_vary(vary)
-        steps = [(f"{key} = {v:g}", v) for v in values]
+        steps = [(f"{key} = {v if isinstance(v, str) else format(v, 'g')}", v)
+                 for v in values]
     with tempfile.TemporaryDirectory(prefix="wgbragg-frames-") as folder:
         for index, (label, value) in enumerate(steps):
             data = copy.deepcopy(document)

@@ -3,10 +3,11 @@ quantities evaluated at every point of it, chunked. Read from TOML (:func:`load_
 in ``docs/sweeps.md``) or built in Python (:class:`Sweep`).
 
 Coordinates are the structure's constructor parameters under the scene files' names (lengths
-in nm with an ``_nm`` suffix), plus ``theta_deg`` (the angle of incidence in the host, in
-degrees, as on the command line) and ``wavelength_nm`` (for spectra). The dataset's dimensions
-are the structure's coordinates in the order given, then ``theta_deg``, then
-``wavelength_nm`` (spectra only), then ``channel`` (colours only).
+in nm with an ``_nm`` suffix; a layered stack's per-layer ones as ``layers[i].NAME``), plus
+``theta_deg`` (the angle of incidence in the host, in degrees, as on the command line) and
+``wavelength_nm`` (for spectra). The dataset's dimensions are the structure's coordinates in
+the order given, then ``theta_deg``, then ``wavelength_nm`` (spectra only), then ``channel``
+(colours only).
 """
 
 from __future__ import annotations
@@ -14,55 +15,121 @@ from __future__ import annotations
 import itertools
 import json
 import math
+import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from wgbragg.bsdf.layered.model import BRDF_METHODS as LAYERED_METHODS
 from wgbragg.bsdf.layered.model import LayeredBragg
 from wgbragg.bsdf.materials import BraggMirror, ThinFilm
 from wgbragg.bsdf.rough_layer import RoughBraggLayer
+from wgbragg.bsdf.rough_thin_film import RGB_METHODS as ROUGH_FILM_METHODS
+from wgbragg.bsdf.rough_thin_film import RoughThinFilm
 from wgbragg.colour.methods import COLOUR_METHODS, THIN_FILM_COLOUR_METHODS, option_names
+from wgbragg.common.validation import WAVELENGTH_RANGE_NM
 
 __all__ = [
     "ALBEDO",
     "ALBEDO_SAMPLES",
+    "ALBEDO_SPECTRUM",
     "ANGLE",
     "COLOUR_KINDS",
     "KINDS",
+    "LAYER_PARAMETERS",
     "MATERIALS",
+    "MAX_LAYERS",
     "PARAMETERS",
+    "ROUGH_MATERIALS",
     "SPECTRAL_KINDS",
     "UNITS",
     "WAVELENGTH",
     "Quantity",
     "Sweep",
+    "layer_count",
+    "layer_parameters",
     "load_sweep",
+    "parameter_name",
     "parse_sweep",
+    "unit",
 ]
 
 ANGLE = "theta_deg"
 WAVELENGTH = "wavelength_nm"
 
-MATERIALS = ("bragg-mirror", "thin-film", "layered-bragg")
+MATERIALS = ("bragg-mirror", "thin-film", "layered-bragg", "rough-thin-film")
 """Structures a sweep can vary (``material =``): :class:`~wgbragg.BraggMirror`,
-:class:`~wgbragg.ThinFilm`, and a :class:`~wgbragg.LayeredBragg` of one
-:class:`~wgbragg.RoughBraggLayer` over a grey Lambertian or absorbing base."""
+:class:`~wgbragg.ThinFilm`, a :class:`~wgbragg.LayeredBragg` of one or more
+:class:`~wgbragg.RoughBraggLayer` over a grey Lambertian or absorbing base, and a
+:class:`~wgbragg.RoughThinFilm`."""
+
+ROUGH_MATERIALS = ("layered-bragg", "rough-thin-film")
+"""Rough structures: their colours are those of their directional albedo."""
+
+LAYER_PARAMETERS = ("n1", "n2", "d1_nm", "d2_nm", "period_nm", "delta", "N", "host", "alpha")
+"""The parameters of one :class:`~wgbragg.RoughBraggLayer` of a ``layered-bragg``: given
+plainly (``period_nm``) they hold for every layer; ``layers[i].period_nm`` sets layer ``i``'s
+(from the top, 0 first) and overrides the plain value."""
+
+MAX_LAYERS = 16
+"""Most layers of a ``layered-bragg`` sweep."""
 
 PARAMETERS = {
     "bragg-mirror": ("n1", "n2", "d1_nm", "d2_nm", "period_nm", "delta", "N", "host"),
     "thin-film": ("n_film", "thickness_nm", "n_base", "k_base", "host", "base"),
-    "layered-bragg": ("n1", "n2", "d1_nm", "d2_nm", "period_nm", "delta", "N", "host", "alpha",
-                      "base_albedo"),
+    "layered-bragg": (*LAYER_PARAMETERS, "base_albedo"),
+    "rough-thin-film": ("n_film", "thickness_nm", "n_base", "k_base", "host", "base", "alpha"),
 }
-"""Each structure's parameters, as coordinates or fixed values (``base`` fixed only)."""
+"""Each structure's parameters, as coordinates or fixed values (``base`` fixed only), besides a
+``layered-bragg``'s per-layer ``layers[i].NAME`` (NAME in :data:`LAYER_PARAMETERS`)."""
+
+_LAYER_KEY = re.compile(r"layers\[(0|[1-9][0-9]*)\]\.([A-Za-z_][A-Za-z0-9_]*)")
+_PAIRS = ({"period_nm", "delta"}, {"d1_nm", "d2_nm"})
 
 UNITS = {"d1_nm": "nm", "d2_nm": "nm", "period_nm": "nm", "thickness_nm": "nm",
          ANGLE: "deg", WAVELENGTH: "nm", "N": "cells", "delta": "1 (d1 / period)",
          "n1": "1", "n2": "1", "host": "1", "n_film": "1", "n_base": "1", "k_base": "1",
          "alpha": "1 (GGX roughness)", "base_albedo": "1"}
-"""Units of every coordinate, stored in its ``units`` attribute."""
+"""Units of every coordinate, stored in its ``units`` attribute (:func:`unit`)."""
+
+
+def parameter_name(key: str) -> str:
+    """The parameter a coordinate or fixed key names: ``period_nm`` for
+    ``layers[1].period_nm``."""
+    match = _LAYER_KEY.fullmatch(key)
+    return match.group(2) if match else key
+
+
+def unit(key: str) -> str:
+    """The unit of a coordinate (per-layer ones as their parameter's)."""
+    return UNITS[parameter_name(key)]
+
+
+def layer_count(params) -> int:
+    """Layers of a ``layered-bragg`` whose parameter keys are ``params``: one more than the
+    highest ``layers[i]`` index, 1 without any."""
+    indices = [int(m.group(1)) for m in map(_LAYER_KEY.fullmatch, params) if m]
+    return max(indices, default=0) + 1
+
+
+def layer_parameters(params: dict, count: int) -> list[dict]:
+    """Each layer's parameters from a ``layered-bragg``'s: the plain ones, overridden by
+    ``layers[i].NAME``; a layer given its own thickness pair (``period_nm``/``delta`` or
+    ``d1_nm``/``d2_nm``) drops the other pair of the plain values."""
+    shared = {k: v for k, v in params.items() if k in LAYER_PARAMETERS}
+    layers = []
+    for i in range(count):
+        prefix = f"layers[{i}]."
+        own = {k[len(prefix):]: v for k, v in params.items() if k.startswith(prefix)}
+        base = dict(shared)
+        for pair, other in (_PAIRS, _PAIRS[::-1]):
+            if pair & own.keys():
+                for name in other:
+                    base.pop(name, None)
+        layers.append({**base, **own})
+    return layers
 
 COLOUR_KINDS = {"xyz": ("X", "Y", "Z"), "rgb": ("R", "G", "B"), "lab": ("L*", "a*", "b*")}
 """Colour quantities and their channels: CIE 1931 XYZ under D65 (perfect reflector Y = 1),
@@ -72,12 +139,20 @@ SPECTRAL_KINDS = ("reflectance", "transmittance")
 """Spectral quantities, over ``wavelength_nm``."""
 
 ALBEDO = "albedo"
-"""The directional albedo of a ``layered-bragg`` structure (linear sRGB, channels R G B):
-:meth:`wgbragg.LayeredBragg.albedo`, Sobol-sampled with ``samples`` directions (default
-:data:`ALBEDO_SAMPLES`) and a ``seed`` (default 0)."""
+"""The directional albedo of a rough structure (linear sRGB, channels R G B; ``xyz``,
+``rgb`` and ``lab`` are its colour in those spaces): :meth:`wgbragg.LayeredBragg.albedo`,
+Sobol-sampled with ``samples`` directions (default :data:`ALBEDO_SAMPLES`) and a ``seed``
+(default 0), or :meth:`wgbragg.RoughThinFilm.albedo` (quadrature; ``method``, ``order``,
+``nodes``)."""
 ALBEDO_SAMPLES = 1024
+ALBEDO_SPECTRUM = "albedo_spectrum"
+"""The directional albedo of a rough structure over ``wavelength_nm`` (the same calls with
+wavelengths: a spectrum per angle)."""
 KINDS = {"bragg-mirror": (*COLOUR_KINDS, *SPECTRAL_KINDS),
-         "thin-film": (*COLOUR_KINDS, *SPECTRAL_KINDS), "layered-bragg": (ALBEDO,)}
+         "thin-film": (*COLOUR_KINDS, *SPECTRAL_KINDS),
+         "layered-bragg": (ALBEDO, *COLOUR_KINDS, ALBEDO_SPECTRUM),
+         "rough-thin-film": (ALBEDO, *COLOUR_KINDS, ALBEDO_SPECTRUM)}
+_GPU_LAYERED_WAVELENGTHS = (360.0, 830.0)  # the layered GPU kernels' 1 nm tables
 """The quantities of each structure."""
 
 DTYPES = ("float32", "float64")
@@ -103,10 +178,10 @@ class Quantity:
 
     @property
     def spectral(self) -> bool:
-        return self.kind in SPECTRAL_KINDS
+        return self.kind in SPECTRAL_KINDS or self.kind == ALBEDO_SPECTRUM
 
     def as_dict(self) -> dict:
-        if self.spectral:
+        if self.kind in SPECTRAL_KINDS:
             return {"name": self.name, "kind": self.kind, "polarization": self.polarization}
         return {"name": self.name, "kind": self.kind, "method": self.method,
                 "options": dict(self.options)}
@@ -121,7 +196,7 @@ class Sweep:
 
     Attributes
     ----------
-    material : {"bragg-mirror", "thin-film"}
+    material : {"bragg-mirror", "thin-film", "layered-bragg", "rough-thin-film"}
     coords : dict of str to numpy.ndarray
         The coordinates, in dataset order (structure parameters, then ``theta_deg``, then
         ``wavelength_nm``), each 1-D float64.
@@ -218,13 +293,16 @@ class Sweep:
 
 
 def build_structure(material: str, params: dict):
-    """A :class:`~wgbragg.BraggMirror`, :class:`~wgbragg.ThinFilm` or
-    :class:`~wgbragg.LayeredBragg` from scene-style parameters (``period_nm`` and ``delta``, or
-    ``d1_nm`` and ``d2_nm``; ``thickness_nm``; ``alpha``, ``base_albedo``)."""
+    """A :class:`~wgbragg.BraggMirror`, :class:`~wgbragg.ThinFilm`,
+    :class:`~wgbragg.LayeredBragg` or :class:`~wgbragg.RoughThinFilm` from scene-style
+    parameters (``period_nm`` and ``delta``, or ``d1_nm`` and ``d2_nm``; ``thickness_nm``;
+    ``alpha``, ``base_albedo``; a layer's own ``layers[i].NAME``)."""
     if material == "layered-bragg":
-        mirror = build_structure("bragg-mirror", params)
-        return LayeredBragg([RoughBraggLayer(mirror, params["alpha"])],
-                            base_albedo=params.get("base_albedo"))
+        layers = [RoughBraggLayer(build_structure("bragg-mirror", p), p["alpha"])
+                  for p in layer_parameters(params, layer_count(params))]
+        return LayeredBragg(layers, base_albedo=params.get("base_albedo"))
+    if material == "rough-thin-film":
+        return RoughThinFilm(build_structure("thin-film", params), params["alpha"])
     if material == "bragg-mirror":
         if "period_nm" in params:
             period, delta = float(params["period_nm"]), float(params["delta"])
@@ -290,13 +368,11 @@ def parse_sweep(document: dict) -> Sweep:
     if dtype not in DTYPES:
         raise ValueError(f"dtype must be one of {DTYPES}, got {dtype!r}")
     names = (*PARAMETERS[material], ANGLE, WAVELENGTH)
-    fixed = _table(document.get("fixed", {}), "fixed")
+    fixed = _layer_tables(_table(document.get("fixed", {}), "fixed"), material)
     coords_in = _table(document.get("coords", {}), "coords")
     for key, table in (("fixed", fixed), ("coords", coords_in)):
         for name in table:
-            if name not in names:
-                raise ValueError(f"{key}.{name}: not a parameter of {material}; accepted: "
-                                 f"{', '.join(names)}")
+            _check_name(material, f"{key}.{name}", name, names)
     both = sorted(set(fixed) & set(coords_in))
     if both:
         raise ValueError(f"{both[0]} is both fixed and a coordinate: give it once")
@@ -316,7 +392,14 @@ def parse_sweep(document: dict) -> Sweep:
         raise ValueError(f"spectra need coords.{WAVELENGTH}")
     if not any(q.spectral for q in quantities) and WAVELENGTH in ordered:
         raise ValueError(f"coords.{WAVELENGTH} is only for spectra (reflectance, "
-                         "transmittance); colours integrate over all wavelengths")
+                         f"transmittance, {ALBEDO_SPECTRUM}); colours integrate over all "
+                         "wavelengths")
+    if WAVELENGTH in ordered:
+        low, high = (_GPU_LAYERED_WAVELENGTHS if material == "layered-bragg" and backend == "gpu"
+                     else WAVELENGTH_RANGE_NM)
+        if ordered[WAVELENGTH].min() < low or ordered[WAVELENGTH].max() > high:
+            raise ValueError(f"coords.{WAVELENGTH} must lie in [{low:g}, {high:g}] nm"
+                             + (" (the layered GPU kernels' tables)" if high == 830.0 else ""))
     sweep = Sweep(material=material, coords=ordered, fixed=fixed, quantities=quantities,
                   chunks=_chunks(document.get("chunks", {}), ordered), backend=backend,
                   dtype=dtype)
@@ -324,6 +407,42 @@ def parse_sweep(document: dict) -> Sweep:
         raise ValueError(f"the grid has more than 2**40 values ({sweep.points()} points)")
     _check_quantities(sweep)
     return sweep
+
+
+def _layer_tables(fixed: dict, material: str) -> dict:
+    """``fixed.layers``, an array of tables (``[[fixed.layers]]``, one per layer from the
+    top), as ``layers[i].NAME`` keys."""
+    if "layers" not in fixed:
+        return fixed
+    layers = fixed["layers"]
+    if material != "layered-bragg":
+        raise ValueError(f"fixed.layers: only a layered-bragg has layers, not a {material}")
+    if not isinstance(layers, list) or not all(isinstance(x, dict) for x in layers):
+        raise ValueError("fixed.layers must be an array of tables ([[fixed.layers]]), one per "
+                         "layer from the top")
+    out = {k: v for k, v in fixed.items() if k != "layers"}
+    for i, layer in enumerate(layers):
+        for name, value in layer.items():
+            key = f"layers[{i}].{name}"
+            if key in out:
+                raise ValueError(f"fixed.{key} is given twice")
+            out[key] = value
+    return out
+
+
+def _check_name(material: str, key: str, name: str, names: tuple) -> None:
+    if name in names:
+        return
+    match = _LAYER_KEY.fullmatch(name)
+    if material == "layered-bragg" and match and match.group(2) in LAYER_PARAMETERS:
+        if int(match.group(1)) >= MAX_LAYERS:
+            raise ValueError(f"{key}: at most {MAX_LAYERS} layers (layers[0] to "
+                             f"layers[{MAX_LAYERS - 1}])")
+        return
+    layered = (f", and layers[i].NAME for NAME in {', '.join(LAYER_PARAMETERS)}"
+               if material == "layered-bragg" else "")
+    raise ValueError(f"{key}: not a parameter of {material}; accepted: "
+                     f"{', '.join(names)}{layered}")
 
 
 def _table(value, key: str) -> dict:
@@ -359,7 +478,7 @@ def _coordinate(name: str, spec) -> np.ndarray:
         raise ValueError(f"{key} has no values")
     if len(np.unique(values)) != values.size:
         raise ValueError(f"{key} repeats a value")
-    if name == "N" and not np.all(values == np.round(values)):
+    if parameter_name(name) == "N" and not np.all(values == np.round(values)):
         raise ValueError(f"{key}: N must be whole numbers of cells, got {values.tolist()}")
     if name == ANGLE and not np.all((values >= 0.0) & (values <= 90.0)):
         raise ValueError(f"{key} must lie in [0, 90] degrees")
@@ -370,25 +489,34 @@ def _check_parameters(material: str, fixed: dict, coords: dict) -> None:
     given = set(fixed) | set(coords)
     if material in ("bragg-mirror", "layered-bragg"):
         required = {"n1", "n2", "N"} | ({"alpha"} if material == "layered-bragg" else set())
-        pairs = ({"period_nm", "delta"}, {"d1_nm", "d2_nm"})
-        chosen = [p for p in pairs if p & given]
-        if len(chosen) != 1 or not chosen[0] <= given:
-            raise ValueError("a Bragg mirror takes period_nm and delta, or d1_nm and d2_nm "
-                             f"(fixed or as coordinates); given: {sorted(given)}")
+        count = layer_count(given) if material == "layered-bragg" else 1
+        for i, layer in enumerate(layer_parameters(dict.fromkeys(given), count)
+                                  if material == "layered-bragg" else [given]):
+            where = f"layers[{i}]: " if count > 1 else ""
+            chosen = [p for p in _PAIRS if p & set(layer)]
+            if len(chosen) != 1 or not chosen[0] <= set(layer):
+                raise ValueError(f"{where}a Bragg mirror takes period_nm and delta, or d1_nm "
+                                 f"and d2_nm (fixed or as coordinates); given: {sorted(given)}")
+            missing = sorted(required - set(layer))
+            if missing:
+                raise ValueError(f"{where}{material} needs {missing[0]} (fixed or as a "
+                                 "coordinate)")
     else:
-        required = {"n_film", "thickness_nm"}
-    missing = sorted(required - given)
-    if missing:
-        raise ValueError(f"{material} needs {missing[0]} (fixed or as a coordinate)")
+        required = {"n_film", "thickness_nm"} | (
+            {"alpha"} if material == "rough-thin-film" else set())
+        missing = sorted(required - given)
+        if missing:
+            raise ValueError(f"{material} needs {missing[0]} (fixed or as a coordinate)")
     if ANGLE in fixed and not 0.0 <= fixed[ANGLE] <= 90.0:
         raise ValueError(f"fixed.{ANGLE} must lie in [0, 90] degrees")
     if material == "layered-bragg" and ANGLE in given and _extent(ANGLE, fixed, coords)[1] >= 90:
         raise ValueError(f"{ANGLE} must be below 90 degrees for a layered-bragg's albedo (at "
                          "grazing incidence no light enters)")
-    if "delta" in given:
-        low, high = _extent("delta", fixed, coords)
-        if low < 0.0 or high > 1.0:
-            raise ValueError("delta must lie in [0, 1] (d1 / period)")
+    for name in sorted(given):
+        if parameter_name(name) == "delta":
+            low, high = _extent(name, fixed, coords)
+            if low < 0.0 or high > 1.0:
+                raise ValueError(f"{name} must lie in [0, 1] (d1 / period)")
     # Each parameter's range is checked by the structure's own validation at the grid's
     # corners (every check is a range check, so the corners bound it).
     structure = [n for n in coords if n not in (ANGLE, WAVELENGTH)]
@@ -428,6 +556,35 @@ def _chunks(value, coords: dict) -> dict:
     return {name: chunks[name] for name in coords}
 
 
+_ALBEDO_OPTIONS = {
+    "layered-bragg": ("single-reflection", LAYERED_METHODS,
+                      {"samples": (1, 2**20), "seed": (0, 2**32 - 1)},
+                      {"samples": ALBEDO_SAMPLES, "seed": 0}),
+    "rough-thin-film": ("fourier-table", ROUGH_FILM_METHODS,
+                        {"order": (1, 4096), "nodes": (1, 4096)}, {}),
+}
+"""Per rough material: the albedo's default method (the library's) and methods, its integer
+options' ranges, and their defaults stored with the quantity."""
+
+
+def _albedo_quantity(item: dict, key: str, kind: str, material: str) -> Quantity:
+    default, methods, ranges, defaults = _ALBEDO_OPTIONS[material]
+    method = item.get("method", default)
+    if method not in methods:
+        raise ValueError(f"{key}.method must be one of {methods} for a {material}, got "
+                         f"{method!r}")
+    options = {**defaults, **_table(item.get("options", {}), f"{key}.options")}
+    for option, value in options.items():
+        if option not in ranges:
+            raise ValueError(f"{key}.options.{option}: a {material}'s albedo takes "
+                             f"{', '.join(ranges)}")
+        low, high = ranges[option]
+        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+            raise ValueError(f"{key}.options.{option} must be an integer in [{low}, {high}], "
+                             f"got {value!r}")
+    return Quantity(name=item.get("name", kind), kind=kind, method=method, options=options)
+
+
 def _quantities(value, material: str) -> tuple:
     if not isinstance(value, list) or not value:
         raise ValueError("quantities must be a non-empty array of tables ([[quantities]])")
@@ -439,21 +596,9 @@ def _quantities(value, material: str) -> tuple:
         if kind not in KINDS[material]:
             raise ValueError(f"{key}.kind must be one of {KINDS[material]} for a {material}, "
                              f"got {kind!r}")
-        if kind == ALBEDO:
-            accepted = {"kind", "name", "options"}
-            options = {"samples": ALBEDO_SAMPLES, "seed": 0,
-                       **_table(item.get("options", {}), f"{key}.options")}
-            for option, value in options.items():
-                if option not in ("samples", "seed"):
-                    raise ValueError(f"{key}.options.{option}: the albedo takes samples, seed")
-                high = 2**20 if option == "samples" else 2**32 - 1
-                low = 1 if option == "samples" else 0
-                if isinstance(value, bool) or not isinstance(value, int) or not (
-                        low <= value <= high):
-                    raise ValueError(f"{key}.options.{option} must be an integer in [{low}, "
-                                     f"{high}], got {value!r}")
-            quantity = Quantity(name=item.get("name", kind), kind=kind,
-                                method="single-reflection", options=options)
+        if material in ROUGH_MATERIALS:
+            accepted = {"kind", "name", "method", "options"}
+            quantity = _albedo_quantity(item, key, kind, material)
         elif kind in SPECTRAL_KINDS:
             accepted = {"kind", "name", "polarization"}
             polarization = item.get("polarization", "unpolarized")
@@ -497,10 +642,14 @@ def _check_quantities(sweep: Sweep) -> None:
     structure = sweep.structure(first)
     theta = np.radians(sweep.angle_deg()[:1])
     for q in sweep.quantities:
-        if q.spectral or q.kind == ALBEDO:
+        if sweep.material == "layered-bragg" or (
+                q.spectral and sweep.material != "rough-thin-film"):
             continue
         try:
-            structure.xyz(theta, q.method, "numpy", **q.options)
+            if sweep.material == "rough-thin-film":
+                structure.albedo(theta, None, q.method, **q.options)
+            else:
+                structure.xyz(theta, q.method, "numpy", **q.options)
         except ValueError as error:
             raise ValueError(f"quantity {q.name!r} ({q.kind}, method {q.method!r}): "
                              f"{error}") from None

@@ -34,10 +34,12 @@ from wgbragg.sweep.spec import (
     ALBEDO,
     ANGLE,
     COLOUR_KINDS,
-    UNITS,
+    ROUGH_MATERIALS,
+    SPECTRAL_KINDS,
     Quantity,
     Sweep,
     parse_sweep,
+    unit,
 )
 
 __all__ = ["chunk_key", "completed_chunks", "init_store", "open_atlas", "store_chunk",
@@ -72,15 +74,24 @@ def _quantity(sweep: Sweep, name: str) -> Quantity:
 
 
 def _variable_attrs(sweep: Sweep, q: Quantity) -> dict:
-    if q.spectral:
+    if q.kind in SPECTRAL_KINDS:
         return {"long_name": f"{q.kind} ({q.polarization})", "units": "1",
                 "polarization": q.polarization, "backend": sweep.backend}
-    if q.kind == ALBEDO:
-        return {"long_name": "directional albedo (linear sRGB), LayeredBragg.albedo",
-                "units": "1", "channels": ["R", "G", "B"], "samples": q.options["samples"],
-                "seed": q.options["seed"], "backend": sweep.backend}
     names = {"xyz": "CIE 1931 XYZ under D65 (perfect reflector Y = 1)",
-             "rgb": "linear sRGB (D65)", "lab": "CIELAB (D65 white)"}
+             "rgb": "linear sRGB (D65)", "lab": "CIELAB (D65 white)", ALBEDO: "linear sRGB"}
+    if sweep.material in ROUGH_MATERIALS:
+        source = ("LayeredBragg.albedo" if sweep.material == "layered-bragg"
+                  else "RoughThinFilm.albedo")
+        attrs = {"units": "1", "backend": sweep.backend, "colour_method": q.method,
+                 "colour_options": json.dumps(q.options, sort_keys=True)}
+        if q.spectral:
+            attrs["long_name"] = f"directional albedo, spectral, {source}"
+        else:
+            attrs["long_name"] = f"directional albedo, {names[q.kind]}, {source}"
+            attrs["channels"] = list(COLOUR_KINDS["rgb" if q.kind == ALBEDO else q.kind])
+        if sweep.material == "layered-bragg":
+            attrs.update(samples=q.options["samples"], seed=q.options["seed"])
+        return attrs
     return {"long_name": names[q.kind], "units": "1", "channels": list(COLOUR_KINDS[q.kind]),
             "colour_method": q.method, "colour_options": json.dumps(q.options, sort_keys=True),
             "backend": sweep.backend}
@@ -113,7 +124,7 @@ def sweep_dataset(sweep: Sweep):
                              meta=np.empty((0,) * len(chunks), dtype=sweep.dtype),
                              name=f"wgbragg-sweep-{q.name}-{token}")
         variables[q.name] = xr.Variable(sweep.dims(q), data, attrs=_variable_attrs(sweep, q))
-    coords = {d: xr.Variable((d,), v, attrs={"units": UNITS[d]})
+    coords = {d: xr.Variable((d,), v, attrs={"units": unit(d)})
               for d, v in sweep.coords.items()}
     attrs = {
         "title": f"wgbragg sweep over a {sweep.material}",
