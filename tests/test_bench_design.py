@@ -48,6 +48,9 @@ def test_baseline_and_colour_tables(section):
     assert all(report.parse_time(row[1]) > 0 for row in rows)
     colour = markdown_table(section, "### Colour design")[1:]
     assert len(colour) == 1 and colour[0][1].endswith("%")
+    robust = markdown_table(section, "### Robust design")[1:]
+    assert [row[1] for row in robust] == ["plain", "robust"]
+    assert all(float(row[3]) > 0 and report.parse_time(row[4]) > 0 for row in robust)
     assert "Quick mode" in section
     agreement = float(section.split("max |ΔR| = ")[1].split(".\n")[0].rstrip("."))
     assert agreement < 1e-10

@@ -98,6 +98,9 @@ def test_fit_mistakes_are_one_line_errors(tmp_path, capsys, rows, argv, message)
     (["--target", "#d4af37@0", "--max-seconds", "-2"], "max_seconds must be"),
     (["--target", "#d4af37@0", "--alpha", "2"], r"--alpha must be in \[0.01, 1\]"),
     (["--target", "#d4af37@0", "--samples", "0"], "--samples must be in"),
+    (["--target", "#d4af37@0", "--robust", "0"], r"--robust must be in \[1, 4096\]"),
+    (["--target", "#d4af37@0", "--robust", "4", "--sigma-thickness-nm", "0"],
+     "robust needs sigma_thickness_nm > 0"),
 ])
 def test_design_mistakes_are_one_line_errors(tmp_path, capsys, argv, message):
     code = cli.main(["design", "--family", "bragg", "-o", str(tmp_path / "d"), *argv])
@@ -133,3 +136,22 @@ def test_csv_header_names_the_angles(tmp_path):
         spectrum.reflectance,
         TRUTH.reflectance(spectrum.wavelength_nm[:, None], np.radians([0.0, 30.0, 60.0])),
         atol=1e-7)
+
+
+def test_design_robust_prints_the_averaged_objective(tmp_path, capsys):
+    from wgbragg.design.colour_design import perturbed_delta_e
+    from wgbragg.design.tolerance import perturbations
+
+    out = tmp_path / "robust"
+    code = cli.main(["design", "--target", "#d4af37@0", "--target", "#2e8b57@60", "--family",
+                     "bragg", "--fixed", "n1=1", "--bounds", "N=2:8", "--robust", "4",
+                     "--sigma-thickness-nm", "3", "--seed", "0", "--generations", "5",
+                     "--samples", "20", "-o", str(out), "--no-progress"])
+    text = capsys.readouterr().out
+    assert code == 0, text
+    assert "robust dE" in text.splitlines()[0]
+    material = load_scene(tmp_path / "robust.toml").materials["design"]
+    mirror = material.to_structure().layers[0].mirror
+    draws = perturbations("bragg", 4, 3.0, 0.0, seed=0, quasi_random=True)
+    mean = perturbed_delta_e(mirror, ["#d4af37", "#2e8b57"], np.radians([0.0, 60.0]), draws)
+    assert float(text.splitlines()[1].split()[3]) == pytest.approx(mean.mean(), abs=0.006)

@@ -158,6 +158,10 @@ def add_design_commands(commands, command) -> None:
                         help="dE2000 over the angles")
     design.add_argument("--candidates", type=int, default=5,
                         help="most candidates (Pareto set of dE2000 against N or thickness)")
+    design.add_argument("--robust", type=int, default=None, metavar="DRAWS",
+                        help="design for robustness: average the objective over DRAWS fixed "
+                             "draws of the --sigma-thickness-nm / --sigma-index errors "
+                             "(a power of 2, e.g. 16)")
     _add_search_arguments(design)
     design.add_argument("-o", "--output", default="out/design",
                         help="prefix of the report PNG and the scene TOML")
@@ -242,18 +246,25 @@ def run_design(args) -> int:
     space = "srgb" if all(isinstance(c, str) for c in colours) else args.space
     if any(isinstance(c, str) for c in colours) and space != "srgb":
         raise ValueError("--target: do not mix hex colours with numeric ones in another --space")
+    if args.robust is not None and not 1 <= args.robust <= 4096:
+        raise ValueError(f"--robust must be in [1, 4096] draws, got {args.robust}")
+    robust = None if args.robust is None else {
+        "sigma_thickness_nm": args.sigma_thickness_nm, "sigma_index": args.sigma_index,
+        "samples": args.robust}
     candidates = design_colour(colours, theta, args.family, bounds, fixed, space,
                                objective=args.objective, candidates=args.candidates,
                                backend=args.backend, max_seconds=args.max_seconds,
-                               seed=args.seed, progress=not args.no_progress,
+                               seed=args.seed, progress=not args.no_progress, robust=robust,
                                **_generations(args))
     spread = tolerance(candidates[0].structure, args.sigma_thickness_nm, args.sigma_index,
                        args.samples, theta, per_layer=args.per_layer, backend=args.backend,
                        seed=args.seed)
-    print(f"{'#':>2} {'dE2000':>7} {candidates[0].method + ' dE':>13} {'complexity':>10}  "
-          "structure")
+    robust_column = "" if robust is None else f" {'robust dE':>9}"
+    print(f"{'#':>2} {'dE2000':>7} {candidates[0].method + ' dE':>13}{robust_column} "
+          f"{'complexity':>10}  structure")
     for i, c in enumerate(candidates, start=1):
-        print(f"{i:>2} {c.delta_e:7.2f} {c.delta_e_method:13.2f} {c.complexity:10.4g}  "
+        mean = "" if robust is None else f" {c.robust_delta_e:9.2f}"
+        print(f"{i:>2} {c.delta_e:7.2f} {c.delta_e_method:13.2f}{mean} {c.complexity:10.4g}  "
               f"{c.structure!r}")
     _write(candidates[0].structure, args, toml)
     save_design_report(candidates, theta, parse_targets(colours, len(colours), space), png,

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wgbragg.common.validation import check_angle
+from wgbragg.design import population, population_gpu
 from wgbragg.design.colour_targets import (
     delta_e,
     grid_xyz_weights,
@@ -26,8 +27,14 @@ from wgbragg.design.colour_targets import (
 from wgbragg.design.families import parameter_space
 from wgbragg.design.fit import check_search_options, population_evaluator
 from wgbragg.design.search import global_search
+from wgbragg.design.tolerance import family_name, perturb, perturbations, structure_members
 
-__all__ = ["Candidate", "colour_objective", "design_colour", "pareto_front"]
+__all__ = ["ROBUST_DEFAULTS", "Candidate", "check_robust", "colour_objective", "design_colour",
+           "pareto_front", "perturbed_delta_e"]
+
+ROBUST_DEFAULTS = {"sigma_thickness_nm": 2.0, "sigma_index": 0.0, "samples": 16}
+"""Defaults of ``design_colour(robust=...)``: per-parameter normal errors (as
+:func:`~wgbragg.design.tolerance`), and how many fixed draws the objective averages over."""
 
 _FAST_METHOD = {"bragg": "averaged", "film": "fourier-table"}
 
@@ -62,6 +69,88 @@ class Candidate:
     method: str
     xyz: np.ndarray
     complexity: float
+    robust_delta_e: float | None = None
+    """With ``robust=``: the objective averaged over the search's fixed perturbations (float64,
+    the search's 2 nm colour grid); else None."""
+
+
+def check_robust(robust) -> dict | None:
+    """``robust`` of :func:`design_colour` with its defaults filled in, or None."""
+    if robust is None or robust is False:
+        return None
+    if robust is True:
+        robust = {}
+    if not isinstance(robust, dict):
+        raise ValueError(f"robust must be None, True or a dict with keys "
+                         f"{tuple(ROBUST_DEFAULTS)}, got {robust!r}")
+    unknown = sorted(set(robust) - set(ROBUST_DEFAULTS))
+    if unknown:
+        raise ValueError(f"robust has unknown key {unknown[0]!r}; accepted: "
+                         f"{', '.join(ROBUST_DEFAULTS)}")
+    out = {**ROBUST_DEFAULTS, **robust}
+    for name in ("sigma_thickness_nm", "sigma_index"):
+        value = out[name]
+        if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
+            raise ValueError(f"robust[{name!r}] must be a finite number >= 0, got {value!r}")
+    samples = out["samples"]
+    if isinstance(samples, bool) or not isinstance(samples, int | np.integer) or \
+            not 1 <= samples <= 4096:
+        raise ValueError(f"robust['samples'] must be an integer in [1, 4096], got {samples!r}")
+    if out["sigma_thickness_nm"] == 0 and out["sigma_index"] == 0:
+        raise ValueError("robust needs sigma_thickness_nm > 0 or sigma_index > 0")
+    return out
+
+
+def _member_colours(family, members, angle, backend, base=None):
+    """XYZ ``(P, A, 3)`` of a population (dict of ``(P,)``) on the search's colour grid."""
+    nodes, weights = grid_xyz_weights()
+    wl, th = np.tile(nodes, angle.size), np.repeat(angle, nodes.size)
+    twin = population_gpu if backend == "gpu" else population
+    spectra = twin.population_reflectance(family, members, wl, th, "unpolarized",
+                                          None if base is None else base(wl))
+    return spectra.reshape(-1, angle.size, nodes.size) @ weights
+
+
+def perturbed_delta_e(structure, targets, theta, errors, *, space="srgb", objective="mean",
+                      backend="numpy") -> np.ndarray:
+    """The objective of ``design_colour`` (mean or max over the angles of dE2000 to the
+    targets) for each perturbed copy of ``structure``.
+
+    Parameters
+    ----------
+    structure : BraggMirror or ThinFilm
+    targets, theta, space, objective
+        As :func:`design_colour`.
+    errors : dict of numpy.ndarray
+        Per-parameter errors, each ``(K,)``, as
+        :func:`~wgbragg.design.tolerance.perturbations` draws them.
+    backend : {"numpy", "gpu"}
+        float64 numpy twin or float32 population kernel; colours on the 2 nm grid.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(K,)`` dE2000.
+    """
+    angle = check_angle(theta).reshape(-1)
+    family = family_name(structure)
+    lab = parse_targets(targets, angle.size, space)
+    members = perturb(family, structure_members(structure, family), errors)
+    base = structure.base if family == "film" else None
+    return colour_objective(lab, objective)(_member_colours(family, members, angle, backend,
+                                                            base))
+
+
+def _robust_cost(pspace, angle, of_xyz, errors, backend):
+    """``cost(X) -> (P,)``: the objective averaged over the fixed ``errors`` (common random
+    numbers: every member sees the same K draws), all ``P x K`` copies in one dispatch."""
+    count = len(next(iter(errors.values())))
+
+    def cost(x):
+        members = perturb(pspace.family.name, pspace.members(x), errors)
+        xyz = _member_colours(pspace.family.name, members, angle, backend, pspace.base)
+        return of_xyz(xyz).reshape(len(np.atleast_2d(x)), count).mean(axis=1)
+    return cost
 
 
 def colour_objective(lab_target, reduce="mean"):
@@ -145,7 +234,8 @@ def _polish(space, x0, value, max_evaluations):
 
 def design_colour(targets, theta, family, bounds=None, fixed=None, space="srgb", *,
                   objective="mean", method=None, candidates=5, backend="gpu", population=None,
-                  generations=60, max_seconds=None, seed=None, progress=False) -> list:
+                  generations=60, max_seconds=None, seed=None, progress=False,
+                  robust=None) -> list:
     """Structures of ``family`` whose colour over angle matches ``targets``.
 
     Parameters
@@ -172,11 +262,22 @@ def design_colour(targets, theta, family, bounds=None, fixed=None, space="srgb",
         Evaluator of the global stage.
     population, generations, max_seconds, seed, progress
         As :func:`~wgbragg.design.fit_spectrum`.
+    robust : dict or True, optional
+        Design for robustness: minimise the objective averaged over ``samples`` perturbed
+        copies of each structure, every thickness moved by a normal error of
+        ``sigma_thickness_nm`` and every index by one of ``sigma_index`` (per parameter, as
+        :func:`~wgbragg.design.tolerance`). The draws are made once (from ``seed``) and
+        shared by every member of every generation and by the polish (common random
+        numbers), so the search compares structures on the same errors. Keys and defaults:
+        :data:`ROBUST_DEFAULTS`. The Sobol screen ranks by the nominal colour; the global
+        stage and the polish minimise the average, evaluated in one dispatch of
+        ``population x samples`` structures.
 
     Returns
     -------
     list of Candidate
-        Sorted by ``delta_e``, best first, at least one.
+        Sorted by ``delta_e`` (with ``robust``: by ``robust_delta_e``), best first, at least
+        one.
         A target no structure of the family reaches returns its best achievable structures
         and their dE2000, not an error.
     """
@@ -192,7 +293,11 @@ def design_colour(targets, theta, family, bounds=None, fixed=None, space="srgb",
         if angle.size == 0:
             raise ValueError("theta must hold at least one angle")
     lab = parse_targets(targets, angle.size, space)
+    robust = check_robust(robust)
     pspace = parameter_space(family, bounds, fixed)
+    if pspace.family.name not in _FAST_METHOD:
+        raise ValueError(f"design_colour designs 'bragg' or 'film' structures, got "
+                         f"{pspace.family.name!r}")
     method = _FAST_METHOD[pspace.family.name] if method is None else method
     nodes, weights = grid_xyz_weights()
     wl = np.tile(nodes, angle.size)
@@ -205,14 +310,25 @@ def design_colour(targets, theta, family, bounds=None, fixed=None, space="srgb",
         return of_xyz(spectra @ weights)
 
     budget = None if max_seconds is None else 0.6 * max_seconds
-    _, archive, _ = global_search(pspace, search_cost, population=population,
-                                  generations=generations, seed=seed, max_seconds=budget,
-                                  progress=progress,
-                                  description=f"design {pspace.family.name}")
+    errors = robust_cost = None
+    if robust is not None:
+        errors = perturbations(pspace.family.name, robust["samples"],
+                               robust["sigma_thickness_nm"], robust["sigma_index"], seed,
+                               quasi_random=True)
+        robust_cost = _robust_cost(pspace, angle, of_xyz, errors, backend)
+    _, archive, _ = global_search(
+        pspace, search_cost if robust is None else robust_cost, population=population,
+        generations=generations, seed=seed, max_seconds=budget, progress=progress,
+        description=f"design {pspace.family.name}",
+        screen_objective=None if robust is None else search_cost)
     x, cost = archive.arrays()
     seeds, seed_cost = _buckets(pspace, x, cost)
     front = pareto_front(np.column_stack([seed_cost, _complexity(pspace, np.array(seeds))]))
     reference, value = _reference_cost(pspace, angle, of_xyz)
+    if robust is not None:
+        def value(x):
+            return float(robust_cost(np.atleast_2d(x))[0])
+        check = _robust_cost(pspace, angle, of_xyz, errors, "numpy")
     results = []
     if front.size > candidates:  # spread over the front: the best, the simplest, between
         front = front[np.unique(np.round(np.linspace(0, front.size - 1, candidates)).astype(int))]
@@ -226,6 +342,10 @@ def design_colour(targets, theta, family, bounds=None, fixed=None, space="srgb",
         results.append(Candidate(
             structure=structure, delta_e=float(of_xyz(xyz[None])[0]),
             delta_e_per_angle=per_angle, delta_e_method=float(of_xyz(fast[None])[0]),
-            method=method, xyz=xyz, complexity=float(_complexity(pspace, polished)[0])))
-    keep = pareto_front([(c.delta_e, c.complexity) for c in results])
-    return sorted((results[i] for i in keep), key=lambda c: c.delta_e)
+            method=method, xyz=xyz, complexity=float(_complexity(pspace, polished)[0]),
+            robust_delta_e=None if robust is None else float(check(polished[None])[0])))
+
+    def rank(c):
+        return c.delta_e if robust is None else c.robust_delta_e
+    keep = pareto_front([(rank(c), c.complexity) for c in results])
+    return sorted((results[i] for i in keep), key=rank)

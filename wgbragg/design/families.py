@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wgbragg.bsdf.materials import BraggMirror, ThinFilm
+from wgbragg.bsdf.rough_layer import RoughBraggLayer
 from wgbragg.optics.metals import METALS, SpectralIndex, metal
 
 __all__ = ["FAMILIES", "Family", "Parameter", "ParameterSpace", "family_of", "parameter_space"]
@@ -57,13 +58,18 @@ class Family:
 _INDEX = (0.01, 100.0)
 _THICKNESS = (0.0, 1e6)
 
+_MIRROR = (
+    Parameter("n1", "index", _INDEX, (1.0, 2.0), 1.0),
+    Parameter("n2", "index", _INDEX, (1.0, 2.5), 1.5),
+    Parameter("d1", "thickness", _THICKNESS, (20.0, 400.0), 100.0),
+    Parameter("d2", "thickness", _THICKNESS, (20.0, 400.0), 100.0),
+    Parameter("N", "count", (1, 2**31 - 1), (1, 30), 10),
+)
+"""A Bragg mirror's layers, shared by the mirror and the rough layer families."""
+
 FAMILIES = {
     "bragg": Family("bragg", BraggMirror, (
-        Parameter("n1", "index", _INDEX, (1.0, 2.0), 1.0),
-        Parameter("n2", "index", _INDEX, (1.0, 2.5), 1.5),
-        Parameter("d1", "thickness", _THICKNESS, (20.0, 400.0), 100.0),
-        Parameter("d2", "thickness", _THICKNESS, (20.0, 400.0), 100.0),
-        Parameter("N", "count", (1, 2**31 - 1), (1, 30), 10),
+        *_MIRROR,
         Parameter("host", "index", _INDEX, (1.0, 2.0), None),
     ), ("n1", "n2", "d1", "d2", "N")),
     "film": Family("film", ThinFilm, (
@@ -73,8 +79,17 @@ FAMILIES = {
         Parameter("k_base", "extinction", (0.0, 1e4), (0.0, 5.0), 0.0),
         Parameter("host", "index", _INDEX, (1.0, 2.0), 1.0),
     ), ("n_film", "d")),
+    "rough": Family("rough", RoughBraggLayer, (
+        *_MIRROR,
+        Parameter("host", "index", (1.0, 100.0), (1.0, 2.0), 1.0),
+        Parameter("alpha", "roughness", (0.01, 1.0), (0.02, 0.8), None),
+    ), ("n1", "n2", "d1", "d2", "N", "alpha")),
 }
-"""The families by name; ``"bragg"`` and ``"film"`` also accept the classes themselves."""
+"""The families by name; the classes themselves are accepted too. ``"rough"`` is a
+:class:`~wgbragg.RoughBraggLayer` (its mirror's ``n1, n2, d1, d2, N, host`` and ``alpha``) as
+:func:`~wgbragg.design.fit_spectrum` fits it to an in-plane BRDF (``wgbragg.design.rough``);
+its ``host`` (the medium the layer is seen from, a coating when not 1) is always fixed,
+default 1 (air)."""
 
 
 def family_of(family) -> Family:
@@ -86,9 +101,12 @@ def family_of(family) -> Family:
         return FAMILIES["bragg"]
     if family is ThinFilm:
         return FAMILIES["film"]
+    if family is RoughBraggLayer:
+        return FAMILIES["rough"]
     if isinstance(family, str) and family in FAMILIES:
         return FAMILIES[family]
-    raise ValueError(f"family must be 'bragg', 'film', BraggMirror or ThinFilm, got {family!r}")
+    raise ValueError(f"family must be 'bragg', 'film', 'rough', BraggMirror, ThinFilm or "
+                     f"RoughBraggLayer, got {family!r}")
 
 
 def _number(what: str, value) -> float:
@@ -155,6 +173,10 @@ class ParameterSpace:
     def structure(self, x):
         """The family's structure at one search vector ``x``."""
         values = {k: float(v[0]) for k, v in self.members(x).items()}
+        if self.family.name == "rough":
+            alpha = values.pop("alpha")
+            values["N"] = int(values["N"])
+            return RoughBraggLayer(BraggMirror(**values), alpha)
         if self.family.name == "bragg":
             values["N"] = int(values["N"])
             if self.fixed.get("host", 0.0) is None and "host" not in self.names:
@@ -167,6 +189,9 @@ class ParameterSpace:
 
     def vector(self, structure) -> np.ndarray:
         """The search vector of a structure of the family (its free parameters)."""
+        if isinstance(structure, RoughBraggLayer):
+            return np.array([float(structure.alpha if name == "alpha"
+                                   else getattr(structure.mirror, name)) for name in self.names])
         return np.array([float(getattr(structure, name)) for name in self.names])
 
     def unit(self, x) -> np.ndarray:
@@ -202,6 +227,9 @@ def parameter_space(family, bounds=None, fixed=None) -> ParameterSpace:
     both = sorted(set(bounds) & set(fixed))
     if both:
         raise ValueError(f"parameter {both[0]!r} is both in bounds and in fixed")
+    if fam.name == "rough" and ("host" in bounds or fixed.get("host", 1.0) is None):
+        raise ValueError("host of a rough layer must be fixed (a number >= 1, default 1: "
+                         "air): the measurement's angles inside the layer depend on it")
     base = None
     if "base" in bounds:
         raise ValueError("base (a metal) is searched only by fit_spectrum, as a list "

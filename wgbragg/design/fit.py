@@ -21,6 +21,7 @@ import numpy as np
 from wgbragg.common.validation import check_angle, check_polarization, check_wavelength
 from wgbragg.design import population, population_gpu
 from wgbragg.design.families import ParameterSpace, family_of, parameter_space
+from wgbragg.design.rough import rough_brdf_evaluator
 from wgbragg.design.search import distinct_seeds, global_search
 from wgbragg.optics.metals import METALS, SpectralIndex
 
@@ -103,7 +104,10 @@ def check_search_options(backend, max_seconds, population_size, generations) -> 
 
 def population_evaluator(space: ParameterSpace, wavelength, angle, polarization, backend):
     """``reflect(X) -> (P, L)``: the reflectance of search vectors ``X`` at the flat points
-    (``wavelength``, ``angle``) on ``backend``."""
+    (``wavelength``, ``angle``) on ``backend``; for the rough family ``angle`` is ``(2, L)``,
+    incidence and detector angles, and the result the in-plane BRDF."""
+    if space.family.name == "rough":
+        return rough_brdf_evaluator(space, wavelength, angle[0], angle[1], backend)
     twin = population_gpu if backend == "gpu" else population
     base_index = None if space.base is None else space.base(wavelength)
 
@@ -114,20 +118,37 @@ def population_evaluator(space: ParameterSpace, wavelength, angle, polarization,
     return reflect
 
 
-def _checked_data(wavelength_nm, theta, measured, weights):
+def _checked_theta_out(theta, theta_out):
+    """A rough layer's detector angles (default: specular), radians in [-pi/2, pi/2]."""
+    if theta_out is None:
+        return theta
+    try:
+        out = np.asarray(theta_out, np.float64)
+    except (TypeError, ValueError):
+        raise ValueError("theta_out must be angles in radians") from None
+    if not np.all(np.isfinite(out)) or np.any(np.abs(out) > 0.5 * np.pi):
+        raise ValueError("theta_out must be finite angles in [-pi/2, pi/2] radians (positive "
+                         "on the specular side)")
+    return out
+
+
+def _checked_data(wavelength_nm, theta, measured, weights, theta_out=None):
     wavelength = check_wavelength(wavelength_nm)
     angle = check_angle(theta)
     try:
         data = np.asarray(measured, np.float64)
     except (TypeError, ValueError):
         raise ValueError("measured must be an array of reflectances") from None
+    shapes = [wavelength.shape, angle.shape] + ([] if theta_out is None else [theta_out.shape])
     try:
-        shape = np.broadcast_shapes(wavelength.shape, angle.shape)
+        shape = np.broadcast_shapes(*shapes)
     except ValueError:
-        raise ValueError(f"wavelength_nm {wavelength.shape} and theta {angle.shape} do not "
-                         "broadcast") from None
+        raise ValueError(f"wavelength_nm {wavelength.shape}, theta {angle.shape}"
+                         f"{'' if theta_out is None else f' and theta_out {theta_out.shape}'}"
+                         " do not broadcast") from None
     if data.shape != shape:
-        raise ValueError(f"measured must have the shape of broadcast(wavelength_nm, theta), "
+        what = "theta" if theta_out is None else "theta, theta_out"
+        raise ValueError(f"measured must have the shape of broadcast(wavelength_nm, {what}), "
                          f"{shape}, got {data.shape}")
     if data.size < 2:
         raise ValueError("measured must hold at least 2 values")
@@ -146,6 +167,8 @@ def _checked_data(wavelength_nm, theta, measured, weights):
             raise ValueError("weights must be finite, >= 0 and not all 0")
     wl = np.broadcast_to(wavelength, shape).ravel()
     th = np.broadcast_to(angle, shape).ravel()
+    if theta_out is not None:
+        th = np.stack([th, np.broadcast_to(theta_out, shape).ravel()])
     return wl, th, data.ravel(), np.ascontiguousarray(weight).ravel(), shape
 
 
@@ -234,14 +257,18 @@ def _same(space, a, b, separation):
 def fit_spectrum(family, wavelength_nm, theta, measured, bounds=None, fixed=None,
                  polarization="unpolarized", weights=None, backend="gpu", *, method="de",
                  population=None, generations=150, starts=4, optima_tolerance=0.1,
-                 max_seconds=None, seed=None, progress=False) -> FitResult:
-    """Fit a structure of ``family`` to measured reflectance.
+                 max_seconds=None, seed=None, progress=False, theta_out=None) -> FitResult:
+    """Fit a structure of ``family`` to measured reflectance (a rough layer: to its in-plane
+    BRDF).
 
     Parameters
     ----------
-    family : {"bragg", "film"} or BraggMirror or ThinFilm
+    family : {"bragg", "film", "rough"} or BraggMirror or ThinFilm or RoughBraggLayer
         Bragg: ``n1, n2, d1, d2, N`` free by default (``host`` defaults to ``n1``); film:
-        ``n_film, d`` free by default, over ``n_base, k_base`` or ``fixed={"base": "Au"}``.
+        ``n_film, d`` free by default, over ``n_base, k_base`` or ``fixed={"base": "Au"}``;
+        rough: a :class:`~wgbragg.RoughBraggLayer`, ``n1, n2, d1, d2, N, alpha`` free by
+        default, its mirror's ``host`` fixed (default 1: air), fitted to an in-plane BRDF
+        (``measured`` in 1/sr; :mod:`wgbragg.design.rough`).
     wavelength_nm : array_like
         Vacuum wavelengths in nm.
     theta : array_like
@@ -279,6 +306,11 @@ def fit_spectrum(family, wavelength_nm, theta, measured, bounds=None, fixed=None
     seed : int, optional
     progress : bool
         A tqdm bar over the generations.
+    theta_out : array_like, optional
+        Rough layers only: the detector's angles in the plane of incidence, radians in
+        ``[-pi/2, pi/2]`` (positive on the specular side), broadcast with ``wavelength_nm``
+        and ``theta`` (then the incidence angles, in ``[0, pi/2)``); default ``theta``, the
+        specular direction.
 
     Returns
     -------
@@ -305,7 +337,17 @@ def fit_spectrum(family, wavelength_nm, theta, measured, bounds=None, fixed=None
                           starts=starts, optima_tolerance=optima_tolerance,
                           max_seconds=max_seconds, seed=seed, progress=progress)
     space = parameter_space(family, bounds, fixed)
-    wl, th, data, weight, shape = _checked_data(wavelength_nm, theta, measured, weights)
+    if space.family.name == "rough":
+        if polarization != "unpolarized":
+            raise ValueError("a rough layer's BRDF is unpolarized: polarization must be "
+                             f"'unpolarized', got {polarization!r}")
+        if np.any(check_angle(theta) >= 0.5 * np.pi):
+            raise ValueError("theta (incidence) must be below pi/2 for a rough layer's BRDF")
+        theta_out = _checked_theta_out(theta, theta_out)
+    elif theta_out is not None:
+        raise ValueError("theta_out applies to the rough family (an in-plane BRDF) only")
+    wl, th, data, weight, shape = _checked_data(wavelength_nm, theta, measured, weights,
+                                                theta_out)
     reflect = population_evaluator(space, wl, th, polarization, backend)
     exact = population_evaluator(space, wl, th, polarization, "numpy")
 
@@ -392,7 +434,7 @@ def _fit_bases(family, wavelength_nm, theta, measured, bounds, fixed, started, *
 
 def _parameters(space, x) -> dict:
     values = {k: float(v[0]) for k, v in space.members(x).items()}
-    if space.family.name == "bragg":
+    if space.family.name in ("bragg", "rough"):
         values["N"] = int(values["N"])
     if space.base is not None:
         values.pop("n_base"), values.pop("k_base")

@@ -69,7 +69,8 @@ def _progress(show: bool, total: int, description: str):
 
 
 def global_search(space, objective, *, method="de", population=None, generations=100,
-                  seed=None, max_seconds=None, progress=False, description="search"):
+                  seed=None, max_seconds=None, progress=False, description="search",
+                  screen_objective=None):
     """Minimise ``objective(X) -> (P,)`` over ``space`` by whole populations.
 
     Parameters
@@ -88,6 +89,10 @@ def global_search(space, objective, *, method="de", population=None, generations
         Stop after the generation that passes it.
     progress : bool
         Show a tqdm bar.
+    screen_objective : callable, optional
+        A cheaper objective for the Sobol screen only (e.g. the nominal colour of a robust
+        design): it only chooses the starting population, which ``objective`` then
+        re-evaluates; its values do not enter the archive.
 
     Returns
     -------
@@ -106,13 +111,17 @@ def global_search(space, objective, *, method="de", population=None, generations
     state = {"stopped": False}
     bar = _progress(progress, generations, description)
 
-    def evaluate(x):
+    def evaluate(x, function=None):
         x = np.array(x, np.float64)
         x[:, space.integer] = np.round(x[:, space.integer])
-        cost = np.asarray(objective(x), np.float64)
+        cost = np.asarray((objective if function is None else function)(x), np.float64)
         cost = np.where(np.isfinite(cost), cost, np.inf)
-        archive.add(x, cost)
+        if function is None:
+            archive.add(x, cost)
         return cost
+
+    def screen(x):
+        return evaluate(x, screen_objective)
 
     def expired():
         if max_seconds is not None and time.perf_counter() - start > max_seconds:
@@ -126,9 +135,9 @@ def global_search(space, objective, *, method="de", population=None, generations
 
     try:
         if method == "de":
-            _de(space, evaluate, out_of_time, size, generations, seed, expired)
+            _de(space, evaluate, screen, out_of_time, size, generations, seed, expired)
         else:
-            _cma(space, evaluate, out_of_time, size, generations, seed, expired)
+            _cma(space, evaluate, screen, out_of_time, size, generations, seed, expired)
     finally:
         if bar is not None:
             bar.close()
@@ -163,7 +172,7 @@ def _screen(space, evaluate, size, seed, expired):
     return x[:cost.size][np.argsort(cost, kind="stable")[:size]]
 
 
-def _de(space, evaluate, out_of_time, size, generations, seed, expired):
+def _de(space, evaluate, screen, out_of_time, size, generations, seed, expired):
     from scipy.optimize import differential_evolution
 
     def callback(intermediate_result):
@@ -175,10 +184,10 @@ def _de(space, evaluate, out_of_time, size, generations, seed, expired):
         lambda x: evaluate(np.asarray(x).T), list(zip(space.lower, space.upper, strict=True)),
         vectorized=True, updating="deferred", integrality=space.integer, popsize=1,
         maxiter=generations, tol=1e-8, atol=0.0, seed=seed, polish=False, callback=callback,
-        init=_screen(space, evaluate, size, seed, expired))
+        init=_screen(space, screen, size, seed, expired))
 
 
-def _cma(space, evaluate, out_of_time, size, generations, seed, expired):
+def _cma(space, evaluate, screen, out_of_time, size, generations, seed, expired):
     import cma
 
     width = space.upper - space.lower
@@ -187,7 +196,7 @@ def _cma(space, evaluate, out_of_time, size, generations, seed, expired):
     integers = np.flatnonzero(space.integer)
     if integers.size:
         options["integer_variables"] = [int(i) for i in integers]
-    start = _screen(space, evaluate, size, seed, expired)[0]
+    start = _screen(space, screen, size, seed, expired)[0]
     es = cma.CMAEvolutionStrategy((start - space.lower) / width, 0.2, options)
     while not es.stop():
         unit = np.array(es.ask())

@@ -22,7 +22,8 @@ from wgbragg.design import population, population_gpu
 from wgbragg.design.colour_targets import delta_e, grid_xyz_weights, xyz_to_lab
 from wgbragg.optics.transfer_matrix import transfer_matrix_reflectance
 
-__all__ = ["DEFAULT_THETA", "ToleranceResult", "perturb", "perturbations", "tolerance"]
+__all__ = ["DEFAULT_THETA", "ToleranceResult", "family_name", "perturb", "perturbations",
+           "structure_members", "tolerance"]
 
 DEFAULT_THETA = (0.0, math.radians(30.0), math.radians(60.0))
 """Angles of :func:`tolerance` by default: 0, 30 and 60 degrees (radians)."""
@@ -60,13 +61,24 @@ class ToleranceResult:
 
 
 def perturbations(family: str, samples: int, sigma_thickness_nm: float, sigma_index: float,
-                  seed=None) -> dict[str, np.ndarray]:
-    """Normal errors ``(samples,)`` of each thickness (nm) and index of ``family``."""
-    rng = np.random.default_rng(seed)
-    out = {name: sigma_thickness_nm * rng.standard_normal(samples)
-           for name in _THICKNESSES[family]}
-    out.update({name: sigma_index * rng.standard_normal(samples) for name in _INDICES[family]})
-    return out
+                  seed=None, quasi_random: bool = False) -> dict[str, np.ndarray]:
+    """Normal errors ``(samples,)`` of each thickness (nm) and index of ``family``:
+    pseudo-random, or (``quasi_random``) scrambled Sobol points mapped through the normal
+    quantile, whose sample mean of a smooth function converges much faster (the draws of a
+    robust design's objective, which a search would otherwise fit to)."""
+    names = (*_THICKNESSES[family], *_INDICES[family])
+    if quasi_random:
+        from scipy.special import ndtri
+        from scipy.stats import qmc
+
+        unit = qmc.Sobol(len(names), scramble=True, seed=seed).random_base2(
+            max(0, math.ceil(math.log2(samples))))[:samples]  # balanced for powers of 2
+        normal = ndtri(np.clip(unit, 1e-12, 1.0 - 1e-12)).T
+    else:
+        rng = np.random.default_rng(seed)
+        normal = rng.standard_normal((len(names), samples))
+    return {name: (sigma_thickness_nm if name in _THICKNESSES[family] else sigma_index) * z
+            for name, z in zip(names, normal, strict=True)}
 
 
 def perturb(family: str, members, errors) -> dict[str, np.ndarray]:
@@ -85,7 +97,8 @@ def perturb(family: str, members, errors) -> dict[str, np.ndarray]:
     return out
 
 
-def _family(structure) -> str:
+def family_name(structure) -> str:
+    """``"bragg"`` or ``"film"``: the family of a structure :func:`tolerance` accepts."""
     if isinstance(structure, BraggMirror):
         return "bragg"
     if isinstance(structure, ThinFilm):
@@ -93,7 +106,9 @@ def _family(structure) -> str:
     raise ValueError(f"structure must be a BraggMirror or a ThinFilm, got {type(structure)}")
 
 
-def _members(structure, family: str, size: int) -> dict[str, np.ndarray]:
+def structure_members(structure, family: str, size: int = 1) -> dict[str, np.ndarray]:
+    """The population of ``size`` copies of ``structure`` (its numeric constructor
+    parameters, each ``(size,)``)."""
     names = (("n1", "n2", "d1", "d2", "N", "host") if family == "bragg"
              else ("n_film", "d", "n_base", "k_base", "host"))
     return {n: np.full(size, float(getattr(structure, n))) for n in names}
@@ -140,7 +155,7 @@ def tolerance(structure, sigma_thickness_nm=2.0, sigma_index=0.0, samples=1000,
     -------
     ToleranceResult
     """
-    family = _family(structure)
+    family = family_name(structure)
     sig_d = _sigma("sigma_thickness_nm", sigma_thickness_nm)
     sig_n = _sigma("sigma_index", sigma_index)
     if not isinstance(samples, int | np.integer) or not 1 <= samples <= 10**6:
@@ -156,7 +171,7 @@ def tolerance(structure, sigma_thickness_nm=2.0, sigma_index=0.0, samples=1000,
     if per_layer and family == "bragg":
         spectra = _layer_spectra(structure, sig_d, sig_n, samples, wl, th, seed)
     else:
-        nominal = _members(structure, family, 1)
+        nominal = structure_members(structure, family, 1)
         errors = perturbations(family, samples, sig_d, sig_n, seed)
         members = {k: np.concatenate([nominal[k], v])
                    for k, v in perturb(family, nominal, errors).items()}
