@@ -125,8 +125,8 @@ def _add_search_arguments(parser) -> None:
     parser.add_argument("--samples", type=int, default=500,
                         help="Monte Carlo samples of the tolerance histogram")
     parser.add_argument("--per-layer", action="store_true",
-                        help="independent errors in each layer of a mirror (CPU transfer "
-                             "matrices) instead of all layers of a kind together")
+                        help="independent errors in each layer of a mirror (transfer "
+                             "matrices on the GPU) instead of all layers of a kind together")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 

@@ -23,9 +23,10 @@ from wgbragg.optics.yeh_gpu import BRAGG_MIRROR_DTYPE
 
 __all__ = ["MAX_POINTS_PER_DISPATCH", "POPULATION_DTYPE", "population_reflectance"]
 
-POPULATION_DTYPE = gpu.struct_dtype([("points", "u32"), ("_pad0", "u32"), ("_pad1", "u32"),
+POPULATION_DTYPE = gpu.struct_dtype([("points", "u32"), ("layers", "u32"), ("_pad1", "u32"),
                                      ("_pad2", "u32")])
-"""``Population`` uniform of the population kernels."""
+"""``Population`` uniform of the population kernels (``layers``: the stack kernel's,
+:mod:`wgbragg.design.stack_gpu`)."""
 
 MAX_POINTS_PER_DISPATCH = 1 << 22
 """Most (member, point) results one dispatch writes (16 MiB); larger populations run in

@@ -3,9 +3,12 @@
 Monte Carlo on the GPU: ``samples`` perturbed copies of the structure, every thickness moved by
 a normal error of ``sigma_thickness_nm`` and every index by one of ``sigma_index``, are
 evaluated as one population (one dispatch), and their colour over angle is compared with the
-nominal one by CIE dE2000. The errors are per parameter: all the ``d1`` layers of a Bragg mirror
-move together (a deposition-rate calibration error), since the population kernel evaluates
-periodic mirrors (independent per-layer errors need a non-periodic stack: not done here).
+nominal one by CIE dE2000. By default the errors are per parameter: all the ``d1`` layers of a
+Bragg mirror move together (a deposition-rate calibration error), and the population kernels
+evaluate periodic mirrors. With ``per_layer=True`` every layer carries its own errors (independent
+deposition errors); the perturbed stacks are no longer periodic and run on the stack twins
+(:mod:`wgbragg.design.stack_gpu`, Abeles matrices on the GPU, or the float64 transfer-matrix
+solver with ``backend="numpy"``), from the same draws either way.
 The sensitivities are float64 finite differences of the reference colour.
 """
 
@@ -18,18 +21,19 @@ import numpy as np
 
 from wgbragg.bsdf.materials import BraggMirror, ThinFilm
 from wgbragg.common.validation import check_angle
-from wgbragg.design import population, population_gpu
+from wgbragg.design import population, population_gpu, stack, stack_gpu
 from wgbragg.design.colour_targets import delta_e, grid_xyz_weights, xyz_to_lab
-from wgbragg.optics.transfer_matrix import transfer_matrix_reflectance
 
-__all__ = ["DEFAULT_THETA", "ToleranceResult", "family_name", "perturb", "perturbations",
-           "structure_members", "tolerance"]
+__all__ = ["DEFAULT_THETA", "ToleranceResult", "family_name", "layer_draws", "perturb",
+           "perturbations", "structure_members", "tolerance"]
 
 DEFAULT_THETA = (0.0, math.radians(30.0), math.radians(60.0))
 """Angles of :func:`tolerance` by default: 0, 30 and 60 degrees (radians)."""
 
 _THICKNESSES = {"bragg": ("d1", "d2"), "film": ("d",)}
 _INDICES = {"bragg": ("n1", "n2"), "film": ("n_film",)}
+# Layers (rows x 2N) of perturbed stacks drawn and evaluated at a time with per_layer.
+_LAYER_BLOCK_ROWS = 1 << 20
 
 
 @dataclass(frozen=True)
@@ -144,9 +148,10 @@ def tolerance(structure, sigma_thickness_nm=2.0, sigma_index=0.0, samples=1000,
     per_layer : bool
         Give each of a mirror's 2N layers its own errors (independent deposition errors)
         instead of moving all layers of one kind together. The perturbed stacks are no longer
-        periodic, so they run on the float64 transfer-matrix solver on the CPU
-        (:func:`~wgbragg.optics.transfer_matrix_reflectance`, one call per sample) whatever
-        ``backend``; the host and the substrate keep their index. A film has one layer: the
+        periodic: they run on the GPU stack kernel (:mod:`wgbragg.design.stack_gpu`), or with
+        ``backend="numpy"`` on the float64 transfer-matrix solver
+        (:func:`~wgbragg.optics.transfer_matrix_reflectance`, one call per sample), from the
+        same draws; the host and the substrate keep their index. A film has one layer: the
         same as the default.
     backend : {"gpu", "numpy"}
     seed : int, optional
@@ -169,7 +174,7 @@ def tolerance(structure, sigma_thickness_nm=2.0, sigma_index=0.0, samples=1000,
     nodes, weights = grid_xyz_weights()
     wl, th = np.tile(nodes, angle.size), np.repeat(angle, nodes.size)
     if per_layer and family == "bragg":
-        spectra = _layer_spectra(structure, sig_d, sig_n, samples, wl, th, seed)
+        spectra = _layer_spectra(structure, sig_d, sig_n, samples, wl, th, seed, backend)
     else:
         nominal = structure_members(structure, family, 1)
         errors = perturbations(family, samples, sig_d, sig_n, seed)
@@ -189,21 +194,40 @@ def tolerance(structure, sigma_thickness_nm=2.0, sigma_index=0.0, samples=1000,
         percentiles={q: float(np.percentile(spread, q)) for q in (50, 90, 99)})
 
 
-def _layer_spectra(mirror, sigma_d, sigma_n, samples, wavelength, theta, seed):
-    """Spectra ``(1 + samples, L)`` of the mirror and of copies whose 2N layers each carry
-    their own normal errors, by the float64 transfer-matrix solver."""
-    rng = np.random.default_rng(seed)
+def layer_draws(mirror, sigma_d, sigma_n, samples, rng, start, stop):
+    """Indices and thicknesses ``(stop - start, 2N)`` of rows ``start .. stop - 1`` of the
+    per-layer population: row 0 the mirror itself, row ``k >= 1`` a copy whose 2N layers each
+    carry their own normal errors (indices >= 0.01, thicknesses >= 0), drawn from ``rng`` in
+    row order (index errors, then thickness errors, per row), so blocks taken in order give
+    the same draws whatever their size."""
     layers = 2 * mirror.N
-    indices = np.tile([mirror.n1, mirror.n2], mirror.N)
-    thicknesses = np.tile([mirror.d1, mirror.d2], mirror.N)
+    indices = np.tile(np.array([mirror.n1, mirror.n2], np.float64), (stop - start, mirror.N))
+    thicknesses = np.tile(np.array([mirror.d1, mirror.d2], np.float64),
+                          (stop - start, mirror.N))
+    first = 1 if start == 0 else 0
+    if stop - start > first and samples:
+        z = rng.standard_normal((stop - start - first, 2, layers))
+        indices[first:] = np.maximum(indices[first:] + sigma_n * z[:, 0], 0.01)
+        thicknesses[first:] = np.maximum(thicknesses[first:] + sigma_d * z[:, 1], 0.0)
+    return indices, thicknesses
+
+
+def _layer_spectra(mirror, sigma_d, sigma_n, samples, wavelength, theta, seed, backend):
+    """Spectra ``(1 + samples, L)`` of the mirror and of copies whose 2N layers each carry
+    their own normal errors: non-periodic stacks, by the stack twins (float32 GPU Abeles
+    matrices, or the float64 transfer-matrix solver), a bounded block of stacks at a time."""
+    if 2 * mirror.N > stack_gpu.MAX_LAYERS:
+        raise ValueError(f"per_layer takes mirrors of at most {stack_gpu.MAX_LAYERS // 2} "
+                         f"periods, got N = {mirror.N}")
+    rng = np.random.default_rng(seed)
+    twin = stack_gpu if backend == "gpu" else stack
     out = np.empty((samples + 1, wavelength.size))
-    for k in range(samples + 1):
-        n, d = indices, thicknesses
-        if k:
-            n = np.maximum(indices + sigma_n * rng.standard_normal(layers), 0.01)
-            d = np.maximum(thicknesses + sigma_d * rng.standard_normal(layers), 0.0)
-        stack = np.concatenate([[mirror.host], n, [mirror.n1]])
-        out[k] = transfer_matrix_reflectance(stack, d, wavelength, theta)
+    block = max(1, _LAYER_BLOCK_ROWS // (2 * mirror.N))
+    for start in range(0, samples + 1, block):
+        stop = min(samples + 1, start + block)
+        indices, thicknesses = layer_draws(mirror, sigma_d, sigma_n, samples, rng, start, stop)
+        out[start:stop] = twin.stack_reflectance(mirror.host, indices, thicknesses, mirror.n1,
+                                                 wavelength, theta)
     return out
 
 

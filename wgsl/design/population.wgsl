@@ -1,9 +1,10 @@
-// Indexing shared by the population kernels (population_bragg.wgsl, population_film.wgsl):
+// Indexing shared by the population kernels (population_bragg.wgsl, population_film.wgsl,
+// stack_population.wgsl):
 // invocation i evaluates member i / points at shared point i % points. No bindings.
 
 struct Population {
     points: u32,  // (wavelength, angle) points per member
-    _pad0: u32,
+    layers: u32,  // layers per member (stack_population.wgsl; 0 for the others)
     _pad1: u32,
     _pad2: u32,
 }
