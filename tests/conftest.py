@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import contextlib
 import importlib.util
+import io
 import os
 import sys
 from pathlib import Path
@@ -250,3 +251,14 @@ def markdown_rows(text: str, heading: str) -> list[list[str]]:
 def markdown_table(text: str, heading: str) -> list[list[str]]:
     """:func:`markdown_rows` without the rule (rows whose first cell is only dashes)."""
     return [row for row in markdown_rows(text, heading) if not set(row[0]) <= set("-")]
+
+
+def quick_run(bench, folder) -> tuple[str, str]:
+    """Run benchmark module ``bench`` in quick mode over a document whose section is stale;
+    return the document afterwards and what the run printed."""
+    path = folder / "benchmarks.md"
+    path.write_text(f"# Benchmarks\n\n{bench.BEGIN_MARKER}\nstale\n{bench.END_MARKER}\n",
+                    encoding="utf-8")
+    with contextlib.redirect_stdout(io.StringIO()) as capture:
+        assert bench.main(["--quick", "--no-progress", "--output", str(path)]) == 0
+    return path.read_text(encoding="utf-8"), capture.getvalue()

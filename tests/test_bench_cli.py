@@ -3,11 +3,8 @@ once between its markers, and no ``--help`` imports a heavy package (no speed is
 
 from __future__ import annotations
 
-import contextlib
-import io
-
 import pytest
-from conftest import markdown_rows
+from conftest import markdown_rows, quick_run
 
 from benchmarks import cli as bench
 from benchmarks import report
@@ -16,12 +13,7 @@ from benchmarks import report
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     """The document after one quick run over a stale section."""
-    path = tmp_path_factory.mktemp("docs") / "benchmarks.md"
-    path.write_text(f"# Benchmarks\n\n{bench.BEGIN_MARKER}\nstale\n{bench.END_MARKER}\n",
-                    encoding="utf-8")
-    with contextlib.redirect_stdout(io.StringIO()):
-        assert bench.main(["--quick", "--no-progress", "--output", str(path)]) == 0
-    return path.read_text(encoding="utf-8")
+    return quick_run(bench, tmp_path_factory.mktemp("docs"))[0]
 
 
 def test_section_written_once(run):

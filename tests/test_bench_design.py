@@ -4,12 +4,9 @@ the section replaces (never duplicates) itself between its markers. No speed is 
 
 from __future__ import annotations
 
-import contextlib
-import io
-
 import numpy as np
 import pytest
-from conftest import bench_section, markdown_table
+from conftest import bench_section, markdown_table, quick_run
 
 from benchmarks import design as bench
 from benchmarks import report
@@ -19,12 +16,7 @@ pytestmark = pytest.mark.gpu
 
 @pytest.fixture(scope="module")
 def section(tmp_path_factory):
-    path = tmp_path_factory.mktemp("docs") / "benchmarks.md"
-    path.write_text(f"# Benchmarks\n\n{bench.BEGIN_MARKER}\nstale\n{bench.END_MARKER}\n",
-                    encoding="utf-8")
-    with contextlib.redirect_stdout(io.StringIO()):
-        assert bench.main(["--quick", "--no-progress", "--output", str(path)]) == 0
-    text = path.read_text(encoding="utf-8")
+    text = quick_run(bench, tmp_path_factory.mktemp("docs"))[0]
     assert text.count(bench.BEGIN_MARKER) == 1 and "stale" not in text
     return bench_section(bench, text)
 

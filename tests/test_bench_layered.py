@@ -3,12 +3,9 @@ and every table holds finite numbers (no speed is asserted: the full run reports
 
 from __future__ import annotations
 
-import contextlib
-import io
-
 import numpy as np
 import pytest
-from conftest import markdown_rows
+from conftest import markdown_rows, quick_run
 
 from benchmarks import layered as bench
 from wgbragg import ShiftedPoints
@@ -16,12 +13,7 @@ from wgbragg import ShiftedPoints
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
-    path = tmp_path_factory.mktemp("docs") / "benchmarks.md"
-    path.write_text(f"# Benchmarks\n\n{bench.BEGIN_MARKER}\nstale\n{bench.END_MARKER}\n",
-                    encoding="utf-8")
-    with contextlib.redirect_stdout(io.StringIO()) as capture:
-        assert bench.main(["--quick", "--no-progress", "--output", str(path)]) == 0
-    return path.read_text(encoding="utf-8"), capture.getvalue()
+    return quick_run(bench, tmp_path_factory.mktemp("docs"))
 
 
 def _rows(text: str, heading: str) -> list[list[str]]:

@@ -5,11 +5,8 @@ reports them)."""
 
 from __future__ import annotations
 
-import contextlib
-import io
-
 import pytest
-from conftest import markdown_table
+from conftest import markdown_table, quick_run
 
 from benchmarks import memory as bench
 from benchmarks import report
@@ -20,12 +17,7 @@ pytestmark = pytest.mark.gpu
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     """The document after one quick run over a stale section."""
-    path = tmp_path_factory.mktemp("docs") / "benchmarks.md"
-    path.write_text(f"# Benchmarks\n\n{bench.BEGIN_MARKER}\nstale\n{bench.END_MARKER}\n",
-                    encoding="utf-8")
-    with contextlib.redirect_stdout(io.StringIO()):
-        assert bench.main(["--quick", "--no-progress", "--output", str(path)]) == 0
-    return path.read_text(encoding="utf-8")
+    return quick_run(bench, tmp_path_factory.mktemp("docs"))[0]
 
 
 def test_section_written_once(run):
