@@ -62,6 +62,7 @@ bench: setup
 	$(PY) -m benchmarks.memory
 	$(PY) -m benchmarks.sweep
 	$(PY) -m benchmarks.design
+	$(PY) -m benchmarks.design_baseline
 
 # Mitsuba 3 as a peer (benchmarks/mitsuba_peer.py): scalar_rgb, and llvm_ad_rgb on a libLLVM
 # that its drjit can use. The system's LLVM 15 (lavapipe's) makes drjit 1.5 abort, so Debian's

@@ -12,7 +12,11 @@ beetle, measured side by side in one run.
   is the number of spectra our fits evaluated times tmm's measured time per spectrum
   (extrapolated, not run: one fit would take hours on 2 cores).
 - **Colour design**: targets that are the colours (0, 30, 60 degrees) of random mirrors;
-  share reaching dE2000 <= 1 and median time of :func:`~wgbragg.design.design_colour`.
+  share reaching dE2000 <= 1 and median time of :func:`~wgbragg.design.design_colour`, with
+  each search colour method ("averaged", the default, and "grid") on the same targets.
+- **Search colour methods**: one population of random mirrors coloured at 0, 30 and 60
+  degrees by each method on the GPU (one dispatch) and by the float64 "averaged" twin: time
+  per population, and dE2000 to the reference colour.
 - **Robust design**: the same colour travels designed plainly and with ``robust=`` (the
   objective averaged over fixed quasi-random draws of a per-parameter thickness error), both
   designs then evaluated on the same 300 fresh pseudo-random draws: mean dE2000 to the target,
@@ -53,6 +57,7 @@ class Config:
     numpy_fits: int
     cma_fits: int
     colours: int
+    population_colours: int
     generations: int
     beetle: bool
     robust_targets: int
@@ -60,9 +65,11 @@ class Config:
 
 
 QUICK = Config("quick", mirrors=1, films=1, numpy_fits=1, cma_fits=1, colours=1,
-               generations=10, beetle=False, robust_targets=1, robust_samples=4)
+               population_colours=4, generations=10, beetle=False, robust_targets=1,
+               robust_samples=4)
 FULL = Config("full", mirrors=16, films=8, numpy_fits=6, cma_fits=8, colours=50,
-              generations=150, beetle=True, robust_targets=4, robust_samples=32)
+              population_colours=200, generations=150, beetle=True, robust_targets=4,
+              robust_samples=32)
 
 ROBUST_SIGMA_NM = 3.0
 FRESH_DRAWS = 300
@@ -129,7 +136,8 @@ class Results:
     environment: dict
     recovery: dict  # search -> list of (label, success, seconds, spectra, tmm seconds/spectrum)
     tmm_agreement: float
-    colour: list  # (delta_e, seconds)
+    colour: dict  # search colour method -> list of (delta_e, seconds)
+    search_colours: dict  # "averaged (GPU)" etc. -> (seconds, dE2000 to the reference (P*A,))
     beetle: dict | None
     robust: list  # per target: {"plain"|"robust": (nominal dE, fresh mean dE, seconds)}
 
@@ -175,17 +183,19 @@ def run_benchmarks(config: Config, progress: bool) -> Results:
             bar.update(1)
     bar.close()
 
-    colour = []
+    colour = {"averaged": [], "grid": []}
     from wgbragg import BraggMirror
 
     for k in range(config.colours):
         truth = BraggMirror(1.0, rng.uniform(1.3, 2.0), rng.uniform(60, 250),
                             rng.uniform(60, 250), int(rng.integers(3, 13)))
-        start = time.perf_counter()
-        found = design_colour(truth.xyz(theta), theta, "bragg", fixed={"n1": 1.0},
-                              bounds={"N": (1, 15)}, space="xyz", seed=k,
-                              generations=max(10, config.generations // 3))
-        colour.append((found[0].delta_e, time.perf_counter() - start))
+        for method, rows in colour.items():
+            start = time.perf_counter()
+            found = design_colour(truth.xyz(theta), theta, "bragg", fixed={"n1": 1.0},
+                                  bounds={"N": (1, 15)}, space="xyz", seed=k,
+                                  generations=max(10, config.generations // 3), method=method)
+            rows.append((found[0].delta_e, time.perf_counter() - start))
+    search_colours = run_search_colours(config, theta, np.random.default_rng(3))
 
     robust = run_robust(config, theta, np.random.default_rng(2))  # own draws: rng unchanged
     beetle = None
@@ -202,7 +212,46 @@ def run_benchmarks(config: Config, progress: bool) -> Results:
                                       "d2": (40, 200), "N": (2, 20)}, fixed={"host": 1.0},
                               seed=0, generations=config.generations)
         beetle = {"truth": truth, "result": result, "success": succeeded(result, truth)}
-    return Results(config, environment, runs, agreement, colour, beetle, robust)
+    return Results(config, environment, runs, agreement, colour, search_colours, beetle,
+                   robust)
+
+
+def run_search_colours(config: Config, theta, rng) -> dict:
+    """One population of random mirrors (N in [1, 15]) coloured by each search colour method:
+    seconds per population (the GPU's second call, its pipeline built) and dE2000 to the
+    reference colour at each (member, angle)."""
+    from wgbragg import BraggMirror
+    from wgbragg.design import population, population_gpu
+    from wgbragg.design.colour_targets import delta_e, grid_xyz_weights, xyz_to_lab
+    from wgbragg.design.families import parameter_space
+
+    space = parameter_space("bragg", bounds={"N": (1, 15)}, fixed={"n1": 1.0})
+    size = config.population_colours
+    members = space.members(space.lower + rng.random((size, space.size))
+                            * (space.upper - space.lower))
+    reference = np.stack([
+        BraggMirror(*(members[k][p] for k in ("n1", "n2", "d1", "d2")), int(members["N"][p]),
+                    host=members["host"][p]).xyz(theta, method="reference")
+        for p in range(size)])
+    nodes, weights = grid_xyz_weights()
+    wl, th = np.tile(nodes, theta.size), np.repeat(theta, nodes.size)
+
+    def grid_gpu():
+        spectra = population_gpu.population_reflectance("bragg", members, wl, th)
+        return spectra.reshape(size, theta.size, nodes.size) @ weights
+
+    out = {}
+    for name, colour in (("averaged, GPU population kernel",
+                          lambda: population_gpu.population_xyz(members, theta)),
+                         ("grid (2 nm), GPU population kernel", grid_gpu),
+                         ("averaged, float64 numpy twin",
+                          lambda: population.population_xyz(members, theta))):
+        if "GPU" in name:
+            colour()  # builds the pipeline
+        xyz, seconds = report.timed(colour)
+        out[name] = (seconds, delta_e(xyz_to_lab(np.maximum(xyz, 0.0)),
+                                      xyz_to_lab(reference)).ravel())
+    return out
 
 
 def run_robust(config: Config, theta, rng) -> list:
@@ -290,13 +339,26 @@ def render_section(results: Results, command: str) -> str:
                   f"{np.median([t / g[2] for t, g in zip(tmm_times, gpu, strict=True)]):,.0f}"
                   f"{report.TIMES}"]]),
             ""]
-    de = np.array([c[0] for c in results.colour])
+    rows = []
+    for method, runs in results.colour.items():
+        de = np.array([c[0] for c in runs])
+        rows.append([f"{len(de)} colour travels of random mirrors (0/30/60°)", f'"{method}"',
+                     f"{np.mean(de <= 1.0):.0%}", f"{np.median(de):.2f}",
+                     human_time(float(np.median([c[1] for c in runs])))])
     out += ["### Colour design", "",
-            *markdown_table(["targets", "dE2000 <= 1", "median dE2000", "median time"],
-                            [[f"{len(de)} colour travels of random mirrors (0/30/60°)",
-                              f"{np.mean(de <= 1.0):.0%}", f"{np.median(de):.2f}",
-                              human_time(float(np.median([c[1] for c in results.colour])))]]),
-            ""]
+            *markdown_table(["targets", "search colour", "dE2000 <= 1", "median dE2000",
+                             "median time"], rows), ""]
+    size = cfg.population_colours
+    rows = []
+    for name, (seconds, de) in results.search_colours.items():
+        rows.append([name, human_time(seconds), human_time(seconds / (size * len(ANGLES_DEG))),
+                     f"{de.mean():.3f}", f"{np.percentile(de, 95):.3f}", f"{de.max():.3f}"])
+    out += ["### Search colour methods", "",
+            f"One population of {size} random mirrors (n1 = 1, n2 in [1.3, 2], d1, d2 in "
+            f"[60, 250] nm, N in [1, 15]) at {', '.join(f'{a:g}' for a in ANGLES_DEG)}°; "
+            "dE2000 to the reference colour (exact R every nm) over all members and angles.", "",
+            *markdown_table(["colour", "time per population", "per colour",
+                             "mean dE2000", "p95", "max"], rows), ""]
     rows = []
     for k, row in enumerate(results.robust):
         for name in ("plain", "robust"):

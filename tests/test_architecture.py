@@ -52,6 +52,8 @@ ENTRY_POINT_TWIN_TESTS = {
     "render/renderer.wgsl": "test_render_ibl.py::test_the_gpu_shades_a_plane_as_its_float64_twin",
     "design/population_bragg.wgsl": "test_design.py::test_population_gpu_matches_numpy",
     "design/population_film.wgsl": "test_design.py::test_population_gpu_matches_numpy",
+    "design/population_colour_bragg.wgsl":
+        "test_design.py::test_population_colour_gpu_matches_numpy",
     "design/stack_population.wgsl":
         "test_design_stack_gpu.py::test_stack_kernel_matches_the_transfer_matrix_solver",
 }

@@ -39,7 +39,18 @@ def test_baseline_and_colour_tables(section):
     assert len(rows) == 3 and rows[0][2] == "1"
     assert all(report.parse_time(row[1]) > 0 for row in rows)
     colour = markdown_table(section, "### Colour design")[1:]
-    assert len(colour) == 1 and colour[0][1].endswith("%")
+    assert [row[1] for row in colour] == ['"averaged"', '"grid"']
+    assert all(row[2].endswith("%") for row in colour)
+    methods = markdown_table(section, "### Search colour methods")
+    assert [row[0] for row in methods[1:]] == [
+        "averaged, GPU population kernel", "grid (2 nm), GPU population kernel",
+        "averaged, float64 numpy twin"]
+    for row in methods[1:]:
+        assert report.parse_time(row[1]) > 0
+        mean, p95, worst = (float(v) for v in row[3:])
+        assert 0 <= mean <= p95 <= worst < 2.0  # dE2000 to the reference colour
+    # The float32 population kernel and its float64 twin colour alike.
+    assert abs(float(methods[1][3]) - float(methods[3][3])) < 0.01
     robust = markdown_table(section, "### Robust design")[1:]
     assert [row[1] for row in robust] == ["plain", "robust"]
     assert all(float(row[3]) > 0 and report.parse_time(row[4]) > 0 for row in robust)

@@ -407,7 +407,7 @@ def _unpack_slopes(words: np.ndarray) -> np.ndarray:
 
 def test_packed_table_holds_the_densities_and_their_slopes_within_half_a_step():
     cmf = colour_landmarks_gpu.cmf_table()
-    packed = colour_landmarks_gpu._packed_cmf_table()
+    packed = colour_landmarks_gpu.packed_cmf_table()
     nodes = cmf.shape[0] // 2
     np.testing.assert_array_equal(packed[:, :3].view(np.float32), cmf[:, :3])
     slope = np.diff(cmf[:nodes, :3].astype(np.float64), axis=0)

@@ -13,7 +13,7 @@ import pytest
 from wgbragg import BraggMirror, ThinFilm
 from wgbragg.colour.colorimetry import delta_e_2000, xyz_to_linear_srgb
 from wgbragg.design import design_colour, fit_spectrum, population, population_gpu, tolerance
-from wgbragg.design.colour_design import pareto_front
+from wgbragg.design.colour_design import pareto_front, search_xyz
 from wgbragg.design.colour_targets import grid_xyz_weights, parse_targets, xyz_to_lab
 from wgbragg.design.families import parameter_space
 
@@ -58,6 +58,30 @@ def test_population_gpu_matches_numpy():
             gpu_r = population_gpu.population_reflectance("film", members, wl, th, pol, base)
             cpu_r = population.population_reflectance("film", members, wl, th, pol, base)
             np.testing.assert_allclose(gpu_r, cpu_r, atol=2e-5)
+
+
+def test_population_colour_gpu_matches_numpy():
+    """The "averaged" colour of a population (matched and unmatched hosts, a bulk member, N
+    from 1 to 30, beyond the critical angle of n2 and grazing) against the float64 twin, and
+    the twin against the public ``xyz(method="averaged")`` member by member."""
+    rng = np.random.default_rng(4)
+    space = parameter_space("bragg", bounds={"host": (1.0, 1.6), "N": (1, 30)})
+    x = space.lower + rng.random((20, space.size)) * (space.upper - space.lower)
+    x[0, space.names.index("n2")] = x[0, space.names.index("n1")]  # bulk: no n2 layer
+    members = space.members(x)
+    members["host"][:10] = members["n1"][:10]
+    theta = np.radians([0.0, 25.0, 50.0, 75.0, 90.0])
+    gpu_xyz = population_gpu.population_xyz(members, theta)
+    cpu_xyz = population.population_xyz(members, theta)
+    assert gpu_xyz.shape == cpu_xyz.shape == (20, 5, 3)
+    np.testing.assert_allclose(gpu_xyz, cpu_xyz, atol=2e-4)
+    for i in (0, 3, 12):
+        m = BraggMirror(*(members[k][i] for k in ("n1", "n2", "d1", "d2")),
+                        int(members["N"][i]), host=members["host"][i])
+        np.testing.assert_allclose(cpu_xyz[i], m.xyz(theta, method="averaged"), rtol=1e-12,
+                                   atol=1e-15)
+        np.testing.assert_allclose(m.xyz(theta, method="averaged", backend="gpu"), gpu_xyz[i],
+                                   atol=2e-5)
 
 
 def test_fit_recovers_a_mirror_from_noiseless_spectra():
@@ -234,6 +258,25 @@ def test_design_reaches_a_reachable_colour_travel():
     n = [c.complexity for c in candidates]
     assert de == sorted(de) and all(a > b for a, b in itertools.pairwise(n))
     assert all(c.complexity == c.structure.N for c in candidates)
+
+
+def test_the_search_colour_method_is_a_knob():
+    """method="grid" searches the same target as the default "averaged"; each candidate
+    reports its objective with the method it was searched with, recomputed here."""
+    truth = BraggMirror(1.0, 1.45, 160.0, 120.0, 5)
+    target = truth.xyz(THETA)
+    best = design_colour(target, THETA, "bragg", fixed={"n1": 1.0}, space="xyz",
+                         bounds={"N": (2, 8)}, seed=1, generations=20, method="grid")[0]
+    assert best.delta_e <= 1.0 and best.method == "grid"
+    grid = search_xyz(best.structure, THETA, "grid")
+    np.testing.assert_allclose(grid, best.structure.xyz(THETA, method="reference"), atol=2e-3)
+    assert best.delta_e_method == pytest.approx(float(np.mean(delta_e_2000(
+        xyz_to_linear_srgb(grid), xyz_to_linear_srgb(target)))), rel=1e-6)
+    with pytest.raises(ValueError, match=r"method \(the search's colour method\) for a 'film' "
+                                         r"design must be one of \('grid',\)"):
+        design_colour(["#808080"], [0.0], "film", method="averaged")
+    with pytest.raises(ValueError, match="must be one of"):
+        design_colour(["#808080"], [0.0], "bragg", method="reference")
 
 
 def test_an_unreachable_target_returns_the_best_achievable():

@@ -54,7 +54,7 @@ def test_design_writes_a_film_material_the_scene_loader_reads(tmp_path, capsys):
                      "--no-progress"])
     text = capsys.readouterr().out
     assert code == 0, text
-    assert "fourier-table dE" in text
+    assert "grid dE" in text
     film = load_scene(tmp_path / "design.toml").materials["design"].to_film()
     assert film.base is not None and film.base.name == "Au"
     best = float(text.splitlines()[1].split()[1])
@@ -101,6 +101,8 @@ def test_fit_mistakes_are_one_line_errors(tmp_path, capsys, rows, argv, message)
     (["--target", "#d4af37@0", "--robust", "0"], r"--robust must be in \[1, 4096\]"),
     (["--target", "#d4af37@0", "--robust", "4", "--sigma-thickness-nm", "0"],
      "robust needs sigma_thickness_nm > 0"),
+    (["--target", "#d4af37@0", "--family", "film", "--colour-method", "averaged"],
+     r"for a 'film' design must be one of \('grid',\)"),
 ])
 def test_design_mistakes_are_one_line_errors(tmp_path, capsys, argv, message):
     code = cli.main(["design", "--family", "bragg", "-o", str(tmp_path / "d"), *argv])

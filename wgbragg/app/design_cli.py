@@ -156,6 +156,9 @@ def add_design_commands(commands, command) -> None:
                         help="space of numeric targets (xyz and lab: D65, Y = 1 white)")
     design.add_argument("--objective", choices=("mean", "max"), default="mean",
                         help="dE2000 over the angles")
+    design.add_argument("--colour-method", choices=("averaged", "grid"), default=None,
+                        help="colour method of the global search: averaged (mirrors, the "
+                             "default) or grid (R every 2 nm; films, the default)")
     design.add_argument("--candidates", type=int, default=5,
                         help="most candidates (Pareto set of dE2000 against N or thickness)")
     design.add_argument("--robust", type=int, default=None, metavar="DRAWS",
@@ -252,7 +255,8 @@ def run_design(args) -> int:
         "sigma_thickness_nm": args.sigma_thickness_nm, "sigma_index": args.sigma_index,
         "samples": args.robust}
     candidates = design_colour(colours, theta, args.family, bounds, fixed, space,
-                               objective=args.objective, candidates=args.candidates,
+                               objective=args.objective, method=args.colour_method,
+                               candidates=args.candidates,
                                backend=args.backend, max_seconds=args.max_seconds,
                                seed=args.seed, progress=not args.no_progress, robust=robust,
                                **_generations(args))

@@ -41,6 +41,7 @@ __all__ = [
     "benchmark_xyz",
     "landmark_xyz",
     "pack_density_slopes",
+    "packed_cmf_table",
     "subdivided_xyz",
 ]
 
@@ -103,7 +104,7 @@ def pack_density_slopes(slope: np.ndarray) -> np.ndarray:
 
 
 @functools.cache
-def _packed_cmf_table() -> np.ndarray:
+def packed_cmf_table() -> np.ndarray:
     """(942, 4) uint32, read-only: :func:`cmf_table`'s float32 bits, with w of the first 470
     rows the packed slope of the cell above (:func:`pack_density_slopes`), so that a
     quadrature node reads one row."""
@@ -174,7 +175,7 @@ def _checked_options(subdivisions, averaging_from, panels_per_oscillation):
 def _buffers(theta) -> tuple[list[np.ndarray], list, tuple[int, ...]]:
     angle = np.asarray(theta, dtype=np.float64)
     flat = np.ascontiguousarray(angle, np.float32).ravel()
-    return [flat, _packed_cmf_table()], [((flat.size, 4), np.float32)], angle.shape
+    return [flat, packed_cmf_table()], [((flat.size, 4), np.float32)], angle.shape
 
 
 def landmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3,

@@ -1,11 +1,12 @@
 """Designing structures for target colours over angle: :func:`design_colour`.
 
 The global stage searches the family's parameters with whole populations in one GPU dispatch a
-generation (colours from :mod:`wgbragg.design.colour_targets` on a 2 nm grid); the archive of
-evaluated structures gives the best one per complexity (N for a Bragg mirror, the film
-thickness in bins for a film); those on the Pareto front of (dE2000, complexity) are polished
-in float64 with the reference colour (every nm, ``method="reference"``) and reported with both
-the reference and the chosen fast colour method.
+generation, colouring them by the search's colour method (:data:`SEARCH_COLOUR_METHODS`: the
+"averaged" method of Bragg mirrors, or reflectance on a 2 nm grid); the archive of evaluated
+structures gives the best one per complexity (N for a Bragg mirror, the film thickness in bins
+for a film); those on the Pareto front of (dE2000, complexity) are polished in float64 with the
+reference colour (every nm, ``method="reference"``) and reported with both the reference and
+the search's colour method.
 """
 
 from __future__ import annotations
@@ -25,18 +26,24 @@ from wgbragg.design.colour_targets import (
     xyz_to_lab,
 )
 from wgbragg.design.families import parameter_space
-from wgbragg.design.fit import check_search_options, population_evaluator
+from wgbragg.design.fit import check_search_options
 from wgbragg.design.search import global_search
 from wgbragg.design.tolerance import family_name, perturb, perturbations, structure_members
 
-__all__ = ["ROBUST_DEFAULTS", "Candidate", "check_robust", "colour_objective", "design_colour",
-           "pareto_front", "perturbed_delta_e"]
+__all__ = ["ROBUST_DEFAULTS", "SEARCH_COLOUR_METHODS", "Candidate", "check_colour_method",
+           "check_robust", "colour_objective", "design_colour", "pareto_front",
+           "perturbed_delta_e", "search_xyz"]
 
 ROBUST_DEFAULTS = {"sigma_thickness_nm": 2.0, "sigma_index": 0.0, "samples": 16}
 """Defaults of ``design_colour(robust=...)``: per-parameter normal errors (as
 :func:`~wgbragg.design.tolerance`), and how many fixed draws the objective averages over."""
 
-_FAST_METHOD = {"bragg": "averaged", "film": "fourier-table"}
+SEARCH_COLOUR_METHODS = {"bragg": ("averaged", "grid"), "film": ("grid",)}
+"""Colour methods of the global search per family, the default first: "averaged" (the
+``method="averaged"`` colour of :meth:`BraggMirror.xyz`, one dispatch for a whole population
+by ``wgsl/design/population_colour_bragg.wgsl``) and "grid" (the reflectance every
+:data:`~wgbragg.design.colour_targets.SEARCH_STEP_NM` nm from the population kernel, its
+linear interpolant integrated with the reference's weights)."""
 
 
 @dataclass(frozen=True)
@@ -52,10 +59,9 @@ class Candidate:
     delta_e_per_angle : numpy.ndarray
         dE2000 at each angle (reference).
     delta_e_method : float
-        The same objective with the fast colour method (``method``: "averaged" for mirrors,
-        "fourier-table" for films).
+        The same objective with the search's colour method (``method``), in float64.
     method : str
-        That method.
+        That method (:data:`SEARCH_COLOUR_METHODS`).
     xyz : numpy.ndarray
         Achieved XYZ ``(len(theta), 3)`` (reference).
     complexity : float
@@ -71,7 +77,7 @@ class Candidate:
     complexity: float
     robust_delta_e: float | None = None
     """With ``robust=``: the objective averaged over the search's fixed perturbations (float64,
-    the search's 2 nm colour grid); else None."""
+    the search's colour method); else None."""
 
 
 def check_robust(robust) -> dict | None:
@@ -101,8 +107,22 @@ def check_robust(robust) -> dict | None:
     return out
 
 
-def _member_colours(family, members, angle, backend, base=None):
-    """XYZ ``(P, A, 3)`` of a population (dict of ``(P,)``) on the search's colour grid."""
+def check_colour_method(family: str, method) -> str:
+    """``method`` of :func:`design_colour` for ``family``: the default where None."""
+    accepted = SEARCH_COLOUR_METHODS[family]
+    if method is None:
+        return accepted[0]
+    if method not in accepted:
+        raise ValueError(f"method (the search's colour method) for a {family!r} design must be "
+                         f"one of {accepted}, got {method!r}")
+    return method
+
+
+def _member_colours(family, members, angle, backend, base=None, method="grid"):
+    """XYZ ``(P, A, 3)`` of a population (dict of ``(P,)``) by the search's colour method."""
+    if method == "averaged":
+        twin = population_gpu if backend == "gpu" else population
+        return twin.population_xyz(members, angle)
     nodes, weights = grid_xyz_weights()
     wl, th = np.tile(nodes, angle.size), np.repeat(angle, nodes.size)
     twin = population_gpu if backend == "gpu" else population
@@ -111,8 +131,19 @@ def _member_colours(family, members, angle, backend, base=None):
     return spectra.reshape(-1, angle.size, nodes.size) @ weights
 
 
+def search_xyz(structure, theta, method=None, backend="numpy") -> np.ndarray:
+    """XYZ ``(A, 3)`` of one structure by a search colour method (:data:`SEARCH_COLOUR_METHODS`,
+    default the family's first), as :func:`design_colour`'s global stage sees it; float64 on
+    ``backend="numpy"``."""
+    family = family_name(structure)
+    angle = check_angle(theta).reshape(-1)
+    base = structure.base if family == "film" else None
+    return _member_colours(family, structure_members(structure, family), angle, backend, base,
+                           check_colour_method(family, method))[0]
+
+
 def perturbed_delta_e(structure, targets, theta, errors, *, space="srgb", objective="mean",
-                      backend="numpy") -> np.ndarray:
+                      backend="numpy", method=None) -> np.ndarray:
     """The objective of ``design_colour`` (mean or max over the angles of dE2000 to the
     targets) for each perturbed copy of ``structure``.
 
@@ -125,7 +156,10 @@ def perturbed_delta_e(structure, targets, theta, errors, *, space="srgb", object
         Per-parameter errors, each ``(K,)``, as
         :func:`~wgbragg.design.tolerance.perturbations` draws them.
     backend : {"numpy", "gpu"}
-        float64 numpy twin or float32 population kernel; colours on the 2 nm grid.
+        float64 numpy twin or float32 population kernel.
+    method : str, optional
+        The search's colour method (:data:`SEARCH_COLOUR_METHODS`; default the family's
+        first).
 
     Returns
     -------
@@ -135,20 +169,21 @@ def perturbed_delta_e(structure, targets, theta, errors, *, space="srgb", object
     angle = check_angle(theta).reshape(-1)
     family = family_name(structure)
     lab = parse_targets(targets, angle.size, space)
+    method = check_colour_method(family, method)
     members = perturb(family, structure_members(structure, family), errors)
     base = structure.base if family == "film" else None
     return colour_objective(lab, objective)(_member_colours(family, members, angle, backend,
-                                                            base))
+                                                            base, method))
 
 
-def _robust_cost(pspace, angle, of_xyz, errors, backend):
+def _robust_cost(pspace, angle, of_xyz, errors, backend, method):
     """``cost(X) -> (P,)``: the objective averaged over the fixed ``errors`` (common random
     numbers: every member sees the same K draws), all ``P x K`` copies in one dispatch."""
     count = len(next(iter(errors.values())))
 
     def cost(x):
         members = perturb(pspace.family.name, pspace.members(x), errors)
-        xyz = _member_colours(pspace.family.name, members, angle, backend, pspace.base)
+        xyz = _member_colours(pspace.family.name, members, angle, backend, pspace.base, method)
         return of_xyz(xyz).reshape(len(np.atleast_2d(x)), count).mean(axis=1)
     return cost
 
@@ -254,8 +289,10 @@ def design_colour(targets, theta, family, bounds=None, fixed=None, space="srgb",
     objective : {"mean", "max"}
         dE2000 over the angles.
     method : str, optional
-        Fast colour method reported beside the reference: default "averaged" (mirrors) or
-        "fourier-table" (films).
+        Colour method of the global search (:data:`SEARCH_COLOUR_METHODS`): "averaged"
+        (mirrors, the default) or "grid" (films, the default; also mirrors). Each candidate
+        reports its objective with it (``delta_e_method``) beside the reference's
+        (``delta_e``), which the polish minimises and the candidates are ranked by.
     candidates : int
         Most candidates returned (the Pareto set of dE2000 against complexity).
     backend : {"gpu", "numpy"}
@@ -295,19 +332,15 @@ def design_colour(targets, theta, family, bounds=None, fixed=None, space="srgb",
     lab = parse_targets(targets, angle.size, space)
     robust = check_robust(robust)
     pspace = parameter_space(family, bounds, fixed)
-    if pspace.family.name not in _FAST_METHOD:
+    if pspace.family.name not in SEARCH_COLOUR_METHODS:
         raise ValueError(f"design_colour designs 'bragg' or 'film' structures, got "
                          f"{pspace.family.name!r}")
-    method = _FAST_METHOD[pspace.family.name] if method is None else method
-    nodes, weights = grid_xyz_weights()
-    wl = np.tile(nodes, angle.size)
-    th = np.repeat(angle, nodes.size)
-    reflect = population_evaluator(pspace, wl, th, "unpolarized", backend)
+    method = check_colour_method(pspace.family.name, method)
     of_xyz = colour_objective(lab, objective)
 
     def search_cost(x):
-        spectra = reflect(x).reshape(len(x), angle.size, nodes.size)
-        return of_xyz(spectra @ weights)
+        return of_xyz(_member_colours(pspace.family.name, pspace.members(x), angle, backend,
+                                      pspace.base, method))
 
     budget = None if max_seconds is None else 0.6 * max_seconds
     errors = robust_cost = None
@@ -315,7 +348,7 @@ def design_colour(targets, theta, family, bounds=None, fixed=None, space="srgb",
         errors = perturbations(pspace.family.name, robust["samples"],
                                robust["sigma_thickness_nm"], robust["sigma_index"], seed,
                                quasi_random=True)
-        robust_cost = _robust_cost(pspace, angle, of_xyz, errors, backend)
+        robust_cost = _robust_cost(pspace, angle, of_xyz, errors, backend, method)
     _, archive, _ = global_search(
         pspace, search_cost if robust is None else robust_cost, population=population,
         generations=generations, seed=seed, max_seconds=budget, progress=progress,
@@ -328,7 +361,7 @@ def design_colour(targets, theta, family, bounds=None, fixed=None, space="srgb",
     if robust is not None:
         def value(x):
             return float(robust_cost(np.atleast_2d(x))[0])
-        check = _robust_cost(pspace, angle, of_xyz, errors, "numpy")
+        check = _robust_cost(pspace, angle, of_xyz, errors, "numpy", method)
     results = []
     if front.size > candidates:  # spread over the front: the best, the simplest, between
         front = front[np.unique(np.round(np.linspace(0, front.size - 1, candidates)).astype(int))]
@@ -338,7 +371,7 @@ def design_colour(targets, theta, family, bounds=None, fixed=None, space="srgb",
             polished = _polish(pspace, seeds[i], value, 150 if max_seconds is None else 60)
         structure, xyz = reference(polished)
         per_angle = delta_e(xyz_to_lab(np.maximum(xyz, 0.0)), lab)
-        fast = structure.xyz(angle, method=method)
+        fast = search_xyz(structure, angle, method)
         results.append(Candidate(
             structure=structure, delta_e=float(of_xyz(xyz[None])[0]),
             delta_e_per_angle=per_angle, delta_e_method=float(of_xyz(fast[None])[0]),

@@ -1,5 +1,5 @@
-"""Reflectance of a population of structures at shared (wavelength, angle) points: the float64
-numpy twin of :mod:`wgbragg.design.population_gpu` (``wgsl/design/population_*.wgsl``).
+"""Reflectance and colour of a population of structures at shared points: the float64 numpy
+twin of :mod:`wgbragg.design.population_gpu` (``wgsl/design/population_*.wgsl``).
 
 A population is a dict of constructor parameters, each an array of shape ``(P,)``
 (:meth:`~wgbragg.design.families.ParameterSpace.members`); the points are flat arrays
@@ -7,16 +7,19 @@ A population is a dict of constructor parameters, each an array of shape ``(P,)`
 ``(P, L)``. Here each member is one call of the float64 reference
 (:func:`~wgbragg.optics.yeh_reflectance`, :func:`~wgbragg.optics.thin_film_reflectance`),
 vectorised over the points; the GPU twin evaluates all ``P x L`` in one dispatch.
+:func:`population_xyz` is the same for the "averaged" colour of Bragg mirrors at shared angles.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from wgbragg.colour.landmark_methods import averaged_xyz
+from wgbragg.optics.stacks import BraggStack
 from wgbragg.optics.thin_film import thin_film_reflectance
 from wgbragg.optics.yeh import yeh_reflectance
 
-__all__ = ["population_reflectance"]
+__all__ = ["population_reflectance", "population_xyz"]
 
 
 def population_reflectance(family: str, members, wavelength_nm, theta,
@@ -56,4 +59,30 @@ def population_reflectance(family: str, members, wavelength_nm, theta,
             out[p] = thin_film_reflectance(members["host"][p], members["n_film"][p],
                                            members["d"][p], base, wavelength, angle,
                                            polarization)
+    return out
+
+
+def population_xyz(members, theta) -> np.ndarray:
+    """float64 XYZ of every Bragg mirror of a population at every angle by the "averaged"
+    colour method (:func:`~wgbragg.colour.landmark_methods.averaged_xyz`, default options).
+
+    Parameters
+    ----------
+    members : dict of numpy.ndarray
+        ``n1, n2, d1, d2, N, host``, each ``(P,)``, within the constructor's ranges.
+    theta : numpy.ndarray
+        Angles in the host, radians in ``[0, pi/2]``, ``(A,)``.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(P, A, 3)`` float64, D65, the perfect reflector ``Y = 1``.
+    """
+    angle = np.asarray(theta, np.float64).ravel()
+    size = len(next(iter(members.values())))
+    out = np.empty((size, angle.size, 3))
+    for p in range(size):
+        mirror = BraggStack(members["n1"][p], members["n2"][p], members["d1"][p],
+                            members["d2"][p], int(members["N"][p]), members["host"][p])
+        out[p] = averaged_xyz(mirror, angle)
     return out

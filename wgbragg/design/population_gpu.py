@@ -10,6 +10,11 @@ costs one upload of ``P`` small structs and one dispatch. The points' angles and
 are float32 on the device (the pointwise optics kernels form phases in float64 on the host
 instead, per structure): this is the search's evaluator, and every result a search returns is
 polished and reported with the float64 twin.
+
+:func:`population_xyz` does the same for the "averaged" colour of Bragg mirrors
+(``wgsl/design/population_colour_bragg.wgsl``): one invocation per (mirror, angle) runs the
+landmark colour kernel's physics with N and the host read per member, so a generation of a
+colour search is one dispatch too.
 """
 
 from __future__ import annotations
@@ -17,11 +22,14 @@ from __future__ import annotations
 import numpy as np
 
 from wgbragg import gpu
+from wgbragg.colour.landmark_methods_gpu import WORKGROUP_SIZE as LANDMARK_WORKGROUP_SIZE
+from wgbragg.colour.landmark_methods_gpu import packed_cmf_table
 from wgbragg.optics.pointwise_gpu import POLARIZATION_CODE, WORKGROUP_SIZE
 from wgbragg.optics.thin_film_gpu import THIN_FILM_DTYPE
 from wgbragg.optics.yeh_gpu import BRAGG_MIRROR_DTYPE
 
-__all__ = ["MAX_POINTS_PER_DISPATCH", "POPULATION_DTYPE", "population_reflectance"]
+__all__ = ["MAX_POINTS_PER_DISPATCH", "POPULATION_DTYPE", "population_reflectance",
+           "population_xyz"]
 
 POPULATION_DTYPE = gpu.struct_dtype([("points", "u32"), ("layers", "u32"), ("_pad1", "u32"),
                                      ("_pad2", "u32")])
@@ -84,4 +92,33 @@ def population_reflectance(family: str, members, wavelength_nm, theta,
         (result,) = kernel.run([*inputs(members, start, stop), light],
                                [((stop - start) * points, np.float32)], params)
         out[start:stop] = result.reshape(stop - start, points)
+    return out
+
+
+MAX_COLOURS_PER_DISPATCH = 1 << 16
+"""Most (member, angle) colours one dispatch integrates (each a landmark sweep of up to a few
+thousand nodes); larger populations run in blocks of members."""
+
+
+def population_xyz(members, theta) -> np.ndarray:
+    """float32 GPU XYZ of every Bragg mirror at every angle by "averaged"; arguments and
+    result as :func:`wgbragg.design.population.population_xyz` (``(P, A, 3)``, float64 array).
+
+    Members whose sweep llvmpipe cut short (:func:`wgbragg.gpu.check_loops`: thousands of
+    band gaps in view) get NaN, which a search ranks last.
+    """
+    angle = np.ascontiguousarray(np.asarray(theta, np.float64).ravel(), np.float32)
+    size = len(next(iter(members.values())))
+    kernel = gpu.compute_pipeline("design/population_colour_bragg.wgsl",
+                                  constants={"WORKGROUP_SIZE": LANDMARK_WORKGROUP_SIZE})
+    params = np.zeros((), POPULATION_DTYPE)
+    params["points"] = angle.size
+    out = np.empty((size, angle.size, 3))
+    block = max(1, MAX_COLOURS_PER_DISPATCH // max(angle.size, 1))
+    for start in range(0, size, block):
+        stop = min(size, start + block)
+        (result,) = kernel.run([*_bragg_inputs(members, start, stop), angle, packed_cmf_table()],
+                               [(((stop - start) * angle.size, 4), np.float32)], params)
+        result = result.reshape(stop - start, angle.size, 4).astype(np.float64)
+        out[start:stop] = np.where(result[..., 3:] != 0, np.nan, result[..., :3])
     return out

@@ -1,10 +1,7 @@
 // Entry point: D65-weighted XYZ of a Bragg mirror from its spectral landmarks, one invocation
 // per angle theta[i], both polarisations averaged: the "approx", "subdivided" and "averaged"
-// colour methods (wgbragg/colour/landmark_methods.py; physics in colour/landmark_methods.wgsl). Tables
-// (wgbragg/colour/landmark_methods_gpu.py, built once in float64):
-//   cmf[j] = density at node 360 + j nm (per nm, float32 bits) with w the slope of the cell
-//   [j, j + 1] (colour/landmark_methods.wgsl, density_slope_from_bits), cmf[471 + j] = the cumulative
-//   integral (float32 bits).
+// colour methods (wgbragg/colour/landmark_methods.py; physics in colour/landmark_methods.wgsl,
+// the cmf table in colour/landmark_methods_cmf.wgsl).
 //! include "gpu/harness.wgsl"
 //! include "gpu/numerics.wgsl"
 //! include "gpu/complex.wgsl"
@@ -12,6 +9,7 @@
 //! include "optics/yeh.wgsl"
 //! include "optics/landmarks.wgsl"
 //! include "colour/landmark_methods.wgsl"
+//! include "colour/landmark_methods_cmf.wgsl"
 
 // host == n1: eqs 2 and 9 need no complex amplitude (Appendix D is compiled out).
 override HOST_MATCHED: bool = true;
@@ -36,22 +34,6 @@ struct LandmarkColourParams {
 @group(0) @binding(1) var<storage, read> cmf: array<vec4<u32>>;
 @group(0) @binding(2) var<storage, read_write> xyz: array<vec4<f32>>;  // w = 1 where llvmpipe cut the loops short
 @group(0) @binding(3) var<uniform> params: LandmarkColourParams;
-
-// Rows of the density block of the cmf table (landmark_methods_gpu.cmf_table; checked by
-// tests/test_wgsl_layouts.py).
-const CMF_NODES: u32 = 471u;
-fn cmf_density(j: u32) -> vec3<f32> {
-    return bitcast<vec3<f32>>(cmf[j].xyz);
-}
-
-fn cmf_cumulative(j: u32) -> vec3<f32> {
-    return bitcast<vec3<f32>>(cmf[CMF_NODES + j].xyz);
-}
-
-fn cmf_cell(j: u32) -> DensityCell {
-    let row = cmf[j];
-    return DensityCell(bitcast<vec3<f32>>(row.xyz), density_slope_from_bits(row.w));
-}
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>,
