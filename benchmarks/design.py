@@ -147,6 +147,7 @@ def run_benchmarks(config: Config, progress: bool) -> Results:
     from wgbragg.design.families import parameter_space
     from wgbragg.design.population import population_reflectance
 
+    meter = report.LoadMeter()
     environment = report.run_facts()
     theta = np.radians(ANGLES_DEG)
     rng = np.random.default_rng(1)
@@ -212,6 +213,7 @@ def run_benchmarks(config: Config, progress: bool) -> Results:
                                       "d2": (40, 200), "N": (2, 20)}, fixed={"host": 1.0},
                               seed=0, generations=config.generations)
         beetle = {"truth": truth, "result": result, "success": succeeded(result, truth)}
+    environment["background_cores"] = meter.background_cores()
     return Results(config, environment, runs, agreement, colour, search_colours, beetle,
                    robust)
 

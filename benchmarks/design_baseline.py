@@ -107,6 +107,7 @@ def tmm_fit(label, measured, wavelength, theta, fixed, bounds, *, generations, p
 def run_benchmarks(config: Config, progress: bool) -> dict:
     from wgbragg.design import fit_spectrum
 
+    meter = report.LoadMeter()
     environment = report.run_facts()
     theta = np.radians(design.ANGLES_DEG)
     cases = design.random_cases(design.FULL)
@@ -135,6 +136,7 @@ def run_benchmarks(config: Config, progress: bool) -> dict:
                               ours.evaluations + ours.polish_evaluations),
                      "baseline": (design.succeeded(baseline, truth), baseline_seconds,
                                   baseline.spectra)})
+    environment["background_cores"] = meter.background_cores()
     return {"config": config, "environment": environment, "rows": rows,
             "wavelengths": wavelength.size}
 
