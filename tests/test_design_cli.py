@@ -140,20 +140,23 @@ def test_csv_header_names_the_angles(tmp_path):
         atol=1e-7)
 
 
-def test_design_robust_prints_the_averaged_objective(tmp_path, capsys):
+@pytest.mark.parametrize("per_layer", [False, True])
+def test_design_robust_prints_the_averaged_objective(tmp_path, capsys, per_layer):
     from wgbragg.design.colour_design import perturbed_delta_e
-    from wgbragg.design.tolerance import perturbations
+    from wgbragg.design.tolerance import layer_perturbations, perturbations
 
     out = tmp_path / "robust"
     code = cli.main(["design", "--target", "#d4af37@0", "--target", "#2e8b57@60", "--family",
                      "bragg", "--fixed", "n1=1", "--bounds", "N=2:8", "--robust", "4",
                      "--sigma-thickness-nm", "3", "--seed", "0", "--generations", "5",
-                     "--samples", "20", "-o", str(out), "--no-progress"])
+                     "--samples", "20", "-o", str(out), "--no-progress",
+                     *(["--per-layer"] if per_layer else [])])
     text = capsys.readouterr().out
     assert code == 0, text
     assert "robust dE" in text.splitlines()[0]
     material = load_scene(tmp_path / "robust.toml").materials["design"]
     mirror = material.to_structure().layers[0].mirror
-    draws = perturbations("bragg", 4, 3.0, 0.0, seed=0, quasi_random=True)
+    draws = (layer_perturbations(4, 16, 3.0, 0.0, seed=0, quasi_random=True) if per_layer
+             else perturbations("bragg", 4, 3.0, 0.0, seed=0, quasi_random=True))
     mean = perturbed_delta_e(mirror, ["#d4af37", "#2e8b57"], np.radians([0.0, 60.0]), draws)
     assert float(text.splitlines()[1].split()[3]) == pytest.approx(mean.mean(), abs=0.006)

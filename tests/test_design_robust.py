@@ -11,7 +11,7 @@ import pytest
 from wgbragg import BraggMirror
 from wgbragg.design import design_colour
 from wgbragg.design.colour_design import perturbed_delta_e
-from wgbragg.design.tolerance import perturbations
+from wgbragg.design.tolerance import layer_perturbations, perturbations
 
 pytestmark = pytest.mark.gpu
 
@@ -45,12 +45,58 @@ def test_robust_design_beats_the_plain_one_on_its_draws():
         atol=0.05)
 
 
+def test_per_layer_errors_run_as_stacks_on_both_backends():
+    """Per-layer draws: without errors the stacks are the mirror itself (the grid colour of
+    its closed form, float64 and float32), with errors the GPU stack kernel colours as the
+    float64 transfer-matrix solver does, and a film's one layer moves as its parameters."""
+    mirror = BraggMirror(1.0, 1.55, 130.0, 95.0, 5)
+    target = BraggMirror(1.0, 1.6, 140.0, 90.0, 6).xyz(THETA)
+    zero = layer_perturbations(3, 12, 0.0, 0.0, seed=0)
+    nominal = perturbed_delta_e(mirror, target, THETA, perturbations("bragg", 1, 0.0, 0.0),
+                                space="xyz", method="grid")
+    np.testing.assert_allclose(perturbed_delta_e(mirror, target, THETA, zero, space="xyz"),
+                               np.repeat(nominal, 3), rtol=1e-9)
+    np.testing.assert_allclose(
+        perturbed_delta_e(mirror, target, THETA, zero, space="xyz", backend="gpu"),
+        np.repeat(nominal, 3), atol=2e-3)
+    draws = layer_perturbations(6, 12, 3.0, 0.01, seed=1)
+    cpu = perturbed_delta_e(mirror, target, THETA, draws, space="xyz")
+    assert np.all(np.abs(cpu - nominal) > 1e-3)  # every copy moved
+    np.testing.assert_allclose(
+        perturbed_delta_e(mirror, target, THETA, draws, space="xyz", backend="gpu"), cpu,
+        atol=2e-3)
+    from wgbragg import ThinFilm
+
+    film = ThinFilm(1.45, 320.0, n_base=1.5)
+    film_target = film.xyz(THETA)
+    layer = layer_perturbations(4, 1, 5.0, 0.02, seed=2)
+    same = {"d": layer["layer_thickness"][:, 0], "n_film": layer["layer_index"][:, 0]}
+    np.testing.assert_array_equal(
+        perturbed_delta_e(film, film_target, THETA, layer, space="xyz"),
+        perturbed_delta_e(film, film_target, THETA, same, space="xyz"))
+
+
+def test_robust_design_with_per_layer_errors_minimises_its_own_average():
+    target = BraggMirror(1.0, 1.6, 140.0, 90.0, 6).xyz(THETA)
+    robust = {"sigma_thickness_nm": 3.0, "samples": 8, "per_layer": True}
+    best = design_colour(target, THETA, "bragg", fixed={"n1": 1.0}, bounds={"N": (2, 8)},
+                         space="xyz", seed=3, generations=12, population=24, candidates=2,
+                         robust=robust)[0]
+    draws = layer_perturbations(8, 16, 3.0, 0.0, seed=3, quasi_random=True)  # its own
+    on_draws = perturbed_delta_e(best.structure, target, THETA, draws, space="xyz")
+    assert best.robust_delta_e == pytest.approx(on_draws.mean(), rel=1e-9)
+    truth = BraggMirror(1.0, 1.6, 140.0, 90.0, 6)
+    assert on_draws.mean() <= perturbed_delta_e(truth, target, THETA, draws,
+                                                space="xyz").mean() + 0.05
+
+
 @pytest.mark.parametrize(("robust", "message"), [
     ({"sigma": 1.0}, "robust has unknown key 'sigma'"),
     ({"samples": 0}, r"robust\['samples'\] must be an integer"),
     ({"sigma_thickness_nm": -1.0}, r"robust\['sigma_thickness_nm'\] must be a finite"),
     ({"sigma_thickness_nm": 0.0}, "robust needs sigma_thickness_nm > 0"),
     ("yes", "robust must be None, True or a dict"),
+    ({"per_layer": 1}, r"robust\['per_layer'\] must be True or False"),
 ])
 def test_bad_robust_options_are_refused_by_name(robust, message):
     with pytest.raises(ValueError, match=message):

@@ -126,7 +126,8 @@ def _add_search_arguments(parser) -> None:
                         help="Monte Carlo samples of the tolerance histogram")
     parser.add_argument("--per-layer", action="store_true",
                         help="independent errors in each layer of a mirror (transfer "
-                             "matrices on the GPU) instead of all layers of a kind together")
+                             "matrices on the GPU) instead of all layers of a kind together, "
+                             "in the tolerance histogram and (design) --robust")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
@@ -253,7 +254,7 @@ def run_design(args) -> int:
         raise ValueError(f"--robust must be in [1, 4096] draws, got {args.robust}")
     robust = None if args.robust is None else {
         "sigma_thickness_nm": args.sigma_thickness_nm, "sigma_index": args.sigma_index,
-        "samples": args.robust}
+        "samples": args.robust, "per_layer": args.per_layer}
     candidates = design_colour(colours, theta, args.family, bounds, fixed, space,
                                objective=args.objective, method=args.colour_method,
                                candidates=args.candidates,

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wgbragg.common.validation import check_angle
-from wgbragg.design import population, population_gpu
+from wgbragg.design import population, population_gpu, stack, stack_gpu
 from wgbragg.design.colour_targets import (
     delta_e,
     grid_xyz_weights,
@@ -28,15 +28,24 @@ from wgbragg.design.colour_targets import (
 from wgbragg.design.families import parameter_space
 from wgbragg.design.fit import check_search_options
 from wgbragg.design.search import global_search
-from wgbragg.design.tolerance import family_name, perturb, perturbations, structure_members
+from wgbragg.design.tolerance import (
+    family_name,
+    layer_perturbations,
+    perturb,
+    perturb_layers,
+    perturbations,
+    structure_members,
+)
 
 __all__ = ["ROBUST_DEFAULTS", "SEARCH_COLOUR_METHODS", "Candidate", "check_colour_method",
            "check_robust", "colour_objective", "design_colour", "pareto_front",
            "perturbed_delta_e", "search_xyz"]
 
-ROBUST_DEFAULTS = {"sigma_thickness_nm": 2.0, "sigma_index": 0.0, "samples": 16}
-"""Defaults of ``design_colour(robust=...)``: per-parameter normal errors (as
-:func:`~wgbragg.design.tolerance`), and how many fixed draws the objective averages over."""
+ROBUST_DEFAULTS = {"sigma_thickness_nm": 2.0, "sigma_index": 0.0, "samples": 16,
+                   "per_layer": False}
+"""Defaults of ``design_colour(robust=...)``: normal errors per parameter, or with
+``per_layer`` per layer of a mirror (as :func:`~wgbragg.design.tolerance`), and how many fixed
+draws the objective averages over."""
 
 SEARCH_COLOUR_METHODS = {"bragg": ("averaged", "grid"), "film": ("grid",)}
 """Colour methods of the global search per family, the default first: "averaged" (the
@@ -104,6 +113,8 @@ def check_robust(robust) -> dict | None:
         raise ValueError(f"robust['samples'] must be an integer in [1, 4096], got {samples!r}")
     if out["sigma_thickness_nm"] == 0 and out["sigma_index"] == 0:
         raise ValueError("robust needs sigma_thickness_nm > 0 or sigma_index > 0")
+    if not isinstance(out["per_layer"], bool):
+        raise ValueError(f"robust['per_layer'] must be True or False, got {out['per_layer']!r}")
     return out
 
 
@@ -131,6 +142,34 @@ def _member_colours(family, members, angle, backend, base=None, method="grid"):
     return spectra.reshape(-1, angle.size, nodes.size) @ weights
 
 
+def _stack_colours(members, errors, angle, backend):
+    """XYZ ``(P * K, A, 3)``, member-major, of every mirror under every per-layer error
+    (:func:`~wgbragg.design.tolerance.layer_perturbations`): non-periodic stacks by the stack
+    twins, on the 2 nm grid (the "averaged" colour needs a periodic mirror)."""
+    nodes, weights = grid_xyz_weights()
+    wl, th = np.tile(nodes, angle.size), np.repeat(angle, nodes.size)
+    twin = stack_gpu if backend == "gpu" else stack
+    size = len(members["N"]) * errors["layer_thickness"].shape[0]
+    out = np.empty((size, angle.size, 3))
+    for rows, host, indices, thicknesses, base in perturb_layers(members, errors):
+        spectra = twin.stack_reflectance(host, indices, thicknesses, base, wl, th)
+        out[rows] = spectra.reshape(-1, angle.size, nodes.size) @ weights
+    return out
+
+
+def _perturbed_colours(family, members, errors, angle, backend, base, method):
+    """XYZ ``(P * K, A, 3)``, member-major, of every member under every error: per
+    parameter (:func:`~wgbragg.design.tolerance.perturbations`) or, for mirrors, per layer
+    (:func:`~wgbragg.design.tolerance.layer_perturbations`)."""
+    if "layer_thickness" in errors:
+        if family == "bragg":
+            return _stack_colours(members, errors, angle, backend)
+        # A film has one layer: its per-layer errors are per-parameter ones.
+        errors = {"d": errors["layer_thickness"][:, 0], "n_film": errors["layer_index"][:, 0]}
+    return _member_colours(family, perturb(family, members, errors), angle, backend, base,
+                           method)
+
+
 def search_xyz(structure, theta, method=None, backend="numpy") -> np.ndarray:
     """XYZ ``(A, 3)`` of one structure by a search colour method (:data:`SEARCH_COLOUR_METHODS`,
     default the family's first), as :func:`design_colour`'s global stage sees it; float64 on
@@ -154,7 +193,9 @@ def perturbed_delta_e(structure, targets, theta, errors, *, space="srgb", object
         As :func:`design_colour`.
     errors : dict of numpy.ndarray
         Per-parameter errors, each ``(K,)``, as
-        :func:`~wgbragg.design.tolerance.perturbations` draws them.
+        :func:`~wgbragg.design.tolerance.perturbations` draws them, or per-layer ones,
+        ``(K, M)`` with ``M >= 2N``, as :func:`~wgbragg.design.tolerance.layer_perturbations`
+        draws them (mirrors as stacks, coloured on the 2 nm grid).
     backend : {"numpy", "gpu"}
         float64 numpy twin or float32 population kernel.
     method : str, optional
@@ -170,10 +211,9 @@ def perturbed_delta_e(structure, targets, theta, errors, *, space="srgb", object
     family = family_name(structure)
     lab = parse_targets(targets, angle.size, space)
     method = check_colour_method(family, method)
-    members = perturb(family, structure_members(structure, family), errors)
     base = structure.base if family == "film" else None
-    return colour_objective(lab, objective)(_member_colours(family, members, angle, backend,
-                                                            base, method))
+    return colour_objective(lab, objective)(_perturbed_colours(
+        family, structure_members(structure, family), errors, angle, backend, base, method))
 
 
 def _robust_cost(pspace, angle, of_xyz, errors, backend, method):
@@ -182,10 +222,27 @@ def _robust_cost(pspace, angle, of_xyz, errors, backend, method):
     count = len(next(iter(errors.values())))
 
     def cost(x):
-        members = perturb(pspace.family.name, pspace.members(x), errors)
-        xyz = _member_colours(pspace.family.name, members, angle, backend, pspace.base, method)
+        xyz = _perturbed_colours(pspace.family.name, pspace.members(x), errors, angle, backend,
+                                 pspace.base, method)
         return of_xyz(xyz).reshape(len(np.atleast_2d(x)), count).mean(axis=1)
     return cost
+
+
+def _robust_draws(pspace, robust, seed):
+    """The fixed quasi-random draws of a robust design: per parameter, or per layer for up to
+    the largest N the bounds allow."""
+    family = pspace.family.name
+    if not robust["per_layer"]:
+        return perturbations(family, robust["samples"], robust["sigma_thickness_nm"],
+                             robust["sigma_index"], seed, quasi_random=True)
+    layers = 1
+    if family == "bragg":
+        layers = 2 * int(pspace.members(pspace.upper[None])["N"][0])
+        if layers > stack_gpu.MAX_LAYERS:
+            raise ValueError(f"robust per_layer takes mirrors of at most "
+                             f"{stack_gpu.MAX_LAYERS // 2} periods: bound N to that")
+    return layer_perturbations(robust["samples"], layers, robust["sigma_thickness_nm"],
+                               robust["sigma_index"], seed, quasi_random=True)
 
 
 def colour_objective(lab_target, reduce="mean"):
@@ -302,8 +359,10 @@ def design_colour(targets, theta, family, bounds=None, fixed=None, space="srgb",
     robust : dict or True, optional
         Design for robustness: minimise the objective averaged over ``samples`` perturbed
         copies of each structure, every thickness moved by a normal error of
-        ``sigma_thickness_nm`` and every index by one of ``sigma_index`` (per parameter, as
-        :func:`~wgbragg.design.tolerance`). The draws are made once (from ``seed``) and
+        ``sigma_thickness_nm`` and every index by one of ``sigma_index``: per parameter, or
+        with ``per_layer=True`` per layer of a mirror (as :func:`~wgbragg.design.tolerance`;
+        the perturbed mirrors are then non-periodic stacks, coloured on the 2 nm grid by the
+        stack kernel, whatever ``method``). The draws are made once (from ``seed``) and
         shared by every member of every generation and by the polish (common random
         numbers), so the search compares structures on the same errors. Keys and defaults:
         :data:`ROBUST_DEFAULTS`. The Sobol screen ranks by the nominal colour; the global
@@ -345,9 +404,7 @@ def design_colour(targets, theta, family, bounds=None, fixed=None, space="srgb",
     budget = None if max_seconds is None else 0.6 * max_seconds
     errors = robust_cost = None
     if robust is not None:
-        errors = perturbations(pspace.family.name, robust["samples"],
-                               robust["sigma_thickness_nm"], robust["sigma_index"], seed,
-                               quasi_random=True)
+        errors = _robust_draws(pspace, robust, seed)
         robust_cost = _robust_cost(pspace, angle, of_xyz, errors, backend, method)
     _, archive, _ = global_search(
         pspace, search_cost if robust is None else robust_cost, population=population,

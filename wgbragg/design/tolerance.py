@@ -24,8 +24,9 @@ from wgbragg.common.validation import check_angle
 from wgbragg.design import population, population_gpu, stack, stack_gpu
 from wgbragg.design.colour_targets import delta_e, grid_xyz_weights, xyz_to_lab
 
-__all__ = ["DEFAULT_THETA", "ToleranceResult", "family_name", "layer_draws", "perturb",
-           "perturbations", "structure_members", "tolerance"]
+__all__ = ["DEFAULT_THETA", "ToleranceResult", "family_name", "layer_draws",
+           "layer_perturbations", "perturb", "perturb_layers", "perturbations",
+           "structure_members", "tolerance"]
 
 DEFAULT_THETA = (0.0, math.radians(30.0), math.radians(60.0))
 """Angles of :func:`tolerance` by default: 0, 30 and 60 degrees (radians)."""
@@ -83,6 +84,47 @@ def perturbations(family: str, samples: int, sigma_thickness_nm: float, sigma_in
         normal = rng.standard_normal((len(names), samples))
     return {name: (sigma_thickness_nm if name in _THICKNESSES[family] else sigma_index) * z
             for name, z in zip(names, normal, strict=True)}
+
+
+def layer_perturbations(samples: int, layers: int, sigma_thickness_nm: float,
+                        sigma_index: float, seed=None,
+                        quasi_random: bool = False) -> dict[str, np.ndarray]:
+    """Per-layer normal errors: ``"layer_thickness"`` (nm) and ``"layer_index"``, each
+    ``(samples, layers)``, for stacks of up to ``layers`` layers (a shorter stack uses the
+    first of them); pseudo-random or scrambled Sobol points through the normal quantile, as
+    :func:`perturbations`."""
+    if quasi_random:
+        from scipy.special import ndtri
+        from scipy.stats import qmc
+
+        unit = qmc.Sobol(2 * layers, scramble=True, seed=seed).random_base2(
+            max(0, math.ceil(math.log2(samples))))[:samples]
+        normal = ndtri(np.clip(unit, 1e-12, 1.0 - 1e-12))
+    else:
+        normal = np.random.default_rng(seed).standard_normal((samples, 2 * layers))
+    return {"layer_thickness": sigma_thickness_nm * normal[:, :layers],
+            "layer_index": sigma_index * normal[:, layers:]}
+
+
+def perturb_layers(members, errors):
+    """Bragg mirrors of a population (``(P,)`` arrays) as stacks under every per-layer error
+    of :func:`layer_perturbations` (``(K, M)``, ``M >= 2N``), grouped by N: yields
+    ``(rows, host, indices, thicknesses, base)`` with ``rows`` the member-major positions
+    ``p * K + k`` of each group's ``(G * K, 2N)`` stacks. Thicknesses stay >= 0 and indices
+    >= 0.01; the host and the substrate (``n1``) keep their index, as ``tolerance``'s."""
+    count = errors["layer_thickness"].shape[0]
+    periods = np.asarray(members["N"]).astype(int)
+    for n in np.unique(periods):
+        group = np.flatnonzero(periods == n)
+        pair = [np.stack([members[a][group], members[b][group]], -1)
+                for a, b in (("n1", "n2"), ("d1", "d2"))]
+        indices, thicknesses = (np.tile(p, (1, n))[:, None, :] for p in pair)
+        indices = np.maximum(indices + errors["layer_index"][None, :, :2 * n], 0.01)
+        thicknesses = np.maximum(thicknesses + errors["layer_thickness"][None, :, :2 * n], 0.0)
+        rows = (group[:, None] * count + np.arange(count)).ravel()
+        yield (rows, np.repeat(members["host"][group], count),
+               indices.reshape(-1, 2 * n), thicknesses.reshape(-1, 2 * n),
+               np.repeat(members["n1"][group], count))
 
 
 def perturb(family: str, members, errors) -> dict[str, np.ndarray]:
