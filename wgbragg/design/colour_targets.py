@@ -2,10 +2,10 @@
 
 Targets come in any of :data:`TARGET_SPACES` and are compared in CIELAB (D65, the perfect
 reflector ``Y = 1`` as :meth:`wgbragg.BraggMirror.xyz` returns) by CIE dE2000
-(``colour.delta_E(..., method="CIE 2000")``). A population's colour is its reflectance from the
-population kernel (one dispatch for all members and angles) on a wavelength grid, integrated
-with the reference's D65 x CIE 1931 weights redistributed onto the grid
-(:func:`grid_xyz_weights`).
+(``colour.delta_E(..., method="CIE 2000")``). The "grid" search colour of a population is its
+reflectance from the population kernel (one dispatch for all members and angles) on a
+wavelength grid, integrated with the reference's D65 x CIE 1931 weights redistributed onto the
+grid (:func:`grid_xyz_weights`).
 """
 
 from __future__ import annotations
