@@ -9,7 +9,7 @@ population, generations and seed), each member's spectrum from ``tmm.coh_tmm`` (
 wavelength and angle), then ``scipy.optimize.least_squares`` of the continuous parameters with
 ``tmm`` residuals from the best point at N - 1, N and N + 1, standard errors from its Jacobian.
 Success has the same definition: N exact and every continuous parameter within 2 standard
-errors or 1 % of the truth. A baseline mirror fit takes about 25 minutes on 2 cores, hence a
+errors or 1 % of the truth. A baseline mirror fit takes about 17 minutes on 2 cores, hence a
 few cases only.
 
 Usage::

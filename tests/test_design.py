@@ -84,6 +84,32 @@ def test_population_colour_gpu_matches_numpy():
                                    atol=2e-5)
 
 
+def test_colours_whose_loops_were_cut_come_back_as_nan(monkeypatch):
+    """llvmpipe's loop-cut flag (w = 1) turns that member's colour into NaN, never a partial
+    sum that a search would trust."""
+    members = {"n1": np.ones(2), "n2": np.full(2, 1.5), "d1": np.full(2, 100.0),
+               "d2": np.full(2, 90.0), "N": np.array([4.0, 6.0]), "host": np.ones(2)}
+    theta = np.radians([0.0, 40.0])
+    whole = population_gpu.population_xyz(members, theta)
+    real = population_gpu.gpu.compute_pipeline
+
+    def flagged(*args, **kwargs):
+        kernel = real(*args, **kwargs)
+
+        class Cut:
+            def run(self, *a, **k):
+                (out,) = kernel.run(*a, **k)
+                out[1, 3] = 1.0  # member 0, second angle
+                return (out,)
+        return Cut()
+
+    monkeypatch.setattr(population_gpu.gpu, "compute_pipeline", flagged)
+    cut = population_gpu.population_xyz(members, theta)
+    assert np.all(np.isnan(cut[0, 1])) and np.isfinite(cut[0, 0]).all()
+    np.testing.assert_array_equal(np.delete(cut.reshape(-1, 3), 1, axis=0),
+                                  np.delete(whole.reshape(-1, 3), 1, axis=0))
+
+
 def test_fit_recovers_a_mirror_from_noiseless_spectra():
     truth = BraggMirror(1.0, 1.55, 130.0, 85.0, 9)
     measured = truth.reflectance(WAVELENGTH, THETA)

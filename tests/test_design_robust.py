@@ -90,6 +90,26 @@ def test_robust_design_with_per_layer_errors_minimises_its_own_average():
                                                 space="xyz").mean() + 0.05
 
 
+@pytest.mark.parametrize(("errors", "kwargs", "message"), [
+    ({"layer_thickness": np.zeros((2, 9)), "layer_index": np.zeros((2, 9))}, {},
+     r"cover the mirror's 2N = 10 layers, got 9 columns"),
+    ({"layer_thickness": np.zeros((2, 10))}, {}, r"must have the keys \('layer_index', "),
+    ({"d1 ": np.zeros(2)}, {}, r"must have the keys \('d1', 'd2', 'n1', 'n2'\)"),
+    ({"d1": np.zeros((2, 3)), "d2": np.zeros((2, 3)), "n1": np.zeros((2, 3)),
+      "n2": np.zeros((2, 3))}, {}, r"one shape, \(K,\)"),
+    ({"d1": [0.0, np.nan], "d2": [0, 0], "n1": [0, 0], "n2": [0, 0]}, {}, "must be finite"),
+    ({"d1": [0.0], "d2": [0.0], "n1": [0.0], "n2": [0.0]}, {"backend": "cuda"},
+     "backend must be 'gpu' or 'numpy'"),
+    ({"d1": [0.0], "d2": [0.0], "n1": [0.0], "n2": [0.0]}, {"objective": "median"},
+     "objective must be 'mean' or 'max'"),
+    ([1.0], {}, "errors must be a dict"),
+])
+def test_bad_errors_are_refused_by_name(errors, kwargs, message):
+    mirror = BraggMirror(1.0, 1.5, 120.0, 90.0, 5)
+    with pytest.raises(ValueError, match=message):
+        perturbed_delta_e(mirror, ["#d4af37", "#2e8b57"], THETA, errors, **kwargs)
+
+
 @pytest.mark.parametrize(("robust", "message"), [
     ({"sigma": 1.0}, "robust has unknown key 'sigma'"),
     ({"samples": 0}, r"robust\['samples'\] must be an integer"),

@@ -37,9 +37,9 @@ from wgbragg.design.tolerance import (
     structure_members,
 )
 
-__all__ = ["ROBUST_DEFAULTS", "SEARCH_COLOUR_METHODS", "Candidate", "check_colour_method",
-           "check_robust", "colour_objective", "design_colour", "pareto_front",
-           "perturbed_delta_e", "search_xyz"]
+__all__ = ["MAX_ROBUST_LAYERS", "ROBUST_DEFAULTS", "SEARCH_COLOUR_METHODS", "Candidate",
+           "check_colour_method", "check_objective", "check_robust", "colour_objective",
+           "design_colour", "pareto_front", "perturbed_delta_e", "search_xyz"]
 
 ROBUST_DEFAULTS = {"sigma_thickness_nm": 2.0, "sigma_index": 0.0, "samples": 16,
                    "per_layer": False}
@@ -86,7 +86,12 @@ class Candidate:
     complexity: float
     robust_delta_e: float | None = None
     """With ``robust=``: the objective averaged over the search's fixed perturbations (float64,
-    the search's colour method); else None."""
+    the search's colour method; with ``per_layer``, the stacks on the 2 nm grid); else None."""
+
+
+MAX_ROBUST_LAYERS = 2 * 5000
+"""Most layers of a robust design with ``per_layer``: its quasi-random draws take two Sobol
+dimensions a layer (scipy's Sobol goes to 21201), and the stack kernel one loop iteration."""
 
 
 def check_robust(robust) -> dict | None:
@@ -113,7 +118,7 @@ def check_robust(robust) -> dict | None:
         raise ValueError(f"robust['samples'] must be an integer in [1, 4096], got {samples!r}")
     if out["sigma_thickness_nm"] == 0 and out["sigma_index"] == 0:
         raise ValueError("robust needs sigma_thickness_nm > 0 or sigma_index > 0")
-    if not isinstance(out["per_layer"], bool):
+    if not isinstance(out["per_layer"], bool | np.bool_):
         raise ValueError(f"robust['per_layer'] must be True or False, got {out['per_layer']!r}")
     return out
 
@@ -170,12 +175,51 @@ def _perturbed_colours(family, members, errors, angle, backend, base, method):
                            method)
 
 
+def _check_backend(backend) -> None:
+    if backend not in ("gpu", "numpy"):
+        raise ValueError(f"backend must be 'gpu' or 'numpy', got {backend!r}")
+
+
+def _check_angles(theta) -> np.ndarray:
+    angle = check_angle(theta).reshape(-1)
+    if angle.size == 0:
+        raise ValueError("theta must hold at least one angle")
+    return angle
+
+
+def _checked_errors(family, structure, errors) -> dict:
+    """``errors`` of :func:`perturbed_delta_e` as float64 arrays, or a ValueError naming what
+    is wrong: the keys of one kind of draw, one shape, enough layers."""
+    if not isinstance(errors, dict) or not errors:
+        raise ValueError("errors must be a dict of arrays, as perturbations() or "
+                         "layer_perturbations() return")
+    per_layer = ("layer_index", "layer_thickness")
+    per_parameter = tuple(perturbations(family, 1, 0.0, 0.0))
+    expected = per_layer if set(errors) & set(per_layer) else per_parameter
+    if set(errors) != set(expected):
+        raise ValueError(f"errors of a {family!r} structure must have the keys {expected}, "
+                         f"got {tuple(errors)}")
+    out = {k: np.asarray(v, np.float64) for k, v in errors.items()}
+    shapes = {v.shape for v in out.values()}
+    ndim = 2 if expected is per_layer else 1
+    if len(shapes) != 1 or len(next(iter(shapes))) != ndim or next(iter(shapes))[0] == 0:
+        raise ValueError(f"errors must all have one shape, {'(K, M)' if ndim == 2 else '(K,)'}"
+                         f" with K >= 1; got {sorted(shapes)}")
+    if not all(np.all(np.isfinite(v)) for v in out.values()):
+        raise ValueError("errors must be finite")
+    if ndim == 2 and family == "bragg" and next(iter(shapes))[1] < 2 * structure.N:
+        raise ValueError(f"per-layer errors must cover the mirror's 2N = {2 * structure.N} "
+                         f"layers, got {next(iter(shapes))[1]} columns")
+    return out
+
+
 def search_xyz(structure, theta, method=None, backend="numpy") -> np.ndarray:
     """XYZ ``(A, 3)`` of one structure by a search colour method (:data:`SEARCH_COLOUR_METHODS`,
     default the family's first), as :func:`design_colour`'s global stage sees it; float64 on
     ``backend="numpy"``."""
     family = family_name(structure)
-    angle = check_angle(theta).reshape(-1)
+    _check_backend(backend)
+    angle = _check_angles(theta)
     base = structure.base if family == "film" else None
     return _member_colours(family, structure_members(structure, family), angle, backend, base,
                            check_colour_method(family, method))[0]
@@ -207,10 +251,13 @@ def perturbed_delta_e(structure, targets, theta, errors, *, space="srgb", object
     numpy.ndarray
         ``(K,)`` dE2000.
     """
-    angle = check_angle(theta).reshape(-1)
     family = family_name(structure)
+    _check_backend(backend)
+    check_objective(objective)
+    angle = _check_angles(theta)
     lab = parse_targets(targets, angle.size, space)
     method = check_colour_method(family, method)
+    errors = _checked_errors(family, structure, errors)
     base = structure.base if family == "film" else None
     return colour_objective(lab, objective)(_perturbed_colours(
         family, structure_members(structure, family), errors, angle, backend, base, method))
@@ -238,11 +285,17 @@ def _robust_draws(pspace, robust, seed):
     layers = 1
     if family == "bragg":
         layers = 2 * int(pspace.members(pspace.upper[None])["N"][0])
-        if layers > stack_gpu.MAX_LAYERS:
+        if layers > MAX_ROBUST_LAYERS:
             raise ValueError(f"robust per_layer takes mirrors of at most "
-                             f"{stack_gpu.MAX_LAYERS // 2} periods: bound N to that")
+                             f"{MAX_ROBUST_LAYERS // 2} periods: bound N to that")
     return layer_perturbations(robust["samples"], layers, robust["sigma_thickness_nm"],
                                robust["sigma_index"], seed, quasi_random=True)
+
+
+def check_objective(objective) -> None:
+    """``objective`` of :func:`design_colour`: "mean" or "max"."""
+    if objective not in ("mean", "max"):
+        raise ValueError(f"objective must be 'mean' or 'max', got {objective!r}")
 
 
 def colour_objective(lab_target, reduce="mean"):
@@ -379,8 +432,7 @@ def design_colour(targets, theta, family, bounds=None, fixed=None, space="srgb",
     """
     started = time.perf_counter()
     check_search_options(backend, max_seconds, population, generations)
-    if objective not in ("mean", "max"):
-        raise ValueError(f"objective must be 'mean' or 'max', got {objective!r}")
+    check_objective(objective)
     if not isinstance(candidates, int | np.integer) or not 1 <= candidates <= 50:
         raise ValueError(f"candidates must be an integer in [1, 50], got {candidates!r}")
     angle = check_angle(theta)
@@ -417,7 +469,8 @@ def design_colour(targets, theta, family, bounds=None, fixed=None, space="srgb",
     reference, value = _reference_cost(pspace, angle, of_xyz)
     if robust is not None:
         def value(x):
-            return float(robust_cost(np.atleast_2d(x))[0])
+            cost = float(robust_cost(np.atleast_2d(x))[0])
+            return cost if math.isfinite(cost) else math.inf  # NaN: loops cut on the GPU
         check = _robust_cost(pspace, angle, of_xyz, errors, "numpy", method)
     results = []
     if front.size > candidates:  # spread over the front: the best, the simplest, between

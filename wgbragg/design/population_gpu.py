@@ -105,7 +105,8 @@ def population_xyz(members, theta) -> np.ndarray:
     result as :func:`wgbragg.design.population.population_xyz` (``(P, A, 3)``, float64 array).
 
     Members whose sweep llvmpipe cut short (:func:`wgbragg.gpu.check_loops`: thousands of
-    band gaps in view) get NaN, which a search ranks last.
+    band gaps in view) get NaN, which a search ranks last; the flag is shared by a SIMD group,
+    so members evaluated beside such a one may get NaN too.
     """
     angle = np.ascontiguousarray(np.asarray(theta, np.float64).ravel(), np.float32)
     size = len(next(iter(members.values())))

@@ -94,7 +94,7 @@ struct DensityCell {
     slope: vec3<f32>,
 }
 
-// A cell's slope packed into one word (landmark_methods_gpu._packed_cmf_table): X and Y in
+// A cell's slope packed into one word (landmark_methods_gpu.packed_cmf_table): X and Y in
 // 11-bit and Z in 10-bit two's complement, in steps of DENSITY_SLOPE_STEP per nm, which hold
 // the CIE 1931 x D65 slopes (|X'|, |Y'| <= 2.1e-4, |Z'| <= 7.2e-4 per nm) to within half a
 // step: the density is off by at most 1e-6 per nm (5e-5 of its peak). With the density at

@@ -1,5 +1,5 @@
 // The colour-matching table of the landmark colour kernels, as colour/landmark_methods.wgsl
-// reads it (landmark_methods_gpu.cmf_table, packed by _packed_cmf_table):
+// reads it (landmark_methods_gpu.cmf_table, packed by packed_cmf_table):
 //   cmf[j] = density at node 360 + j nm (per nm, float32 bits) with w the slope of the cell
 //   [j, j + 1] (density_slope_from_bits), cmf[471 + j] = the cumulative integral.
 // No bindings: the entry point binds `cmf: array<vec4<u32>>`.
