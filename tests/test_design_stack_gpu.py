@@ -4,12 +4,14 @@ on the GPU against the float64 backend from the same draws."""
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 import pytest
 
 from wgbragg import BraggMirror
 from wgbragg.design import stack, stack_gpu, tolerance
-from wgbragg.design.tolerance import layer_draws
+from wgbragg.design.tolerance import layer_perturbations, layer_spectra, structure_members
 from wgbragg.optics.transfer_matrix import transfer_matrix_reflectance
 
 pytestmark = pytest.mark.gpu
@@ -82,16 +84,28 @@ def test_stack_kernel_blocks_and_refusals(monkeypatch):
                                     np.ones((1, stack_gpu.MAX_LAYERS + 1)), 1.5, wl, th)
 
 
-def test_layer_draws_do_not_depend_on_the_block_size():
-    mirror = BraggMirror(1.0, 1.5, 120.0, 90.0, 3)
-    whole = layer_draws(mirror, 2.0, 0.01, 9, np.random.default_rng(4), 0, 10)
+def test_per_layer_draws_do_not_depend_on_the_block_size(monkeypatch):
+    """Draws in blocks from one generator equal one draw, so a per-layer tolerance taken a
+    few stacks at a time is bit-identical to one taken at once; row 0 is the mirror itself."""
+    whole = layer_perturbations(9, 6, 2.0, 0.01, np.random.default_rng(4))
     rng = np.random.default_rng(4)
-    parts = [layer_draws(mirror, 2.0, 0.01, 9, rng, a, b) for a, b in ((0, 3), (3, 4), (4, 10))]
-    for k in range(2):
-        np.testing.assert_array_equal(np.concatenate([p[k] for p in parts]), whole[k])
-    np.testing.assert_array_equal(whole[0][0], [1.0, 1.5] * 3)  # row 0 is the mirror itself
-    np.testing.assert_array_equal(whole[1][0], [120.0, 90.0] * 3)
-    assert np.all(whole[1][1:] != whole[1][0])
+    parts = [layer_perturbations(n, 6, 2.0, 0.01, rng) for n in (3, 1, 5)]
+    for key, value in whole.items():
+        np.testing.assert_array_equal(np.concatenate([p[key] for p in parts]), value)
+    mirror = BraggMirror(1.0, 1.5, 120.0, 90.0, 3)
+    kwargs = dict(sigma_thickness_nm=2.0, sigma_index=0.01, samples=9, per_layer=True, seed=4,
+                  backend="numpy")
+    at_once = tolerance(mirror, **kwargs)
+    # Two stacks a block (the module, not the function the package exports under its name).
+    monkeypatch.setattr(sys.modules["wgbragg.design.tolerance"], "_LAYER_BLOCK_ROWS", 12)
+    np.testing.assert_array_equal(tolerance(mirror, **kwargs).delta_e_per_angle,
+                                  at_once.delta_e_per_angle)
+    members = structure_members(mirror, "bragg")
+    zero = {"layer_thickness": np.zeros((1, 6)), "layer_index": np.zeros((1, 6))}
+    wl, th = np.array([450.0, 600.0]), np.zeros(2)
+    np.testing.assert_allclose(layer_spectra(members, zero, wl, th, "numpy")[0],
+                               mirror.reflectance(wl, th), rtol=1e-10)
+    assert np.all(at_once.delta_e > 0)  # every copy moved
 
 
 def test_per_layer_tolerance_gpu_matches_numpy():

@@ -17,8 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wgbragg.common.validation import check_angle
-from wgbragg.design import population, population_gpu, stack, stack_gpu
+from wgbragg.design import population, population_gpu
 from wgbragg.design.colour_targets import (
     delta_e,
     grid_xyz_weights,
@@ -29,10 +28,12 @@ from wgbragg.design.families import parameter_space
 from wgbragg.design.fit import check_search_options
 from wgbragg.design.search import global_search
 from wgbragg.design.tolerance import (
+    check_backend,
+    check_theta,
     family_name,
     layer_perturbations,
+    layer_spectra,
     perturb,
-    perturb_layers,
     perturbations,
     structure_members,
 )
@@ -148,18 +149,12 @@ def _member_colours(family, members, angle, backend, base=None, method="grid"):
 
 
 def _stack_colours(members, errors, angle, backend):
-    """XYZ ``(P * K, A, 3)``, member-major, of every mirror under every per-layer error
-    (:func:`~wgbragg.design.tolerance.layer_perturbations`): non-periodic stacks by the stack
-    twins, on the 2 nm grid (the "averaged" colour needs a periodic mirror)."""
+    """XYZ ``(P * K, A, 3)``, member-major, of every mirror under every per-layer error, on
+    the 2 nm grid (the "averaged" colour needs a periodic mirror)."""
     nodes, weights = grid_xyz_weights()
-    wl, th = np.tile(nodes, angle.size), np.repeat(angle, nodes.size)
-    twin = stack_gpu if backend == "gpu" else stack
-    size = len(members["N"]) * errors["layer_thickness"].shape[0]
-    out = np.empty((size, angle.size, 3))
-    for rows, host, indices, thicknesses, base in perturb_layers(members, errors):
-        spectra = twin.stack_reflectance(host, indices, thicknesses, base, wl, th)
-        out[rows] = spectra.reshape(-1, angle.size, nodes.size) @ weights
-    return out
+    spectra = layer_spectra(members, errors, np.tile(nodes, angle.size),
+                            np.repeat(angle, nodes.size), backend)
+    return spectra.reshape(-1, angle.size, nodes.size) @ weights
 
 
 def _perturbed_colours(family, members, errors, angle, backend, base, method):
@@ -173,18 +168,6 @@ def _perturbed_colours(family, members, errors, angle, backend, base, method):
         errors = {"d": errors["layer_thickness"][:, 0], "n_film": errors["layer_index"][:, 0]}
     return _member_colours(family, perturb(family, members, errors), angle, backend, base,
                            method)
-
-
-def _check_backend(backend) -> None:
-    if backend not in ("gpu", "numpy"):
-        raise ValueError(f"backend must be 'gpu' or 'numpy', got {backend!r}")
-
-
-def _check_angles(theta) -> np.ndarray:
-    angle = check_angle(theta).reshape(-1)
-    if angle.size == 0:
-        raise ValueError("theta must hold at least one angle")
-    return angle
 
 
 def _checked_errors(family, structure, errors) -> dict:
@@ -218,8 +201,8 @@ def search_xyz(structure, theta, method=None, backend="numpy") -> np.ndarray:
     default the family's first), as :func:`design_colour`'s global stage sees it; float64 on
     ``backend="numpy"``."""
     family = family_name(structure)
-    _check_backend(backend)
-    angle = _check_angles(theta)
+    check_backend(backend)
+    angle = check_theta(theta)
     base = structure.base if family == "film" else None
     return _member_colours(family, structure_members(structure, family), angle, backend, base,
                            check_colour_method(family, method))[0]
@@ -252,9 +235,9 @@ def perturbed_delta_e(structure, targets, theta, errors, *, space="srgb", object
         ``(K,)`` dE2000.
     """
     family = family_name(structure)
-    _check_backend(backend)
+    check_backend(backend)
     check_objective(objective)
-    angle = _check_angles(theta)
+    angle = check_theta(theta)
     lab = parse_targets(targets, angle.size, space)
     method = check_colour_method(family, method)
     errors = _checked_errors(family, structure, errors)
@@ -285,7 +268,7 @@ def _robust_draws(pspace, robust, seed):
     layers = 1
     if family == "bragg":
         layers = 2 * int(pspace.members(pspace.upper[None])["N"][0])
-        if layers > MAX_ROBUST_LAYERS:
+        if layers > MAX_ROBUST_LAYERS:  # also below the stack kernel's MAX_LAYERS
             raise ValueError(f"robust per_layer takes mirrors of at most "
                              f"{MAX_ROBUST_LAYERS // 2} periods: bound N to that")
     return layer_perturbations(robust["samples"], layers, robust["sigma_thickness_nm"],
@@ -435,11 +418,7 @@ def design_colour(targets, theta, family, bounds=None, fixed=None, space="srgb",
     check_objective(objective)
     if not isinstance(candidates, int | np.integer) or not 1 <= candidates <= 50:
         raise ValueError(f"candidates must be an integer in [1, 50], got {candidates!r}")
-    angle = check_angle(theta)
-    if angle.ndim != 1 or angle.size == 0:
-        angle = angle.reshape(-1)
-        if angle.size == 0:
-            raise ValueError("theta must hold at least one angle")
+    angle = check_theta(theta)
     lab = parse_targets(targets, angle.size, space)
     robust = check_robust(robust)
     pspace = parameter_space(family, bounds, fixed)

@@ -23,6 +23,7 @@ from wgbragg.design import population, population_gpu
 from wgbragg.design.families import ParameterSpace, family_of, parameter_space
 from wgbragg.design.rough import rough_brdf_evaluator
 from wgbragg.design.search import distinct_seeds, global_search
+from wgbragg.design.tolerance import check_backend
 from wgbragg.optics.metals import METALS, SpectralIndex
 
 __all__ = ["FitResult", "LocalOptimum", "check_search_options", "fit_spectrum",
@@ -90,8 +91,7 @@ class FitResult:
 
 def check_search_options(backend, max_seconds, population_size, generations) -> None:
     """Validate the options shared by :func:`fit_spectrum` and ``design_colour``."""
-    if backend not in ("gpu", "numpy"):
-        raise ValueError(f"backend must be 'gpu' or 'numpy', got {backend!r}")
+    check_backend(backend)
     if max_seconds is not None and not (isinstance(max_seconds, int | float)
                                         and math.isfinite(max_seconds) and max_seconds > 0):
         raise ValueError(f"max_seconds must be a positive number or None, got {max_seconds!r}")

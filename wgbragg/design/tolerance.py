@@ -24,9 +24,9 @@ from wgbragg.common.validation import check_angle
 from wgbragg.design import population, population_gpu, stack, stack_gpu
 from wgbragg.design.colour_targets import delta_e, grid_xyz_weights, xyz_to_lab
 
-__all__ = ["DEFAULT_THETA", "ToleranceResult", "family_name", "layer_draws",
-           "layer_perturbations", "perturb", "perturb_layers", "perturbations",
-           "structure_members", "tolerance"]
+__all__ = ["DEFAULT_THETA", "ToleranceResult", "check_backend", "check_theta", "family_name",
+           "layer_perturbations", "layer_spectra", "perturb", "perturb_layers",
+           "perturbations", "structure_members", "tolerance"]
 
 DEFAULT_THETA = (0.0, math.radians(30.0), math.radians(60.0))
 """Angles of :func:`tolerance` by default: 0, 30 and 60 degrees (radians)."""
@@ -92,7 +92,8 @@ def layer_perturbations(samples: int, layers: int, sigma_thickness_nm: float,
     """Per-layer normal errors: ``"layer_thickness"`` (nm) and ``"layer_index"``, each
     ``(samples, layers)``, for stacks of up to ``layers`` layers (a shorter stack uses the
     first of them); pseudo-random or scrambled Sobol points through the normal quantile, as
-    :func:`perturbations`."""
+    :func:`perturbations`. ``seed`` may be a :class:`numpy.random.Generator`, whose stream
+    consecutive calls continue (pseudo-random draws in blocks equal one draw)."""
     if quasi_random:
         from scipy.special import ndtri
         from scipy.stats import qmc
@@ -160,6 +161,20 @@ def structure_members(structure, family: str, size: int = 1) -> dict[str, np.nda
     return {n: np.full(size, float(getattr(structure, n))) for n in names}
 
 
+def check_backend(backend) -> None:
+    """``backend`` of the design functions: "gpu" or "numpy"."""
+    if backend not in ("gpu", "numpy"):
+        raise ValueError(f"backend must be 'gpu' or 'numpy', got {backend!r}")
+
+
+def check_theta(theta) -> np.ndarray:
+    """Angles of incidence as a flat array of at least one angle (radians in [0, pi/2])."""
+    angle = check_angle(theta).reshape(-1)
+    if angle.size == 0:
+        raise ValueError("theta must hold at least one angle")
+    return angle
+
+
 def _sigma(name: str, value) -> float:
     try:
         sigma = float(value)
@@ -207,11 +222,8 @@ def tolerance(structure, sigma_thickness_nm=2.0, sigma_index=0.0, samples=1000,
     sig_n = _sigma("sigma_index", sigma_index)
     if not isinstance(samples, int | np.integer) or not 1 <= samples <= 10**6:
         raise ValueError(f"samples must be an integer in [1, 1000000], got {samples!r}")
-    if backend not in ("gpu", "numpy"):
-        raise ValueError(f"backend must be 'gpu' or 'numpy', got {backend!r}")
-    angle = check_angle(theta).reshape(-1)
-    if angle.size == 0:
-        raise ValueError("theta must hold at least one angle")
+    check_backend(backend)
+    angle = check_theta(theta)
     matched = family == "bragg" and structure.host == structure.n1
     nodes, weights = grid_xyz_weights()
     wl, th = np.tile(nodes, angle.size), np.repeat(angle, nodes.size)
@@ -236,40 +248,38 @@ def tolerance(structure, sigma_thickness_nm=2.0, sigma_index=0.0, samples=1000,
         percentiles={q: float(np.percentile(spread, q)) for q in (50, 90, 99)})
 
 
-def layer_draws(mirror, sigma_d, sigma_n, samples, rng, start, stop):
-    """Indices and thicknesses ``(stop - start, 2N)`` of rows ``start .. stop - 1`` of the
-    per-layer population: row 0 the mirror itself, row ``k >= 1`` a copy whose 2N layers each
-    carry their own normal errors (indices >= 0.01, thicknesses >= 0), drawn from ``rng`` in
-    row order (index errors, then thickness errors, per row), so blocks taken in order give
-    the same draws whatever their size."""
-    layers = 2 * mirror.N
-    indices = np.tile(np.array([mirror.n1, mirror.n2], np.float64), (stop - start, mirror.N))
-    thicknesses = np.tile(np.array([mirror.d1, mirror.d2], np.float64),
-                          (stop - start, mirror.N))
-    first = 1 if start == 0 else 0
-    if stop - start > first and samples:
-        z = rng.standard_normal((stop - start - first, 2, layers))
-        indices[first:] = np.maximum(indices[first:] + sigma_n * z[:, 0], 0.01)
-        thicknesses[first:] = np.maximum(thicknesses[first:] + sigma_d * z[:, 1], 0.0)
-    return indices, thicknesses
+def layer_spectra(members, errors, wavelength, theta, backend) -> np.ndarray:
+    """Reflectance ``(P * K, L)``, member-major, of every Bragg mirror of a population under
+    every per-layer error (:func:`layer_perturbations`): non-periodic stacks
+    (:func:`perturb_layers`) by the stack twins, float32 GPU Abeles matrices or the float64
+    transfer-matrix solver."""
+    twin = stack_gpu if backend == "gpu" else stack
+    count = errors["layer_thickness"].shape[0]
+    out = np.empty((len(members["N"]) * count, np.asarray(wavelength).size))
+    for rows, host, indices, thicknesses, base in perturb_layers(members, errors):
+        out[rows] = twin.stack_reflectance(host, indices, thicknesses, base, wavelength, theta)
+    return out
 
 
 def _layer_spectra(mirror, sigma_d, sigma_n, samples, wavelength, theta, seed, backend):
     """Spectra ``(1 + samples, L)`` of the mirror and of copies whose 2N layers each carry
-    their own normal errors: non-periodic stacks, by the stack twins (float32 GPU Abeles
-    matrices, or the float64 transfer-matrix solver), a bounded block of stacks at a time."""
-    if 2 * mirror.N > stack_gpu.MAX_LAYERS:
+    their own normal errors, a bounded block of copies at a time; the draws continue one
+    generator, so they do not depend on the block size."""
+    layers = 2 * mirror.N
+    if layers > stack_gpu.MAX_LAYERS:
         raise ValueError(f"per_layer takes mirrors of at most {stack_gpu.MAX_LAYERS // 2} "
                          f"periods, got N = {mirror.N}")
     rng = np.random.default_rng(seed)
-    twin = stack_gpu if backend == "gpu" else stack
+    members = structure_members(mirror, "bragg")
+    nominal = {"layer_thickness": np.zeros((1, layers)), "layer_index": np.zeros((1, layers))}
     out = np.empty((samples + 1, wavelength.size))
-    block = max(1, _LAYER_BLOCK_ROWS // (2 * mirror.N))
-    for start in range(0, samples + 1, block):
-        stop = min(samples + 1, start + block)
-        indices, thicknesses = layer_draws(mirror, sigma_d, sigma_n, samples, rng, start, stop)
-        out[start:stop] = twin.stack_reflectance(mirror.host, indices, thicknesses, mirror.n1,
-                                                 wavelength, theta)
+    out[0] = layer_spectra(members, nominal, wavelength, theta, backend)[0]
+    block = max(1, _LAYER_BLOCK_ROWS // layers)
+    for start in range(0, samples, block):
+        count = min(block, samples - start)
+        errors = layer_perturbations(count, layers, sigma_d, sigma_n, rng)
+        out[1 + start:1 + start + count] = layer_spectra(members, errors, wavelength, theta,
+                                                         backend)
     return out
 
 
