@@ -223,3 +223,25 @@ def test_bad_lists_are_refused_before_any_frame(tmp_path, vary, message):
     scene.write_text(FILM, encoding="utf-8")
     with pytest.raises(ValueError, match=message):
         plan_frames(scene, vary=vary)
+
+
+def test_varied_paths_keep_the_scene_folder_rule(tmp_path):
+    """A frame is read as its scene file would be: a varied file path resolves against the
+    scene's folder and may not leave it unless allowed (the user's allow_outside)."""
+    import trimesh
+
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    for place in (folder / "a.ply", tmp_path / "outside.ply"):
+        trimesh.creation.icosphere(1).export(place)
+    path = folder / "scene.toml"
+    path.write_text(SCENE.replace('shape = "sphere"', 'shape = "mesh"\npath = "a.ply"'),
+                    encoding="utf-8")
+    vary = "objects[0].path=a.ply,../outside.ply"
+    with pytest.raises(ValueError, match=r"^frame 1 \(objects\[0\]\.path = \.\./outside\.ply\)"
+                                         r": objects\[0\]\.path: .* lies outside the scene"):
+        plan_frames(path, vary=vary)
+    frames = plan_frames(path, vary=vary, allow_outside=True)
+    assert [tomllib.loads(f.scene_text)["objects"][0]["path"] for f in frames] == [
+        "a.ply", "../outside.ply"]  # as written: relative to the scene's folder
+    assert frames[1].scene().objects[0].path == folder / "../outside.ply"

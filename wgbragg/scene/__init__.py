@@ -3,6 +3,7 @@ TOML reader (:mod:`~wgbragg.scene.reader`), meshes, spatially varying parameter 
 shipped presets (``presets/*.toml``). The package exports what a user of scene files needs."""
 
 from wgbragg.scene.model import MODES, PRESETS, Camera, Environment, Scene
-from wgbragg.scene.reader import load_preset, load_scene
+from wgbragg.scene.reader import load_preset, load_scene, parse_scene
 
-__all__ = ["MODES", "PRESETS", "Camera", "Environment", "Scene", "load_preset", "load_scene"]
+__all__ = ["MODES", "PRESETS", "Camera", "Environment", "Scene", "load_preset", "load_scene",
+           "parse_scene"]

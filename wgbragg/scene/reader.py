@@ -161,6 +161,15 @@ def load_scene(path: str | os.PathLike, *, allow_outside: bool = False) -> Scene
     return _parse(path.read_bytes(), path.name, path.parent, allow_outside=allow_outside)
 
 
+def parse_scene(text: str, folder: str | os.PathLike, *, origin: str = "scene",
+                allow_outside: bool = False) -> Scene:
+    """Read a scene from TOML text whose relative file paths are relative to ``folder``, as
+    :func:`load_scene` reads a file (same checks; messages start with ``origin``): scenes made
+    by a program, such as the frames of a batch render."""
+    return _parse(text.encode("utf-8"), origin, Path(folder).resolve(),
+                  allow_outside=allow_outside)
+
+
 def load_preset(name: str) -> Scene:
     """Read a built-in scene.
 

@@ -22,7 +22,6 @@ import math
 import os
 import re
 import sys
-import tempfile
 import time
 import tomllib
 from dataclasses import dataclass
@@ -33,7 +32,7 @@ from PIL import Image
 
 from wgbragg.common.atomic import atomic_path, check_output_path, write_text_atomic
 from wgbragg.render import Renderer, save_png
-from wgbragg.scene import load_scene
+from wgbragg.scene import load_scene, parse_scene
 from wgbragg.sweep.engine import submit_bounded
 
 __all__ = ["ANIMATION_SUFFIXES", "BatchReport", "Frame", "assemble", "parse_vary",
@@ -52,12 +51,20 @@ _BOOLEANS = {"true": True, "false": False}
 
 @dataclass(frozen=True)
 class Frame:
-    """One frame: its index, what varies (``label``) and its scene as TOML text whose paths
-    are absolute (checked once against the scene file's folder)."""
+    """One frame: its index, what varies (``label``), its scene as TOML text, the scene
+    file's ``folder`` its relative paths start from, and whether they may point outside it
+    (``allow_outside``, as :func:`wgbragg.scene.load_scene`)."""
 
     index: int
     label: str
     scene_text: str
+    folder: str
+    allow_outside: bool = False
+
+    def scene(self):
+        """The frame's :class:`~wgbragg.scene.Scene`, read with the scene reader's checks."""
+        return parse_scene(self.scene_text, self.folder, origin=f"frame {self.index} "
+                           f"({self.label})", allow_outside=self.allow_outside)
 
     @property
     def filename(self) -> str:
@@ -246,22 +253,6 @@ def parse_vary(text: str) -> tuple[str, np.ndarray | list[str]]:
     return key, np.linspace(start, stop, count)
 
 
-def _absolute_paths(document: dict, folder: Path) -> None:
-    """Join every file path of the scene data with the scene's folder."""
-    def fix(table, key):
-        if isinstance(table, dict) and isinstance(table.get(key), str):
-            table[key] = os.fspath(folder / table[key])
-
-    for item in document.get("objects", []) if isinstance(document.get("objects"), list) else []:
-        fix(item, "path")
-    fix(document.get("environment"), "path")
-    materials = document.get("materials")
-    for material in materials.values() if isinstance(materials, dict) else []:
-        if isinstance(material, dict):
-            for name in ("period_map", "delta_map", "thickness_map"):
-                fix(material.get(name), "texture")
-
-
 def _turntable(document: dict, angle_deg: float) -> None:
     camera = document["camera"]
     position = np.asarray(camera["position"], dtype=np.float64)
@@ -290,7 +281,7 @@ def plan_frames(scene_path, *, turntable: int | None = None, vary: str | None = 
     path = Path(scene_path)
     load_scene(path, allow_outside=allow_outside)  # the file as written, paths checked
     document = tomllib.loads(path.read_bytes().decode("utf-8-sig"))
-    _absolute_paths(document, path.resolve().parent)
+    folder = os.fspath(path.resolve().parent)
     frames = []
     if turntable is not None:
         if isinstance(turntable, bool) or not isinstance(turntable, int) or not (
@@ -303,22 +294,16 @@ def plan_frames(scene_path, *, turntable: int | None = None, vary: str | None = 
         key, values = parse_vary(vary)
         steps = [(f"{key} = {v if isinstance(v, str) else format(v, 'g')}", v)
                  for v in values]
-    with tempfile.TemporaryDirectory(prefix="wgbragg-frames-") as folder:
-        for index, (label, value) in enumerate(steps):
-            data = copy.deepcopy(document)
-            if turntable is not None:
-                _turntable(data, value)
-            else:
-                set_key(data, key, value)
-            text = toml_text(data)
-            check = Path(folder) / f"frame_{index:04d}.toml"
-            check.write_text(text, encoding="utf-8")
-            try:
-                load_scene(check, allow_outside=True)
-            except ValueError as error:
-                raise ValueError(f"frame {index} ({label}): "
-                                 f"{str(error).partition(': ')[2]}") from None
-            frames.append(Frame(index=index, label=label, scene_text=text))
+    for index, (label, value) in enumerate(steps):
+        data = copy.deepcopy(document)
+        if turntable is not None:
+            _turntable(data, value)
+        else:
+            set_key(data, key, value)
+        frame = Frame(index=index, label=label, scene_text=toml_text(data), folder=folder,
+                      allow_outside=allow_outside)
+        frame.scene()  # checked as the file would be: ranges, files, the folder rule
+        frames.append(frame)
     return frames
 
 
@@ -338,10 +323,7 @@ def render_frame(frame: Frame, folder, *, size=None, spp: int | None = None,
     if target.exists():
         return {"index": frame.index, "rendered": False, "seconds": 0.0, "pid": os.getpid()}
     start = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="wgbragg-frame-") as scratch:
-        scene_file = Path(scratch) / "scene.toml"
-        scene_file.write_text(frame.scene_text, encoding="utf-8")
-        scene = load_scene(scene_file, allow_outside=True)
+    scene = frame.scene()
     renderer = Renderer(scene, size=size, mode=mode, seed=seed)
     image = renderer.render(scene.settings.spp if spp is None else spp)
     save_png(image, target, scene.settings.exposure)
