@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wgbragg.common.validation import check_backend
 from wgbragg.design import population, population_gpu
 from wgbragg.design.colour_targets import (
     delta_e,
@@ -28,7 +29,6 @@ from wgbragg.design.families import parameter_space
 from wgbragg.design.fit import check_search_options
 from wgbragg.design.search import global_search
 from wgbragg.design.tolerance import (
-    check_backend,
     check_theta,
     family_name,
     layer_perturbations,

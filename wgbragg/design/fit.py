@@ -18,12 +18,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wgbragg.common.validation import check_angle, check_polarization, check_wavelength
+from wgbragg.common.validation import (
+    check_angle,
+    check_backend,
+    check_polarization,
+    check_wavelength,
+)
 from wgbragg.design import population, population_gpu
 from wgbragg.design.families import ParameterSpace, family_of, parameter_space
 from wgbragg.design.rough import rough_brdf_evaluator
 from wgbragg.design.search import distinct_seeds, global_search
-from wgbragg.design.tolerance import check_backend
 from wgbragg.optics.metals import METALS, SpectralIndex
 
 __all__ = ["FitResult", "LocalOptimum", "check_search_options", "fit_spectrum",

@@ -20,11 +20,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from wgbragg.bsdf.materials import BraggMirror, ThinFilm
-from wgbragg.common.validation import check_angle
+from wgbragg.common.validation import check_angle, check_backend
 from wgbragg.design import population, population_gpu, stack, stack_gpu
 from wgbragg.design.colour_targets import delta_e, grid_xyz_weights, xyz_to_lab
 
-__all__ = ["DEFAULT_THETA", "ToleranceResult", "check_backend", "check_theta", "family_name",
+__all__ = ["DEFAULT_THETA", "ToleranceResult", "check_theta", "family_name",
            "layer_perturbations", "layer_spectra", "perturb", "perturb_layers",
            "perturbations", "structure_members", "tolerance"]
 
@@ -159,12 +159,6 @@ def structure_members(structure, family: str, size: int = 1) -> dict[str, np.nda
     names = (("n1", "n2", "d1", "d2", "N", "host") if family == "bragg"
              else ("n_film", "d", "n_base", "k_base", "host"))
     return {n: np.full(size, float(getattr(structure, n))) for n in names}
-
-
-def check_backend(backend) -> None:
-    """``backend`` of the design functions: "gpu" or "numpy"."""
-    if backend not in ("gpu", "numpy"):
-        raise ValueError(f"backend must be 'gpu' or 'numpy', got {backend!r}")
 
 
 def check_theta(theta) -> np.ndarray:

@@ -29,7 +29,7 @@ from wgbragg.bsdf.rough_layer import RoughBraggLayer
 from wgbragg.bsdf.rough_thin_film import RGB_METHODS as ROUGH_FILM_METHODS
 from wgbragg.bsdf.rough_thin_film import RoughThinFilm
 from wgbragg.colour.methods import COLOUR_METHODS, THIN_FILM_COLOUR_METHODS, option_names
-from wgbragg.common.validation import WAVELENGTH_RANGE_NM
+from wgbragg.common.validation import WAVELENGTH_RANGE_NM, check_backend
 
 __all__ = [
     "ALBEDO",
@@ -361,9 +361,7 @@ def parse_sweep(document: dict) -> Sweep:
     material = document.get("material")
     if material not in MATERIALS:
         raise ValueError(f"material must be one of {MATERIALS}, got {material!r}")
-    backend = document.get("backend", "gpu")
-    if backend not in ("gpu", "numpy"):
-        raise ValueError(f"backend must be 'gpu' or 'numpy', got {backend!r}")
+    backend = check_backend(document.get("backend", "gpu"))
     dtype = document.get("dtype", "float32")
     if dtype not in DTYPES:
         raise ValueError(f"dtype must be one of {DTYPES}, got {dtype!r}")
