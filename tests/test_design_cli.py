@@ -160,3 +160,15 @@ def test_design_robust_prints_the_averaged_objective(tmp_path, capsys, per_layer
              else perturbations("bragg", 4, 3.0, 0.0, seed=0, quasi_random=True))
     mean = perturbed_delta_e(mirror, ["#d4af37", "#2e8b57"], np.radians([0.0, 60.0]), draws)
     assert float(text.splitlines()[1].split()[3]) == pytest.approx(mean.mean(), abs=0.006)
+
+
+@pytest.mark.parametrize("name", ["design", "my design", 'gold "A"', "é.1"])
+def test_scene_toml_reads_back_under_any_material_name(tmp_path, name):
+    from wgbragg import ThinFilm
+    from wgbragg.design.files import scene_toml
+    from wgbragg.scene import parse_scene
+
+    for structure in (TRUTH, ThinFilm(1.45, 300.0, base="Au")):
+        scene = parse_scene(scene_toml(structure, name=name), tmp_path)
+        assert list(scene.materials) == [name]
+        assert scene.objects[0].material == name

@@ -11,8 +11,10 @@ increase. With a header, the angle columns may be named by their angle in degree
 
 from __future__ import annotations
 
+import json
 import math
 import os
+import re
 
 import numpy as np
 
@@ -107,6 +109,16 @@ def _number(value: float) -> str:
     return repr(float(value))
 
 
+def _string(text: str) -> str:
+    """A TOML basic string (JSON's escapes are TOML's, but for DEL)."""
+    return json.dumps(text, ensure_ascii=False).replace("\x7f", "\\u007f")
+
+
+def _key(name: str) -> str:
+    """A TOML key: bare where it may be, else quoted."""
+    return name if re.fullmatch(r"[A-Za-z0-9_-]+", name) else _string(name)
+
+
 def scene_toml(structure, *, alpha: float = 0.1, name: str = "design") -> str:
     """A complete scene (a sphere under a sky) whose material ``name`` is ``structure``, as
     TOML text that :func:`wgbragg.load_scene` reads and ``wgbragg render`` renders.
@@ -122,14 +134,17 @@ def scene_toml(structure, *, alpha: float = 0.1, name: str = "design") -> str:
     """
     if not 0.01 <= float(alpha) <= 1.0:
         raise ValueError(f"alpha must be in [0.01, 1], got {alpha!r}")
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"name must be a non-empty string, got {name!r}")
+    table = f"materials.{_key(name)}"
     lines = [f"# {structure!r}", "", "[settings]", "size = [512, 512]", "spp = 64",
              "mode = \"rgb\"", "", "[camera]", "position = [0.0, 0.0, 3.0]",
              "look_at = [0.0, 0.0, 0.0]", "fov_deg = 40.0", "", "[environment]",
-             "type = \"sky\"", "", f"[materials.{name}]"]
+             "type = \"sky\"", "", f"[{table}]"]
     if isinstance(structure, BraggMirror):
         if structure.host < 1.0 or (structure.host == structure.n1 and structure.n1 < 1.0):
             raise ValueError("a scene's mirror lies under air: host (or n1) must be >= 1")
-        lines += ["type = \"layered-bragg\"", "", f"[[materials.{name}.layers]]",
+        lines += ["type = \"layered-bragg\"", "", f"[[{table}.layers]]",
                   f"n1 = {_number(structure.n1)}", f"n2 = {_number(structure.n2)}",
                   f"d1_nm = {_number(structure.d1)}", f"d2_nm = {_number(structure.d2)}",
                   f"N = {int(structure.N)}", f"alpha = {_number(alpha)}"]
@@ -141,13 +156,13 @@ def scene_toml(structure, *, alpha: float = 0.1, name: str = "design") -> str:
         lines += ["type = \"thin-film\"", f"n_film = {_number(structure.n_film)}",
                   f"thickness_nm = {_number(structure.d)}", f"alpha = {_number(alpha)}"]
         if structure.base is not None:
-            lines.append(f"base = \"{structure.base.name}\"")
+            lines.append(f"base = {_string(structure.base.name)}")
         else:
             lines += [f"n_base = {_number(structure.n_base)}",
                       f"k_base = {_number(structure.k_base)}"]
     else:
         raise ValueError(f"structure must be a BraggMirror or a ThinFilm, got {structure!r}")
-    lines += ["", "[[objects]]", "shape = \"sphere\"", f"material = \"{name}\"", ""]
+    lines += ["", "[[objects]]", "shape = \"sphere\"", f"material = {_string(name)}", ""]
     return "\n".join(lines)
 
 
