@@ -223,8 +223,9 @@ def run_search_colours(config: Config, theta, rng) -> dict:
     seconds per population (the GPU's second call, its pipeline built) and dE2000 to the
     reference colour at each (member, angle)."""
     from wgbragg import BraggMirror
+    from wgbragg.colour.colorimetry import xyz_to_lab
     from wgbragg.design import population, population_gpu
-    from wgbragg.design.colour_targets import delta_e, grid_xyz_weights, xyz_to_lab
+    from wgbragg.design.colour_targets import delta_e, grid_xyz_weights
     from wgbragg.design.families import parameter_space
 
     space = parameter_space("bragg", bounds={"N": (1, 15)}, fixed={"n1": 1.0})

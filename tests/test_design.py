@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from wgbragg import BraggMirror, ThinFilm
-from wgbragg.colour.colorimetry import delta_e_2000, xyz_to_linear_srgb
+from wgbragg.colour.colorimetry import delta_e_2000, xyz_to_lab, xyz_to_linear_srgb
 from wgbragg.design import design_colour, fit_spectrum, population, population_gpu, tolerance
 from wgbragg.design.colour_design import pareto_front, search_xyz
-from wgbragg.design.colour_targets import grid_xyz_weights, parse_targets, xyz_to_lab
+from wgbragg.design.colour_targets import grid_xyz_weights, parse_targets
 from wgbragg.design.families import parameter_space
 
 pytestmark = pytest.mark.gpu

@@ -24,8 +24,8 @@ from PIL import Image
 from wgbragg import BraggMirror, LayeredBragg, RoughBraggLayer, ThinFilm
 from wgbragg.app import cli
 from wgbragg.app.atlas import colour_chart, display_srgb
+from wgbragg.colour import colorimetry
 from wgbragg.sweep import dask_client, load_sweep, open_atlas, parse_sweep, run_sweep, sweep_dataset
-from wgbragg.sweep.evaluate import xyz_to_lab
 from wgbragg.sweep.store import completed_chunks, init_store
 
 pytestmark = pytest.mark.gpu
@@ -115,7 +115,7 @@ def test_the_reference_is_the_library_colour(small):
     white = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
     np.testing.assert_allclose(reference["lab"].values[2],
                                colour.XYZ_to_Lab(xyz, white).astype(np.float32))
-    assert xyz_to_lab([0.95047, 1.0, 1.08883])[0] == pytest.approx(100.0)
+    assert colorimetry.xyz_to_lab([0.95047, 1.0, 1.08883])[0] == pytest.approx(100.0)
 
 
 def test_two_workers_store_the_in_process_result_bit_for_bit(small, client):

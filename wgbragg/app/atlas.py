@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wgbragg.colour.colorimetry import xyz_to_linear_srgb
+from wgbragg.colour.colorimetry import lab_to_xyz, xyz_to_linear_srgb
 from wgbragg.common.atomic import atomic_path, check_output_path
 from wgbragg.render.display import gamut_map
 
@@ -86,10 +86,7 @@ def _linear_rgb(variable) -> np.ndarray:
     if kind == ["X", "Y", "Z"]:
         return xyz_to_linear_srgb(values)
     if kind == ["L*", "a*", "b*"]:
-        import colour
-
-        white = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
-        return xyz_to_linear_srgb(colour.Lab_to_XYZ(values, white))
+        return xyz_to_linear_srgb(lab_to_xyz(values))
     raise ValueError(f"{variable.name!r} is not a colour (xyz, rgb or lab)")
 
 

@@ -5,9 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from wgbragg.colour.colorimetry import xyz_to_linear_srgb
+from wgbragg.colour.colorimetry import lab_to_xyz, xyz_to_linear_srgb
 from wgbragg.common.atomic import atomic_path, check_output_path
-from wgbragg.design.colour_targets import lab_to_xyz
 
 __all__ = ["display_srgb", "save_design_report", "save_fit_report"]
 

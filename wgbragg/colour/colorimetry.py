@@ -32,10 +32,12 @@ __all__ = [
     "delta_e_2000",
     "hero_inverse_cdf",
     "hero_wavelengths",
+    "lab_to_xyz",
     "linear_srgb_to",
     "linear_srgb_to_xyz",
     "spectral_xyz",
     "xyz_density",
+    "xyz_to_lab",
     "xyz_to_linear_srgb",
     "xyz_weights",
 ]
@@ -458,9 +460,20 @@ def delta_e_2000(rgb_a, rgb_b) -> np.ndarray:
     b = linear_srgb_to_xyz(_xyz_array("rgb_b", rgb_b))
     check_broadcast(rgb_a=a.shape, rgb_b=b.shape)
     a, b = np.broadcast_arrays(a, b)
-    lab_a = colour.XYZ_to_Lab(a, _D65_XY)
-    lab_b = colour.XYZ_to_Lab(b, _D65_XY)
-    return np.asarray(colour.delta_E(lab_a, lab_b, method="CIE 2000"), dtype=np.float64)
+    return np.asarray(colour.delta_E(xyz_to_lab(a), xyz_to_lab(b), method="CIE 2000"),
+                      dtype=np.float64)
+
+
+def xyz_to_lab(xyz) -> np.ndarray:
+    """CIELAB of CIE 1931 XYZ under D65 with the perfect reflector ``Y = 1`` (as the colour
+    methods return it), by colour-science with D65's chromaticity as the white: a perfect
+    reflector is ``L* = 100``."""
+    return np.asarray(colour.XYZ_to_Lab(np.asarray(xyz, np.float64), _D65_XY), np.float64)
+
+
+def lab_to_xyz(lab) -> np.ndarray:
+    """The inverse of :func:`xyz_to_lab`."""
+    return np.asarray(colour.Lab_to_XYZ(np.asarray(lab, np.float64), _D65_XY), np.float64)
 
 
 # --------------------------------------------------------------------------- spectra

@@ -17,14 +17,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wgbragg.colour.colorimetry import xyz_to_lab
 from wgbragg.common.validation import check_backend
 from wgbragg.design import population, population_gpu
-from wgbragg.design.colour_targets import (
-    delta_e,
-    grid_xyz_weights,
-    parse_targets,
-    xyz_to_lab,
-)
+from wgbragg.design.colour_targets import delta_e, grid_xyz_weights, parse_targets
 from wgbragg.design.families import parameter_space
 from wgbragg.design.fit import check_search_options
 from wgbragg.design.search import global_search

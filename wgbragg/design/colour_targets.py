@@ -15,10 +15,9 @@ import re
 import colour
 import numpy as np
 
-from wgbragg.colour.colorimetry import CMFS_NAME, ILLUMINANT_NAME, linear_srgb_to_xyz, xyz_weights
+from wgbragg.colour.colorimetry import linear_srgb_to_xyz, xyz_to_lab, xyz_weights
 
-__all__ = ["SEARCH_STEP_NM", "TARGET_SPACES", "delta_e", "grid_xyz_weights", "lab_to_xyz",
-           "parse_targets", "xyz_to_lab"]
+__all__ = ["SEARCH_STEP_NM", "TARGET_SPACES", "delta_e", "grid_xyz_weights", "parse_targets"]
 
 TARGET_SPACES = ("srgb", "linear-srgb", "xyz", "lab")
 """Spaces a target colour may be given in: gamma-encoded sRGB (also ``"#rrggbb"`` strings),
@@ -27,7 +26,6 @@ linear sRGB, CIE XYZ (D65, ``Y = 1`` white) or CIELAB (D65)."""
 SEARCH_STEP_NM = 2.0
 """Wavelength step of the search's colour grid (nm)."""
 
-_WHITE_XY = np.array(colour.CCS_ILLUMINANTS[CMFS_NAME][ILLUMINANT_NAME], np.float64)
 _HEX = re.compile(r"^#?([0-9a-fA-F]{6})$")
 
 
@@ -45,16 +43,6 @@ def grid_xyz_weights(step_nm: float = SEARCH_STEP_NM) -> tuple[np.ndarray, np.nd
     np.add.at(out, left, weights * (1.0 - t)[:, None])
     np.add.at(out, left + 1, weights * t[:, None])
     return nodes, out
-
-
-def xyz_to_lab(xyz) -> np.ndarray:
-    """CIELAB of XYZ (D65 white, ``Y = 1``)."""
-    return np.asarray(colour.XYZ_to_Lab(np.asarray(xyz, np.float64), _WHITE_XY), np.float64)
-
-
-def lab_to_xyz(lab) -> np.ndarray:
-    """XYZ (D65 white, ``Y = 1``) of CIELAB."""
-    return np.asarray(colour.Lab_to_XYZ(np.asarray(lab, np.float64), _WHITE_XY), np.float64)
 
 
 def delta_e(lab_a, lab_b) -> np.ndarray:

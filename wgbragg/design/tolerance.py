@@ -20,9 +20,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from wgbragg.bsdf.materials import BraggMirror, ThinFilm
+from wgbragg.colour.colorimetry import xyz_to_lab
 from wgbragg.common.validation import check_angle, check_backend
 from wgbragg.design import population, population_gpu, stack, stack_gpu
-from wgbragg.design.colour_targets import delta_e, grid_xyz_weights, xyz_to_lab
+from wgbragg.design.colour_targets import delta_e, grid_xyz_weights
 
 __all__ = ["DEFAULT_THETA", "ToleranceResult", "check_theta", "family_name",
            "layer_perturbations", "layer_spectra", "perturb", "perturb_layers",

@@ -11,19 +11,10 @@ import numpy as np
 
 from wgbragg.bsdf.layered.model import LayeredBragg
 from wgbragg.bsdf.rough_thin_film import RoughThinFilm
-from wgbragg.colour.colorimetry import linear_srgb_to_xyz, xyz_to_linear_srgb
+from wgbragg.colour.colorimetry import linear_srgb_to_xyz, xyz_to_lab, xyz_to_linear_srgb
 from wgbragg.sweep.spec import ALBEDO, ALBEDO_SPECTRUM, ANGLE, WAVELENGTH, Quantity, Sweep
 
-__all__ = ["evaluate_block", "xyz_to_lab"]
-
-
-def xyz_to_lab(xyz) -> np.ndarray:
-    """CIELAB of CIE 1931 XYZ (D65, perfect reflector ``Y = 1``) by colour-science, with the
-    D65 white point, so a perfect reflector is ``L* = 100``."""
-    import colour  # heavy: only the workers that compute Lab load it
-
-    white = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
-    return colour.XYZ_to_Lab(np.asarray(xyz, dtype=np.float64), white)
+__all__ = ["evaluate_block"]
 
 
 def _albedo(structure, theta, quantity: Quantity, backend: str,
