@@ -12,7 +12,13 @@ import pytest
 from wgbragg.app import cli
 from wgbragg.colour import colorimetry
 from wgbragg.common.exr import read_exr, write_exr
-from wgbragg.render.display import LUMINANCE_WEIGHTS, display_transform, gamut_map
+from wgbragg.render.display import (
+    LUMINANCE_WEIGHTS,
+    decode_srgb,
+    display_transform,
+    encode_srgb,
+    gamut_map,
+)
 
 # A saturated green and a pale orange, linear sRGB.
 COLOURS = np.array([[0.05, 0.6, 0.1], [0.8, 0.45, 0.2]])
@@ -90,6 +96,15 @@ def test_spectral_colours_are_negative_in_srgb_not_in_xyz():
 
 
 # ---------------------------------------------------------------------------- gamut mapping
+
+
+def test_srgb_transfer_function_is_colour_sciences():
+    values = np.linspace(0.0, 1.0, 1998).reshape(-1, 3, 3)  # any shape
+    np.testing.assert_allclose(encode_srgb(values), colour.cctf_encoding(values, "sRGB"),
+                               atol=1e-15)
+    np.testing.assert_allclose(decode_srgb(values), colour.cctf_decoding(values, "sRGB"),
+                               atol=1e-15)
+    np.testing.assert_allclose(decode_srgb(encode_srgb(values)), values, atol=1e-15)
 
 
 def test_in_gamut_images_display_as_a_plain_clip_would():

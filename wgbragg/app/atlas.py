@@ -18,7 +18,7 @@ import numpy as np
 
 from wgbragg.colour.colorimetry import lab_to_xyz, xyz_to_linear_srgb
 from wgbragg.common.atomic import atomic_path, check_output_path
-from wgbragg.render.display import gamut_map
+from wgbragg.render.display import encode_srgb, gamut_map
 
 __all__ = ["ColourChart", "SpectrumPlot", "colour_chart", "display_srgb", "is_spectrum",
            "resolve_coordinate", "save_colour_chart", "save_spectrum_plot", "spectrum_plot"]
@@ -61,9 +61,7 @@ class SpectrumPlot:
 
 def display_srgb(linear_rgb) -> np.ndarray:
     """Linear sRGB to display sRGB in [0, 1]: gamut-mapped, then the sRGB transfer function."""
-    mapped = gamut_map(np.nan_to_num(np.asarray(linear_rgb, dtype=np.float64)))
-    return np.where(mapped <= 0.0031308, 12.92 * mapped,
-                    1.055 * np.power(mapped, 1.0 / 2.4) - 0.055)
+    return encode_srgb(gamut_map(np.nan_to_num(np.asarray(linear_rgb, dtype=np.float64))))
 
 
 def resolve_coordinate(dataset, name: str, flag: str) -> str:

@@ -7,14 +7,14 @@ import numpy as np
 
 from wgbragg.colour.colorimetry import lab_to_xyz, xyz_to_linear_srgb
 from wgbragg.common.atomic import atomic_path, check_output_path
+from wgbragg.render.display import encode_srgb
 
 __all__ = ["display_srgb", "save_design_report", "save_fit_report"]
 
 
 def display_srgb(xyz) -> np.ndarray:
     """Gamma-encoded sRGB in [0, 1] for display (out-of-gamut colours clipped)."""
-    linear = np.clip(xyz_to_linear_srgb(np.asarray(xyz, np.float64)), 0.0, 1.0)
-    return np.where(linear <= 0.0031308, 12.92 * linear, 1.055 * linear ** (1 / 2.4) - 0.055)
+    return encode_srgb(np.clip(xyz_to_linear_srgb(np.asarray(xyz, np.float64)), 0.0, 1.0))
 
 
 def _pyplot():

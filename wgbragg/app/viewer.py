@@ -35,6 +35,7 @@ from wgbragg.common.validation import (
 )
 from wgbragg.optics.metals import METALS
 from wgbragg.render import Renderer, display_transform, ibl_levels
+from wgbragg.render.display import encode_srgb
 from wgbragg.scene import load_preset
 from wgbragg.scene.model import (
     ENVIRONMENT_TYPES,
@@ -217,9 +218,7 @@ def _thickness_range(value) -> tuple[float, float]:
 
 def _srgb_bytes(linear: np.ndarray) -> np.ndarray:
     """Linear sRGB, clipped to [0, 1], as 8-bit sRGB (no tone map: a reflectance colour)."""
-    c = np.clip(linear, 0.0, 1.0)
-    encoded = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1.0 / 2.4) - 0.055)
-    return np.round(encoded * 255.0).astype(np.uint8)
+    return np.round(encode_srgb(np.clip(linear, 0.0, 1.0)) * 255.0).astype(np.uint8)
 
 
 def _mirror(spec: BraggLayerSpec) -> BraggMirror:

@@ -16,6 +16,7 @@ import colour
 import numpy as np
 
 from wgbragg.colour.colorimetry import linear_srgb_to_xyz, xyz_to_lab, xyz_weights
+from wgbragg.render.display import decode_srgb
 
 __all__ = ["SEARCH_STEP_NM", "TARGET_SPACES", "delta_e", "grid_xyz_weights", "parse_targets"]
 
@@ -100,8 +101,7 @@ def parse_targets(targets, count: int, space: str = "srgb") -> np.ndarray:
         if np.any((values < 0) | (values > 1)):
             raise ValueError("encoded sRGB targets must be in [0, 1]: use space='linear-srgb', "
                              "'xyz' or 'lab' for colours outside the sRGB gamut")
-        linear = np.where(values <= 0.04045, values / 12.92, ((values + 0.055) / 1.055) ** 2.4)
-        return xyz_to_lab(linear_srgb_to_xyz(linear))
+        return xyz_to_lab(linear_srgb_to_xyz(decode_srgb(values)))
     if space == "linear-srgb":
         xyz = linear_srgb_to_xyz(values)
     elif space == "xyz":

@@ -21,11 +21,26 @@ from PIL import Image
 from wgbragg.common.atomic import atomic_path, check_output_path
 from wgbragg.scene.model import MAX_EXPOSURE
 
-__all__ = ["LUMINANCE_WEIGHTS", "display_transform", "gamut_map", "save_png"]
+__all__ = ["LUMINANCE_WEIGHTS", "decode_srgb", "display_transform", "encode_srgb", "gamut_map",
+           "save_png"]
 
 LUMINANCE_WEIGHTS = np.array([0.2126, 0.7152, 0.0722])
 """Rec. 709 luminance ``Y`` of linear sRGB (the middle row of its XYZ matrix, rounded)."""
 LUMINANCE_WEIGHTS.setflags(write=False)
+
+
+def encode_srgb(linear) -> np.ndarray:
+    """The sRGB transfer function (IEC 61966-2-1) of linear values in [0, 1]."""
+    linear = np.asarray(linear, np.float64)
+    return np.where(linear <= 0.0031308, 12.92 * linear,
+                    1.055 * np.power(np.maximum(linear, 0.0031308), 1.0 / 2.4) - 0.055)
+
+
+def decode_srgb(encoded) -> np.ndarray:
+    """The inverse of :func:`encode_srgb`: linear values of encoded ones in [0, 1]."""
+    encoded = np.asarray(encoded, np.float64)
+    return np.where(encoded <= 0.04045, encoded / 12.92,
+                    np.power((np.maximum(encoded, 0.04045) + 0.055) / 1.055, 2.4))
 
 
 def gamut_map(rgb: np.ndarray) -> np.ndarray:
@@ -99,9 +114,7 @@ def display_transform(image: np.ndarray, exposure: float = 0.0) -> np.ndarray:
     mapped = np.where(lit[..., None], scaled, 0.0) / (1.0 + np.where(lit, luminance, 0.0))[
         ..., None]
     mapped = gamut_map(mapped)
-    encoded = np.where(mapped <= 0.0031308, 12.92 * mapped,
-                       1.055 * np.power(mapped, 1.0 / 2.4) - 0.055)
-    return np.round(encoded * 255.0).astype(np.uint8)
+    return np.round(encode_srgb(mapped) * 255.0).astype(np.uint8)
 
 
 def save_png(image: np.ndarray, path, exposure: float = 0.0) -> None:
