@@ -18,7 +18,13 @@ from conftest import expected_direction_counts, pooled_chi2_pvalue
 from scipy.integrate import quad
 
 from wgbragg import gpu
-from wgbragg.bsdf.microfacet import ggx_D, ggx_G1, ggx_sample_visible_normal, ggx_visible_normal_pdf
+from wgbragg.bsdf.microfacet import (
+    ggx_D,
+    ggx_G1,
+    ggx_lobe,
+    ggx_sample_visible_normal,
+    ggx_visible_normal_pdf,
+)
 
 KERNELS = Path(__file__).resolve().parent / "kernels"
 """The test suite's own WGSL kernels (not shipped in the wheel)."""
@@ -272,3 +278,14 @@ def test_gpu_matches_numpy(alpha):
         spread = np.maximum(spread, np.abs(moved).max(axis=-1))
     np.testing.assert_array_less(np.abs(sampled - expected).max(axis=-1), SAMPLE_ATOL + spread)
     assert np.all(np.isfinite(values)) and np.all(np.isfinite(sampled))
+
+
+def test_lobe_is_the_specular_microfacet_factor():
+    """ggx_lobe = D(h) G1(i) G1(o) / (4 cos_i cos_o) from the checked functions, any shape."""
+    rng = np.random.default_rng(11)
+    cos_h, cos_i, cos_o = (rng.uniform(0.05, 1.0, (4, 5)) for _ in range(3))
+    alpha = rng.uniform(0.05, 1.0, (4, 5))
+    expected = (ggx_D(cos_h, alpha) * ggx_G1(cos_i, alpha) * ggx_G1(cos_o, alpha)
+                / (4.0 * cos_i * cos_o))
+    np.testing.assert_allclose(ggx_lobe(cos_h, cos_i, cos_o, alpha), expected, rtol=1e-12)
+    assert np.all(np.isfinite(ggx_lobe(np.zeros(3), np.zeros(3), np.zeros(3), 0.3)))

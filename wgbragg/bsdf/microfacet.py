@@ -20,6 +20,7 @@ __all__ = [
     "check_alpha",
     "ggx_D",
     "ggx_G1",
+    "ggx_lobe",
     "ggx_sample_visible_normal",
     "ggx_visible_normal_pdf",
     "half_vector",
@@ -64,6 +65,15 @@ def ggx_D_unchecked(cos: np.ndarray, alpha: np.ndarray) -> np.ndarray:
 def ggx_G1_over_cos(cos: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     """G1 / cos theta = 2 / (cos + sqrt(cos^2 + alpha^2 sin^2)), finite at cos = 0."""
     return 2.0 / (cos + np.sqrt(cos * cos + alpha * alpha * _sin2(cos)))
+
+
+def ggx_lobe(cos_h, cos_i, cos_o, alpha) -> np.ndarray:
+    """The specular microfacet factor ``D(h) G1(i) G1(o) / (4 cos_i cos_o)`` (1/sr) of a
+    reflection with half-vector cosine ``cos_h`` between directions of cosines ``cos_i`` and
+    ``cos_o`` (unchecked; finite at the horizon). A layer's lobe is this times its Fresnel
+    term."""
+    return (0.25 * ggx_D_unchecked(cos_h, alpha) * ggx_G1_over_cos(cos_i, alpha)
+            * ggx_G1_over_cos(cos_o, alpha))
 
 
 def ggx_D(cos_theta_m, alpha) -> np.ndarray:

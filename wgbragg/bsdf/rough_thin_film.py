@@ -21,6 +21,7 @@ from wgbragg.bsdf.microfacet import (
     check_alpha,
     ggx_D_unchecked,
     ggx_G1_over_cos,
+    ggx_lobe,
     ggx_sample_visible_normal,
     half_vector,
 )
@@ -331,9 +332,8 @@ class RoughThinFilm:
         # h.wi = sqrt((1 + wi.wo) / 2): symmetric in wi and wo to the last bit.
         cos_d = np.sqrt(np.clip(0.5 * (1.0 + np.sum(wi * wo, axis=-1)), 0.0, 1.0))
         a = self.alpha
-        lobe = (0.25 * ggx_D_unchecked(np.clip(h[..., 2], -1.0, 1.0), a)
-                * ggx_G1_over_cos(np.minimum(wi[..., 2], 1.0), a)
-                * ggx_G1_over_cos(np.minimum(wo[..., 2], 1.0), a))
+        lobe = ggx_lobe(np.clip(h[..., 2], -1.0, 1.0), np.minimum(wi[..., 2], 1.0),
+                        np.minimum(wo[..., 2], 1.0), a)
         lobe = np.where(up, lobe, 0.0)
         return lobe[..., None] * self._reflectance(cos_d, wavelength, method, order)
 

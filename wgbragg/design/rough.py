@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from wgbragg.bsdf.layered.coating import coating_reflectance, polar_angle, refract_in
-from wgbragg.bsdf.microfacet import ggx_D_unchecked, ggx_G1_over_cos, half_vector
+from wgbragg.bsdf.layered.coating import coating_scale, polar_angle, refract_in
+from wgbragg.bsdf.microfacet import ggx_lobe, half_vector
 from wgbragg.design import population, population_gpu
 
 __all__ = ["in_plane_directions", "rough_brdf_evaluator"]
@@ -47,15 +47,13 @@ def rough_brdf_evaluator(space, wavelength, theta_i, theta_o, backend):
     h = half_vector(i, o)
     cos_i, cos_o, cos_h = i[:, 2], o[:, 2], h[:, 2]
     theta_d = polar_angle(np.clip(np.sum(i * h, axis=-1), 0.0, 1.0))
-    scale = ((1.0 - coating_reflectance(wi[:, 2], host))
-             * (1.0 - coating_reflectance(wo[:, 2], host)) / (host * host))
+    scale = coating_scale(wi[:, 2], wo[:, 2], host)
     twin = population_gpu if backend == "gpu" else population
 
     def brdf(x):
         members = space.members(x)
         alpha = members["alpha"][:, None]
-        shape = (0.25 * ggx_D_unchecked(cos_h, alpha) * ggx_G1_over_cos(cos_i, alpha)
-                 * ggx_G1_over_cos(cos_o, alpha)) * scale
+        shape = ggx_lobe(cos_h, cos_i, cos_o, alpha) * scale
         reflectance = twin.population_reflectance("bragg", members, wavelength, theta_d)
         return reflectance * shape
 

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["HERO", "INTEGRATED", "coating_reflectance", "polar_angle", "refract_in",
-           "refract_out"]
+__all__ = ["HERO", "INTEGRATED", "coating_reflectance", "coating_scale", "polar_angle",
+           "refract_in", "refract_out"]
 
 INTEGRATED = "integrated"
 """``colour_method`` of an RGB result computed as the colour of the whole spectral BRDF
@@ -51,6 +51,13 @@ def coating_reflectance(cos_theta, n) -> np.ndarray:
         rp = (n * n * c - q) / (n * n * c + q)
     matched = (c + q) == 0.0
     return np.where(matched, 0.0, 0.5 * (rs * rs + rp * rp))
+
+
+def coating_scale(cos_wi, cos_wo, n) -> np.ndarray:
+    """What the smooth coating does to a BRDF beneath it, seen from air: the transmittances
+    in and out, ``(1 - R(wi)) (1 - R(wo))``, over ``n^2`` (the compression of solid angle)."""
+    return (1.0 - coating_reflectance(cos_wi, n)) * (1.0 - coating_reflectance(cos_wo, n)) / (
+        n * n)
 
 
 def refract_in(w: np.ndarray, n: float) -> np.ndarray:

@@ -25,6 +25,7 @@ from wgbragg.bsdf.layered.coating import (
     HERO,
     INTEGRATED,
     coating_reflectance,
+    coating_scale,
     polar_angle,
     refract_in,
     refract_out,
@@ -33,6 +34,7 @@ from wgbragg.bsdf.layered.simulation import simulate
 from wgbragg.bsdf.microfacet import (
     ggx_D_unchecked,
     ggx_G1_over_cos,
+    ggx_lobe,
     ggx_sample_visible_normal,
     half_vector,
 )
@@ -399,8 +401,7 @@ class LayeredBragg:
         through = 1.0  # prod_{k<l} t_k(i') t_k(o')
         for index, layer in enumerate(self.layers):
             a = layer.alpha
-            shape = (0.25 * ggx_D_unchecked(cos_h, a) * ggx_G1_over_cos(ci, a)
-                     * ggx_G1_over_cos(co, a))
+            shape = ggx_lobe(cos_h, ci, co, a)
             r = self._layer_reflectance(index, cos_d, wavelength, method, backend,
                                         colour_method)
             lobe = shape * r if spectral else shape[..., None] * r
@@ -436,9 +437,7 @@ class LayeredBragg:
         i, o = refract_in(wi_ok, n), refract_in(wo_ok, n)
         wl = None if wavelength is None else np.broadcast_to(wavelength, shape)
         inner = self._inner_brdf(i, o, wl, method, backend, colour_method)
-        scale = ((1.0 - coating_reflectance(wi_ok[..., 2], n))
-                 * (1.0 - coating_reflectance(wo_ok[..., 2], n)) / (n * n))
-        scale = np.where(up, scale, 0.0)
+        scale = np.where(up, coating_scale(wi_ok[..., 2], wo_ok[..., 2], n), 0.0)
         return inner * (scale if wavelength is not None else scale[..., None])
 
     def _integrated_rgb(self, wi, wo, method, backend):

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wgbragg import gpu
-from wgbragg.bsdf.layered.coating import coating_reflectance, refract_in
+from wgbragg.bsdf.layered.coating import coating_scale, refract_in
 from wgbragg.colour import colorimetry
 from wgbragg.common.validation import (
     check_broadcast,
@@ -470,9 +470,7 @@ def _brdf(results, wi_flat, wo_flat, up, n: float, shape, walks: _Walks, return_
     paths, channels = walks.paths, walks.channels
     mean = np.concatenate([piece[1] for piece in results])
     spread = np.concatenate([piece[2] for piece in results])
-    scale = ((1.0 - coating_reflectance(wi_flat[:, 2], n))
-             * (1.0 - coating_reflectance(wo_flat[:, 2], n)) / (n * n))
-    scale = np.where(up, scale, 0.0)[:, None]
+    scale = np.where(up, coating_scale(wi_flat[:, 2], wo_flat[:, 2], n), 0.0)[:, None]
     estimate = (mean * scale).reshape(*shape, channels)
     if not return_error:
         return estimate
