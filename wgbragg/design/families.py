@@ -17,6 +17,13 @@ import numpy as np
 
 from wgbragg.bsdf.materials import BraggMirror, ThinFilm
 from wgbragg.bsdf.rough_layer import RoughBraggLayer
+from wgbragg.common.validation import (
+    MAX_EXTINCTION,
+    MAX_INDEX,
+    MAX_PERIODS,
+    MAX_THICKNESS_NM,
+    MIN_INDEX,
+)
 from wgbragg.optics.metals import METALS, SpectralIndex, metal
 
 __all__ = ["FAMILIES", "Family", "Parameter", "ParameterSpace", "family_of", "parameter_space"]
@@ -55,15 +62,15 @@ class Family:
         return tuple(p.name for p in self.parameters)
 
 
-_INDEX = (0.01, 100.0)
-_THICKNESS = (0.0, 1e6)
+_INDEX = (MIN_INDEX, MAX_INDEX)
+_THICKNESS = (0.0, MAX_THICKNESS_NM)
 
 _MIRROR = (
     Parameter("n1", "index", _INDEX, (1.0, 2.0), 1.0),
     Parameter("n2", "index", _INDEX, (1.0, 2.5), 1.5),
     Parameter("d1", "thickness", _THICKNESS, (20.0, 400.0), 100.0),
     Parameter("d2", "thickness", _THICKNESS, (20.0, 400.0), 100.0),
-    Parameter("N", "count", (1, 2**31 - 1), (1, 30), 10),
+    Parameter("N", "count", (1, MAX_PERIODS), (1, 30), 10),
 )
 """A Bragg mirror's layers, shared by the mirror and the rough layer families."""
 
@@ -76,12 +83,12 @@ FAMILIES = {
         Parameter("n_film", "index", _INDEX, (1.0, 2.5), 1.33),
         Parameter("d", "thickness", _THICKNESS, (10.0, 1000.0), 300.0),
         Parameter("n_base", "index", _INDEX, (1.0, 3.0), 1.0),
-        Parameter("k_base", "extinction", (0.0, 1e4), (0.0, 5.0), 0.0),
+        Parameter("k_base", "extinction", (0.0, MAX_EXTINCTION), (0.0, 5.0), 0.0),
         Parameter("host", "index", _INDEX, (1.0, 2.0), 1.0),
     ), ("n_film", "d")),
     "rough": Family("rough", RoughBraggLayer, (
         *_MIRROR,
-        Parameter("host", "index", (1.0, 100.0), (1.0, 2.0), 1.0),
+        Parameter("host", "index", (1.0, MAX_INDEX), (1.0, 2.0), 1.0),
         Parameter("alpha", "roughness", (0.01, 1.0), (0.02, 0.8), None),
     ), ("n1", "n2", "d1", "d2", "N", "alpha")),
 }

@@ -20,6 +20,7 @@ import numpy as np
 
 from wgbragg.bsdf.materials import BraggMirror, ThinFilm
 from wgbragg.common.atomic import write_text_atomic
+from wgbragg.common.validation import WAVELENGTH_RANGE_NM
 
 __all__ = ["MeasuredSpectrum", "read_spectrum_csv", "scene_toml", "write_scene_toml"]
 
@@ -90,8 +91,9 @@ def read_spectrum_csv(path: str | os.PathLike) -> MeasuredSpectrum:
     if np.any(np.diff(wavelength) <= 0):
         bad = rows[int(np.flatnonzero(np.diff(wavelength) <= 0)[0]) + 1][0]
         raise ValueError(f"{path}: wavelengths must strictly increase (line {bad})")
-    if wavelength[0] < 1 or wavelength[-1] > 1e6:
-        raise ValueError(f"{path}: wavelengths must be in [1, 1e6] nm")
+    low, high = WAVELENGTH_RANGE_NM
+    if wavelength[0] < low or wavelength[-1] > high:
+        raise ValueError(f"{path}: wavelengths must be in [{low:g}, {high:g}] nm")
     reflectance = data[:, 1:]
     if np.any((reflectance < -0.05) | (reflectance > 1.05)):
         raise ValueError(f"{path}: reflectances must be fractions in [0, 1] (not percent)")
