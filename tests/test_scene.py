@@ -4,6 +4,7 @@ import re
 from importlib import resources
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from wgbragg import LayeredBragg
@@ -469,3 +470,22 @@ def test_base_interreflection_reaches_the_structure(tmp_path, no_filters):
     message = refused(tmp_path, MINIMAL.replace(
         "base_albedo = 0.5", "base_albedo = 0.5\nbase_interreflection = 1", 1))
     assert ": materials.blue.base_interreflection: must be true or false, got 1" in message
+
+
+def test_period_and_delta_convert_one_way_everywhere():
+    """A layer given as (period, delta) has the thicknesses layer_thicknesses gives, in the
+    reader, the spec and sweeps alike; period_and_delta inverts it."""
+    from wgbragg.scene.model import BraggLayerSpec, layer_thicknesses, period_and_delta
+    from wgbragg.sweep.spec import build_structure
+
+    rng = np.random.default_rng(5)
+    for period, delta in zip(rng.uniform(10, 500, 50), rng.uniform(0, 1, 50), strict=True):
+        d1, d2 = layer_thicknesses(period, delta)
+        assert d1 + d2 == pytest.approx(period, rel=1e-15)
+        assert period_and_delta(d1, d2) == pytest.approx((period, delta), rel=1e-12)
+        swept = build_structure("bragg-mirror", {"n1": 1.0, "n2": 1.5, "period_nm": period,
+                                                 "delta": delta, "N": 5})
+        assert (swept.d1, swept.d2) == (d1, d2)
+        spec = BraggLayerSpec(1.0, 1.5, 100.0, 50.0, 5, 0.1).to_layer(period, delta).mirror
+        assert (spec.d1, spec.d2) == (d1, d2)
+    assert period_and_delta(0.0, 0.0) == (0.0, 0.5)

@@ -48,6 +48,8 @@ __all__ = [
     "SceneObject",
     "Settings",
     "ThinFilmMaterial",
+    "layer_thicknesses",
+    "period_and_delta",
 ]
 
 PRESETS = ("furnace", "teapot", "fig7", "fig10", "fig11", "fig12", "thin_film")
@@ -158,6 +160,20 @@ class SceneObject:
     rotate_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
+def layer_thicknesses(period_nm: float, delta: float) -> tuple[float, float]:
+    """``(d1, d2)`` in nm of a Bragg cell of period ``period_nm`` whose first layer is the
+    fraction ``delta`` of it: ``d1 = delta Lambda``, ``d2 = Lambda - d1``."""
+    d1 = delta * period_nm
+    return d1, period_nm - d1
+
+
+def period_and_delta(d1_nm: float, d2_nm: float) -> tuple[float, float]:
+    """The inverse of :func:`layer_thicknesses`: ``(Lambda, d1 / Lambda)``, ``delta`` 0.5 for
+    an empty period."""
+    period = d1_nm + d2_nm
+    return period, (d1_nm / period if period > 0.0 else 0.5)
+
+
 @dataclasses.dataclass(frozen=True)
 class BraggLayerSpec:
     """One rough Bragg layer of a layered material (see :class:`wgbragg.LayeredBragg`).
@@ -192,12 +208,12 @@ class BraggLayerSpec:
     @property
     def period_nm(self) -> float:
         """Cell thickness ``Lambda = d1 + d2`` in nm."""
-        return self.d1_nm + self.d2_nm
+        return period_and_delta(self.d1_nm, self.d2_nm)[0]
 
     @property
     def delta(self) -> float:
         """``d1 / Lambda`` in [0, 1] (0.5 for an empty period)."""
-        return self.d1_nm / self.period_nm if self.period_nm > 0.0 else 0.5
+        return period_and_delta(self.d1_nm, self.d2_nm)[1]
 
     def to_layer(self, period_nm: float | None = None, delta: float | None = None):
         """The :class:`wgbragg.RoughBraggLayer` (lazy: its filter is loaded on first use).
@@ -207,10 +223,9 @@ class BraggLayerSpec:
         period_nm, delta : float, optional
             Replace the layer's period (nm) and ``d1 / period``, as a map does at a point.
         """
-        period = self.period_nm if period_nm is None else period_nm
-        fraction = self.delta if delta is None else delta
-        d1 = fraction * period
-        mirror = BraggMirror(self.n1, self.n2, d1, period - d1, self.N, host=self.host)
+        d1, d2 = layer_thicknesses(self.period_nm if period_nm is None else period_nm,
+                                   self.delta if delta is None else delta)
+        mirror = BraggMirror(self.n1, self.n2, d1, d2, self.N, host=self.host)
         return RoughBraggLayer(mirror, self.alpha)
 
 

@@ -116,9 +116,10 @@ from wgbragg.scene.model import (
     SceneObject,
     Settings,
     ThinFilmMaterial,
+    layer_thicknesses,
 )
 
-__all__ = ["load_preset", "load_scene"]
+__all__ = ["load_preset", "load_scene", "parse_scene"]
 
 # Smallest sine of the angle between camera.up and the view direction, and between an area
 # light's edges: their cross products then keep 10 digits.
@@ -343,7 +344,7 @@ def _layer(ctx: _Context, value, key: str) -> BraggLayerSpec:
     else:
         period = _library(ctx, table["period_nm"], f"{key}.period_nm", check_thickness)
         fraction = _real(ctx, table["delta"], f"{key}.delta", 0.0, 1.0)
-        d1, d2 = fraction * period, period - fraction * period
+        d1, d2 = layer_thicknesses(period, fraction)
     alpha = _library(ctx, table["alpha"], f"{key}.alpha",
                      lambda _name, value: check_filter_alpha(value))
     spec = BraggLayerSpec(

@@ -33,6 +33,7 @@ from PIL import Image
 from wgbragg.common.atomic import atomic_path, check_output_path, write_text_atomic
 from wgbragg.render import Renderer, save_png
 from wgbragg.scene import load_scene, parse_scene
+from wgbragg.scene.model import layer_thicknesses, period_and_delta
 from wgbragg.sweep.engine import submit_bounded
 
 __all__ = ["ANIMATION_SUFFIXES", "BatchReport", "Frame", "assemble", "parse_vary",
@@ -206,12 +207,11 @@ def set_key(document: dict, key: str, value) -> None:
             "d1_nm": ("period_nm", "delta"), "d2_nm": ("period_nm", "delta")}
     if last not in node and last in pair and all(k in node for k in pair[last]):
         if last in ("period_nm", "delta"):
-            d1, d2 = float(node.pop("d1_nm")), float(node.pop("d2_nm"))
-            node["period_nm"] = d1 + d2
-            node["delta"] = d1 / (d1 + d2) if d1 + d2 > 0 else 0.5
+            node["period_nm"], node["delta"] = period_and_delta(float(node.pop("d1_nm")),
+                                                                float(node.pop("d2_nm")))
         else:
-            period, delta = float(node.pop("period_nm")), float(node.pop("delta"))
-            node["d1_nm"], node["d2_nm"] = delta * period, (1.0 - delta) * period
+            node["d1_nm"], node["d2_nm"] = layer_thicknesses(float(node.pop("period_nm")),
+                                                             float(node.pop("delta")))
     old = node.get(last)
     if last == "base" and node.get("type") == "thin-film" and isinstance(value, str):
         node.pop("n_base", None)

@@ -30,6 +30,7 @@ from wgbragg.bsdf.rough_thin_film import RGB_METHODS as ROUGH_FILM_METHODS
 from wgbragg.bsdf.rough_thin_film import RoughThinFilm
 from wgbragg.colour.methods import COLOUR_METHODS, THIN_FILM_COLOUR_METHODS, option_names
 from wgbragg.common.validation import WAVELENGTH_RANGE_NM, check_backend
+from wgbragg.scene.model import layer_thicknesses
 
 __all__ = [
     "ALBEDO",
@@ -306,7 +307,7 @@ def build_structure(material: str, params: dict):
     if material == "bragg-mirror":
         if "period_nm" in params:
             period, delta = float(params["period_nm"]), float(params["delta"])
-            d1, d2 = delta * period, (1.0 - delta) * period
+            d1, d2 = layer_thicknesses(period, delta)
         else:
             d1, d2 = params["d1_nm"], params["d2_nm"]
         return BraggMirror(n1=params["n1"], n2=params["n2"], d1=d1, d2=d2,
