@@ -237,3 +237,9 @@ def test_the_spectral_albedo_of_rough_structures_is_the_librarys():
     with pytest.raises(ValueError, match=r"must lie in \[360, 830\] nm"):
         parse_sweep({**stack.as_dict(), "backend": "gpu", "chunks": {},
                      "coords": {"wavelength_nm": [300.0, 500.0]}})
+    # The LUT method's table is as short on numpy, where the exact method is not.
+    beyond = {**stack.as_dict(), "chunks": {}, "coords": {"wavelength_nm": [300.0, 900.0]}}
+    assert parse_sweep(beyond).coords["wavelength_nm"].max() == 900.0
+    lut = [{"kind": "albedo_spectrum", "method": "single-reflection-lut"}]
+    with pytest.raises(ValueError, match=r"must lie in \[360, 830\] nm \(the layered model's"):
+        parse_sweep({**beyond, "quantities": lut})

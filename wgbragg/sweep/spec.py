@@ -24,6 +24,7 @@ import numpy as np
 
 from wgbragg.bsdf.layered.model import BRDF_METHODS as LAYERED_METHODS
 from wgbragg.bsdf.layered.model import LayeredBragg
+from wgbragg.bsdf.layered.model_gpu import WAVELENGTH_RANGE_NM as LAYERED_TABLE_RANGE_NM
 from wgbragg.bsdf.materials import BraggMirror, ThinFilm
 from wgbragg.bsdf.rough_layer import RoughBraggLayer
 from wgbragg.bsdf.rough_thin_film import RGB_METHODS as ROUGH_FILM_METHODS
@@ -153,7 +154,6 @@ KINDS = {"bragg-mirror": (*COLOUR_KINDS, *SPECTRAL_KINDS),
          "thin-film": (*COLOUR_KINDS, *SPECTRAL_KINDS),
          "layered-bragg": (ALBEDO, *COLOUR_KINDS, ALBEDO_SPECTRUM),
          "rough-thin-film": (ALBEDO, *COLOUR_KINDS, ALBEDO_SPECTRUM)}
-_GPU_LAYERED_WAVELENGTHS = (360.0, 830.0)  # the layered GPU kernels' 1 nm tables
 """The quantities of each structure."""
 
 DTYPES = ("float32", "float64")
@@ -394,11 +394,15 @@ def parse_sweep(document: dict) -> Sweep:
                          f"transmittance, {ALBEDO_SPECTRUM}); colours integrate over all "
                          "wavelengths")
     if WAVELENGTH in ordered:
-        low, high = (_GPU_LAYERED_WAVELENGTHS if material == "layered-bragg" and backend == "gpu"
-                     else WAVELENGTH_RANGE_NM)
+        # The layered model's tables (its GPU kernels', and its LUT method's on either
+        # backend) hold the colorimetry's 1 nm nodes only.
+        tabulated = material == "layered-bragg" and (
+            backend == "gpu" or any(q.method == "single-reflection-lut" for q in quantities
+                                    if q.spectral))
+        low, high = LAYERED_TABLE_RANGE_NM if tabulated else WAVELENGTH_RANGE_NM
         if ordered[WAVELENGTH].min() < low or ordered[WAVELENGTH].max() > high:
             raise ValueError(f"coords.{WAVELENGTH} must lie in [{low:g}, {high:g}] nm"
-                             + (" (the layered GPU kernels' tables)" if high == 830.0 else ""))
+                             + (" (the layered model's tables)" if tabulated else ""))
     sweep = Sweep(material=material, coords=ordered, fixed=fixed, quantities=quantities,
                   chunks=_chunks(document.get("chunks", {}), ordered), backend=backend,
                   dtype=dtype)
