@@ -27,7 +27,7 @@ from wgbragg.common.validation import (
 from wgbragg.design import population, population_gpu
 from wgbragg.design.families import ParameterSpace, family_of, parameter_space
 from wgbragg.design.rough import rough_brdf_evaluator
-from wgbragg.design.search import distinct_seeds, global_search
+from wgbragg.design.search import distinct_seeds, global_search, same_point
 from wgbragg.optics.metals import METALS, SpectralIndex
 
 __all__ = ["FitResult", "LocalOptimum", "check_search_options", "fit_spectrum",
@@ -253,11 +253,6 @@ def _neighbours(space, x):
     return out
 
 
-def _same(space, a, b, separation):
-    return (np.all(np.round(a[space.integer]) == np.round(b[space.integer]))
-            and np.max(np.abs(space.unit(a) - space.unit(b))) <= separation)
-
-
 def fit_spectrum(family, wavelength_nm, theta, measured, bounds=None, fixed=None,
                  polarization="unpolarized", weights=None, backend="gpu", *, method="de",
                  population=None, generations=150, starts=4, optima_tolerance=0.1,
@@ -377,7 +372,7 @@ def fit_spectrum(family, wavelength_nm, theta, measured, bounds=None, fixed=None
                     time.perf_counter() - started > max_seconds:
                 stopped = True
                 break
-            if any(_same(space, start, p[1], 1e-3) for p in polished):
+            if any(same_point(space, start, p[1], 1e-3) for p in polished):
                 continue
             x, res, jac = _polish(space, start, residuals_of, 60 if max_seconds else 200,
                                   None if max_seconds is None else started + max_seconds)
@@ -389,7 +384,7 @@ def fit_spectrum(family, wavelength_nm, theta, measured, bounds=None, fixed=None
     distinct = []
     for p in polished:
         if p[0] <= rms * (1.0 + optima_tolerance) + 1e-12 and \
-                not any(_same(space, p[1], q[1], 0.02) for q in distinct):
+                not any(same_point(space, p[1], q[1], 0.02) for q in distinct):
             distinct.append(p)
     continuous = [n for n, integer in zip(space.names, space.integer, strict=True)
                   if not integer]

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from tqdm import tqdm
 
-__all__ = ["SEARCH_METHODS", "Archive", "distinct_seeds", "global_search"]
+__all__ = ["SEARCH_METHODS", "Archive", "distinct_seeds", "global_search", "same_point"]
 
 SEARCH_METHODS = ("de", "cma")
 """Global searches: differential evolution (the default) and CMA-ES."""
@@ -45,6 +45,13 @@ class Archive:
         return np.concatenate(self.vectors), np.concatenate(self.costs)
 
 
+def same_point(space, a, b, separation: float) -> bool:
+    """Whether search vectors ``a`` and ``b`` are one point: equal integers and at most
+    ``separation`` apart in the unit box of the bounds."""
+    return bool(np.all(np.round(a[space.integer]) == np.round(b[space.integer]))
+                and np.max(np.abs(space.unit(a) - space.unit(b))) <= separation)
+
+
 def distinct_seeds(space, archive: Archive, count: int, separation: float = 0.05):
     """Up to ``count`` archive vectors, best first, pairwise at least ``separation`` apart in
     the unit box of the bounds (or differing in an integer parameter)."""
@@ -52,10 +59,7 @@ def distinct_seeds(space, archive: Archive, count: int, separation: float = 0.05
     order = np.argsort(cost, kind="stable")
     chosen: list[np.ndarray] = []
     for i in order:
-        u = space.unit(x[i])
-        if all(np.max(np.abs(u - space.unit(c))) > separation
-               or np.any(np.round(x[i][space.integer]) != np.round(c[space.integer]))
-               for c in chosen):
+        if not any(same_point(space, x[i], c, separation) for c in chosen):
             chosen.append(x[i])
             if len(chosen) == count:
                 break
