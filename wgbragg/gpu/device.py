@@ -34,6 +34,8 @@ from typing import Any
 import numpy as np
 import wgpu
 
+from wgbragg.gpu.driver import apply_driver_choice, mesa_version
+
 LOOP_BUDGET = 65535
 """Back-edges llvmpipe lets one SIMD group of invocations take, over all its loops
 (``LP_MAX_TGSI_LOOP_ITERATIONS`` in Mesa's gallivm), before it ends them."""
@@ -101,7 +103,9 @@ def select_adapter(infos: Sequence[Mapping[str, Any]], pattern: str) -> int:
 
 
 def _find_adapter() -> Any:
-    """The adapter ``WGBRAGG_ADAPTER`` names, else the one wgpu prefers."""
+    """The adapter ``WGBRAGG_ADAPTER`` names, else the one wgpu prefers, on the driver list
+    :func:`~wgbragg.gpu.driver.apply_driver_choice` sets first."""
+    apply_driver_choice()
     pattern = os.environ.get("WGBRAGG_ADAPTER", "").strip()
     if pattern:
         adapters = wgpu.gpu.enumerate_adapters_sync()
@@ -151,22 +155,34 @@ def get_device() -> wgpu.GPUDevice:
 
 
 def adapter_info() -> dict[str, Any]:
-    """Name, backend and type of the adapter behind :func:`get_device`.
+    """Name, driver, backend and type of the adapter behind :func:`get_device`.
 
     Returns
     -------
     dict
-        ``name``, ``description``, ``backend``, ``adapter_type`` and
-        ``is_lavapipe`` (``"llvmpipe"`` in the name, Mesa's CPU Vulkan driver).
+        ``name``, ``description`` (the driver's own, e.g. ``"Mesa 25.0.7 (LLVM 15.0.6)"``),
+        ``backend``, ``adapter_type``, ``is_lavapipe`` (``"llvmpipe"`` in the name, Mesa's
+        CPU Vulkan driver), ``mesa`` (the Mesa version the description names, or ``""``),
+        ``driver_source`` (``"user"``, ``"system"``, ``"cache"`` or ``"old"``:
+        :mod:`wgbragg.gpu.driver`) and ``driver``, one line naming the adapter with its
+        driver version, as every benchmark and render records it.
     """
     info = _adapter_and_device()[0].info
     name = str(info.get("device", ""))
+    description = str(info.get("description", ""))
+    backend = str(info.get("backend_type", ""))
+    version = mesa_version(description)
+    mesa = ".".join(map(str, version)) if version else ""
+    driver = f"{name}, {'Mesa ' + mesa if mesa else description or 'unknown driver'} [{backend}]"
     return {
         "name": name,
-        "description": str(info.get("description", "")),
-        "backend": str(info.get("backend_type", "")),
+        "description": description,
+        "backend": backend,
         "adapter_type": str(info.get("adapter_type", "")),
         "is_lavapipe": "llvmpipe" in name.lower(),
+        "mesa": mesa,
+        "driver_source": apply_driver_choice().source,
+        "driver": driver,
     }
 
 
