@@ -4,12 +4,18 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: setup vulkan xvfb test fuzz demo lint bench bench-peer clean
+.PHONY: setup vulkan driver xvfb test fuzz demo lint bench bench-peer clean
 
-setup: vulkan $(STAMP)
+setup: vulkan $(STAMP) driver
 
 vulkan:
 	@bash tools/ensure_vulkan.sh
+
+# A current lavapipe (Mesa >= 24) where the system's is older: fetched from the distribution's
+# backports suite into .cache/mesa, installing no system package (wgbragg.gpu.driver_fetch).
+# Says in one line what it did; where none can be had, the system driver serves.
+driver: $(STAMP)
+	@$(VENV)/bin/wgbragg info --fetch-driver >/dev/null || true
 
 # The demo window's tests open a real glfw window on a virtual X server.
 xvfb:
@@ -85,4 +91,4 @@ bench-peer: setup
 	DRJIT_LIBLLVM_PATH="$$lib" $(PY) -m benchmarks.mitsuba_peer
 
 clean:
-	rm -rf $(VENV) out build dist .pytest_cache .ruff_cache .hypothesis
+	rm -rf $(VENV) out build dist .pytest_cache .ruff_cache .hypothesis .cache/mesa

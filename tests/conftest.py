@@ -83,7 +83,7 @@ def pytest_configure(config: pytest.Config) -> None:
 def pytest_report_header(config: pytest.Config) -> str:
     if GPU_INFO is None:
         return f"wgbragg adapter: none ({GPU_ERROR})"
-    return f"wgbragg adapter: {GPU_INFO['name']} [{GPU_INFO['backend']}]"
+    return f"wgbragg adapter: {GPU_INFO['driver']} (driver: {GPU_INFO['driver_source']})"
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:

@@ -116,18 +116,38 @@ def _mirror(args):
                        host=args.host)
 
 
-def _info(_args) -> int:
+def _info(args) -> int:
     import wgpu
 
     from wgbragg import gpu
     from wgbragg._version import __version__
+    from wgbragg.gpu.driver import driver_cache_dir
+    from wgbragg.gpu.driver_fetch import fetch_driver
 
+    fetched = None
+    if args.fetch_driver:
+        fetched = fetch_driver(force=args.force)
+        print(fetched.message, file=sys.stderr)
     print(f"wgbragg {__version__}, wgpu {wgpu.__version__}")
     info = gpu.adapter_info()
     for key, value in info.items():
         print(f"  {key}: {value}")
+    print(f"  driver cache: {driver_cache_dir()}")
     print(f"  shaders: {gpu.shader_dir()}")
-    return 0
+    return 0 if fetched is None or fetched.ok else 1
+
+
+def _add_info_command(commands) -> None:
+    info = _command(commands, "info", "adapter, driver (Mesa version and where it came from), "
+                                      "versions and shader folder")
+    info.add_argument("--fetch-driver", action="store_true",
+                      help="first fetch a current lavapipe (Mesa >= 24) from the distribution's "
+                           "backports suite into wgbragg's driver cache, when the system's is "
+                           "older; installs no system package (exit status 1 if none could be "
+                           "had: wgbragg then goes on with the system driver)")
+    info.add_argument("--force", action="store_true",
+                      help="with --fetch-driver: fetch again even if a current driver is there")
+    info.set_defaults(run=_info)
 
 
 def _reflectance(args) -> int:
@@ -484,7 +504,7 @@ def build_parser() -> argparse.ArgumentParser:
     imports."""
     parser = argparse.ArgumentParser(prog="wgbragg", description=DESCRIPTION)
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    _command(commands, "info", "adapter, versions and shader folder").set_defaults(run=_info)
+    _add_info_command(commands)
     _add_reflectance_command(commands)
     _add_map_command(commands)
     _add_bake_command(commands)
