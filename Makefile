@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: setup vulkan driver xvfb test fuzz demo lint bench bench-peer clean
+.PHONY: setup vulkan driver xvfb test test-old-driver fuzz demo lint bench bench-peer clean
 
 setup: vulkan $(STAMP) driver
 
@@ -31,6 +31,16 @@ $(STAMP): pyproject.toml
 
 test: setup xvfb
 	$(PY) -m pytest -q
+
+# The kernels' float32-against-float64 twin tests, the float32 domain and the GPU harness
+# (loop budget included) on the system's own lavapipe, where `make test` ran on a fetched
+# current one: the numerics must hold on both drivers.
+test-old-driver: setup
+	@icd="$$($(PY) -c 'from wgbragg.gpu.driver import system_lavapipe as s; f = s(); print(f[0] if f else "")')"; \
+	if [ -z "$$icd" ]; then echo "wgbragg: no system lavapipe: nothing to test on it"; exit 0; fi; \
+	echo "VK_DRIVER_FILES=$$icd"; \
+	VK_DRIVER_FILES="$$icd" $(PY) -m pytest -q tests/test_float32_domain.py \
+		tests/test_gpu_harness.py $$($(PY) tools/twin_tests.py)
 
 # The float32 kernels against their float64 twins over the whole documented domain
 # (tests/test_float32_domain.py): the suite runs its property tests with 300 examples each,

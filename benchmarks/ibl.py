@@ -782,6 +782,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parse_args(argv)
+    report.console_header(MODULE)
     cfg = QUICK if args.quick else FULL
     progress = not args.no_progress
     command = report.command_line(MODULE, argv)

@@ -1177,6 +1177,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parse_args(argv)
+    report.console_header(MODULE)
     results = run_benchmarks(QUICK if args.quick else FULL, progress=not args.no_progress)
     plot = plot_path(args)
     if plot is not None:

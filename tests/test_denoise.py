@@ -14,6 +14,7 @@ import OpenEXR
 import pytest
 from PIL import Image
 
+from wgbragg import gpu
 from wgbragg.app.cli import main
 from wgbragg.app.viewer import DENOISE_AFTER_SPP, DENOISE_GROWTH, Viewer
 from wgbragg.common.exr import read_exr
@@ -209,11 +210,15 @@ def test_render_denoise_writes_the_denoised_images_beside_the_raw_ones(tmp_path,
         p.name for p in (png, exr, *twins))
     raw, denoised = read_exr(exr), read_exr(twins[1])
     assert raw.shape == denoised.shape == (18, 24, 3) and not np.array_equal(raw, denoised)
+    driver = gpu.adapter_info()["driver"]  # the adapter with its Mesa version
     with OpenEXR.File(str(twins[1])) as file:
         header = file.header()
         assert header["spp"] == 4 and "Open Image Denoise" in header["comments"]
+        assert header["adapter"] == driver and header["software"].startswith("wgbragg ")
     for path in (png, twins[0]):
-        assert np.asarray(Image.open(path)).shape == (18, 24, 3)
+        with Image.open(path) as image:
+            assert np.asarray(image).shape == (18, 24, 3)
+            assert image.text["wgbragg:adapter"] == driver and image.text["wgbragg:spp"] == "4"
 
 
 # ---------------------------------------------------------------------------- the viewer

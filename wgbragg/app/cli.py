@@ -121,7 +121,7 @@ def _info(args) -> int:
 
     from wgbragg import gpu
     from wgbragg._version import __version__
-    from wgbragg.gpu.driver import driver_cache_dir
+    from wgbragg.gpu.driver import driver_cache_dir, system_lavapipe
     from wgbragg.gpu.driver_fetch import fetch_driver
 
     fetched = None
@@ -132,6 +132,10 @@ def _info(args) -> int:
     info = gpu.adapter_info()
     for key, value in info.items():
         print(f"  {key}: {value}")
+    system = system_lavapipe()
+    if system is not None:
+        version = ".".join(map(str, system[1])) if system[1] else "of unknown version"
+        print(f"  system lavapipe: Mesa {version} ({system[0]})")
     print(f"  driver cache: {driver_cache_dir()}")
     print(f"  shaders: {gpu.shader_dir()}")
     return 0 if fetched is None or fetched.ok else 1
@@ -402,6 +406,8 @@ def _spp_text(renderer) -> str:
 
 
 def _render(args) -> int:
+    from wgbragg import gpu
+    from wgbragg._version import __version__
     from wgbragg.colour import colorimetry
     from wgbragg.common.exr import write_exr
     from wgbragg.render import Renderer, denoise_image, save_png
@@ -453,8 +459,10 @@ def _render(args) -> int:
             raise ValueError(f"{message}; --exr stores only finite images, nothing written")
         print(f"wgbragg: warning: {message}; they show black in {args.output}",
               file=sys.stderr)
-    # What the EXR header says besides its colour space: the samples, and why it is partial.
-    facts = {"spp": renderer.passes}
+    # What the EXR header and the PNG's text chunks say besides the colour space: the software,
+    # the adapter with its driver version, the samples, and why the image is partial.
+    facts = {"software": f"wgbragg {__version__}", "adapter": gpu.adapter_info()["driver"],
+             "spp": renderer.passes}
     if signals.name is not None:
         facts["comments"] = f"wgbragg render interrupted ({signals.name}) at {spp} spp"
     images = [("", image, facts)]
@@ -469,8 +477,12 @@ def _render(args) -> int:
         images.append((" (denoised)", denoised, {
             **facts, "comments": f"{facts['comments']}; {note}" if "comments" in facts else note}))
 
-    def png(pixels):
-        return lambda path: save_png(pixels, path, scene.settings.exposure)
+    def png(pixels, header):
+        text = {"Software": header["software"], "wgbragg:adapter": header["adapter"],
+                "wgbragg:spp": str(header["spp"])}
+        if "comments" in header:
+            text["Comment"] = header["comments"]
+        return lambda path: save_png(pixels, path, scene.settings.exposure, text)
 
     def exr(pixels, header):
         return lambda path: write_exr(
@@ -481,7 +493,7 @@ def _render(args) -> int:
     for which, pixels, header in images:
         twin = _denoised_path if which else Path
         outputs.append((f"--output{which}", twin(args.output),
-                        f"{'.denoised' if which else ''}.png", png(pixels)))
+                        f"{'.denoised' if which else ''}.png", png(pixels, header)))
         if args.exr is not None:
             outputs.append((f"--exr{which}", twin(args.exr),
                             f"{'.denoised' if which else ''}.exr", exr(pixels, header)))

@@ -47,6 +47,7 @@ __all__ = [
     "driver_cache_dir",
     "lavapipe_mesa_version",
     "mesa_version",
+    "system_lavapipe",
     "system_manifests",
 ]
 
@@ -212,6 +213,21 @@ def system_manifests(environ: Mapping[str, str] | None = None) -> list[Path]:
 def _is_lavapipe(manifest: Path) -> bool:
     library = manifest_library(manifest)
     return library is not None and "lvp" in library.name
+
+
+def system_lavapipe(environ: Mapping[str, str] | None = None
+                    ) -> tuple[Path, tuple[int, int, int] | None] | None:
+    """The system's lavapipe: its manifest and Mesa version (the newest, if several).
+
+    Returns
+    -------
+    (pathlib.Path, tuple of int or None) or None
+        None when the system has no lavapipe. ``VK_DRIVER_FILES=<manifest>`` selects it, as
+        ``make test-old-driver`` does.
+    """
+    found = [(m, lavapipe_mesa_version(manifest_library(m)))
+             for m in system_manifests(environ) if _is_lavapipe(m)]
+    return max(found, key=lambda item: item[1] or (0, 0, 0)) if found else None
 
 
 # --------------------------------------------------------------------------- the cache

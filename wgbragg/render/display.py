@@ -14,9 +14,11 @@ hue, but desaturated towards the grey of its own luminance until it fits: see
 from __future__ import annotations
 
 import numbers
+from collections.abc import Mapping
 
 import numpy as np
 from PIL import Image
+from PIL.PngImagePlugin import PngInfo
 
 from wgbragg.common.atomic import atomic_path, check_output_path
 from wgbragg.scene.model import MAX_EXPOSURE
@@ -117,7 +119,8 @@ def display_transform(image: np.ndarray, exposure: float = 0.0) -> np.ndarray:
     return np.round(encode_srgb(mapped) * 255.0).astype(np.uint8)
 
 
-def save_png(image: np.ndarray, path, exposure: float = 0.0) -> None:
+def save_png(image: np.ndarray, path, exposure: float = 0.0,
+             text: Mapping[str, str] | None = None) -> None:
     """Write ``image`` as an 8-bit sRGB PNG through :func:`display_transform`, atomically.
 
     Parameters
@@ -128,8 +131,14 @@ def save_png(image: np.ndarray, path, exposure: float = 0.0) -> None:
         The PNG file (suffix ``.png``); its folder is created.
     exposure : float
         EV stops.
+    text : mapping of str to str, optional
+        PNG text chunks (``tEXt``), e.g. ``{"Software": "wgbragg 0.1.0"}``: what made the
+        image, which :func:`PIL.Image.open` reads back as ``image.text``.
     """
     path = check_output_path(path, "path", ".png")
     pixels = display_transform(image, exposure)
+    chunks = PngInfo()
+    for key, value in (text or {}).items():
+        chunks.add_text(str(key), str(value))
     with atomic_path(path) as temporary:
-        Image.fromarray(pixels, "RGB").save(temporary, format="PNG")
+        Image.fromarray(pixels, "RGB").save(temporary, format="PNG", pnginfo=chunks)
