@@ -47,9 +47,30 @@ def test_ninety_degrees_is_grazing_incidence(capsys):
 
 
 @pytest.mark.gpu
-def test_info_names_the_adapter(capsys):
+def test_info_names_the_adapter_its_mesa_version_and_where_its_driver_came_from(capsys):
+    from wgbragg import gpu
+
+    info = gpu.adapter_info()
     assert main(["info"]) == 0
-    assert "name:" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert f"  name: {info['name']}\n" in out and f"  driver: {info['driver']}\n" in out
+    assert f"  driver_source: {info['driver_source']}\n" in out
+    assert info["driver_source"] in ("user", "system", "cache", "old")
+    if info["is_lavapipe"]:
+        assert info["mesa"] and f"Mesa {info['mesa']}" in info["driver"]
+    assert "  driver cache: " in out
+
+
+@pytest.mark.gpu
+def test_fetch_driver_failures_are_one_line_and_exit_1(monkeypatch, capsys):
+    from wgbragg.gpu import driver_fetch
+
+    line = "wgbragg: bookworm-backports not reachable: keeping the system driver"
+    monkeypatch.setattr(driver_fetch, "fetch_driver",
+                        lambda force=False: driver_fetch.FetchResult(False, line))
+    assert main(["info", "--fetch-driver"]) == 1
+    err = capsys.readouterr().err
+    assert err == line + "\n"
 
 
 @pytest.mark.gpu
