@@ -323,14 +323,13 @@ def test_averaged_options_are_refused_outside_their_ranges(backend):
 
 def test_work_beyond_the_loop_budget_is_refused_not_cut_short():
     """s = 5000 sub-boxes per pass band take ~14 s iterations per landmark interval: beyond
-    llvmpipe's loop budget, which would silently return a partial sum."""
-    from conftest import GPU_INFO
-
+    Mesa 22's loop budget, which would silently return a partial sum; refused there, and
+    within 2e-4 of the numpy twin on a device without a budget (Mesa 25)."""
     mirror = BraggMirror(1.0, 1.5, 250.0, 250.0, 20)
     theta = np.linspace(0.0, 1.5, 16)
     within = mirror.xyz(theta, method="subdivided", backend="gpu", s=1000)
     np.testing.assert_allclose(within, mirror.xyz(theta, method="subdivided", s=1000), atol=2e-4)
-    if GPU_INFO["is_lavapipe"]:
+    if gpu.loop_budget() is not None:
         with pytest.raises(gpu.LoopBudgetError, match=r"'subdivided'.*625 nm.*backend='numpy'"):
             mirror.xyz(theta, method="subdivided", backend="gpu", s=5000)
     else:

@@ -85,7 +85,7 @@ def test_population_colour_gpu_matches_numpy():
 
 
 def test_colours_whose_loops_were_cut_come_back_as_nan(monkeypatch):
-    """llvmpipe's loop-cut flag (w = 1) turns that member's colour into NaN, never a partial
+    """The loop-cut flag (w = 1) turns that member's colour into NaN, never a partial
     sum that a search would trust."""
     members = {"n1": np.ones(2), "n2": np.full(2, 1.5), "d1": np.full(2, 100.0),
                "d2": np.full(2, 90.0), "N": np.array([4.0, 6.0]), "host": np.ones(2)}

@@ -104,7 +104,7 @@ def test_level_sizes_and_windows():
 
 def test_plan_visits_every_texel_in_the_window():
     """The rows and column spans the GPU loops over hold every texel centre that the window
-    (tested as numpy does) admits, and the blocks keep llvmpipe's loop count in bounds."""
+    (tested as numpy does) admits, and the blocks keep the loop count in Mesa 22's budget."""
     for level, sizes in ((0.05, ((256, 128), (128, 64))), (0.3, ((96, 40), (20, 12))),
                          ("cosine", SMALL), (0.02, ((64, 32), (64, 32)))):
         plan = _Plan.make(level, sizes)
@@ -310,7 +310,7 @@ def test_gpu_matches_numpy(source):
 
 @pytest.mark.gpu
 def test_gpu_splits_long_loops():
-    """Whole hemispheres of 512 x 256 texels: each texel needs ~65k loop turns, past llvmpipe's
+    """Whole hemispheres of 512 x 256 texels: each texel needs ~65k loop turns, past Mesa 22's
     limit, so the bake runs in blocks of rows and still matches the twin."""
     environment = structured_map(64, 128, seed=5)
     sizes = ((512, 256), (8, 4))
@@ -325,7 +325,7 @@ def test_gpu_splits_long_loops():
 @pytest.mark.gpu
 def test_gpu_loop_blocks_hold_for_outputs_narrower_than_a_simd_group():
     """Output rows of 2 texels: unpadded, one SIMD group of 8 lanes held all 4 output rows,
-    whose loops (each within MAX_ITERATIONS per block) ran in lockstep past llvmpipe's budget
+    whose loops (each within MAX_ITERATIONS per block) ran in lockstep past Mesa 22's budget
     and lost 5% of row 2's radiance."""
     environment = structured_map(64, 128, seed=5)
     sizes = ((1024, 512), (2, 4))

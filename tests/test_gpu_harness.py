@@ -5,7 +5,9 @@ violations are built in a temporary shader folder instead, so that no more
 broken files ship than the one compile-error example.
 """
 
+import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -16,6 +18,7 @@ import numpy as np
 import pytest
 
 from wgbragg import gpu
+from wgbragg.gpu import loops
 
 KERNELS = Path(__file__).resolve().parent / "kernels"
 """The test suite's own WGSL kernels (not shipped in the wheel)."""
@@ -386,29 +389,83 @@ def test_benchmark_times_each_dispatch():
         gpu.benchmark([first, second], repeats=1025)
 
 
-def test_llvmpipe_loop_budget_is_what_kernels_plan_for():
-    """The pitfall behind SAFE_LOOP_ITERATIONS: llvmpipe ends all loops of a SIMD group after
-    LOOP_BUDGET back-edges in total, and loops_were_cut() tells. If Mesa ever lifts the
-    budget, this documents the change."""
-    from conftest import GPU_INFO
-
+def test_loop_budget_is_what_the_probe_kernel_shows():
+    """The pitfall behind planned_loop_iterations: Mesa 22's llvmpipe ends all loops of a SIMD
+    group after 65535 back-edges in total (the probe reads 65536 iterations, all in its first
+    loop), silently, and loops_were_cut() tells; Mesa 25.0.7's ends none. The measured budget
+    must be what the probe kernel does on this device, the budget shared by both loops."""
+    budget = gpu.loop_budget()
+    mesa = re.search(r"Mesa (\d+)\.", gpu.adapter_info()["description"])
+    if mesa is not None and int(mesa[1]) <= 22:
+        assert budget is not None and abs(budget - 65535) <= 2
+    if mesa is not None and int(mesa[1]) >= 25:
+        assert budget is None
+    assert gpu.safe_loop_iterations() == (None if budget is None else budget // 2)
+    assert gpu.planned_loop_iterations() == (gpu.ITERATIONS_WITHOUT_BUDGET if budget is None
+                                             else budget // 2)
     counts = np.zeros(64, np.uint32)
     counts[:32] = 1
-    counts[0] = gpu.SAFE_LOOP_ITERATIONS // 2  # first SIMD group (8 or 16 lanes): safe
-    counts[32] = 40000  # the last: 80000 back-edges asked for
-    (out,) = gpu.compute_pipeline(str(KERNELS / "loop_budget.wgsl")).run(
+    counts[0] = gpu.planned_loop_iterations() // 2  # first SIMD group (8 or 16 lanes): safe
+    counts[32] = 40000  # the last: 80000 iterations asked for, in two loops
+    (out,) = gpu.compute_pipeline("gpu/loop_budget_probe.wgsl").run(
         [counts], [((counts.size, 2), np.uint32)])
     taken, cut = out.T
     np.testing.assert_array_equal(taken[:32], 2 * counts[:32])
     np.testing.assert_array_equal(cut[:32], 0)
-    if GPU_INFO["is_lavapipe"]:
-        assert gpu.LOOP_BUDGET - 2 <= taken[32] < gpu.LOOP_BUDGET  # silently cut short
+    if budget is not None:
+        assert budget - 2 <= taken[32] < budget  # silently cut short, in the second loop
         assert cut[32] == 1
-        with pytest.raises(gpu.LoopBudgetError, match=r"toy kernel.*backend='numpy'"):
+        with pytest.raises(gpu.LoopBudgetError, match=r"toy kernel.*allows \d+ loop.*numpy"):
             gpu.check_loops(cut, "toy kernel")
     else:
         assert taken[32] == 80000 and cut[32] == 0
+        assert loops.probe_loop_budget() is None  # all of PROBE_ITERATIONS, once more
     gpu.check_loops(cut[:32], "toy kernel")
+
+
+def test_loop_budget_cache_is_validated_not_trusted(tmp_path, monkeypatch):
+    """The measured budget is kept per driver in a JSON file of the cache folder. A file that
+    is not JSON, of another format or probe length, or whose entry is malformed or out of
+    range is probed again and rewritten; a valid entry is read without a probe, and other
+    drivers' valid entries survive a rewrite."""
+    monkeypatch.setenv("WGBRAGG_CACHE", str(tmp_path / "cache"))
+    assert loops.loop_budget_path() == tmp_path / "cache" / loops.CACHE_NAME
+    measured = gpu.loop_budget()
+    probes = []
+    monkeypatch.setattr(loops, "probe_loop_budget", lambda: probes.append(1) or measured)
+    path = loops.loop_budget_path()
+    assert loops.cached_loop_budget(path) == measured and len(probes) == 1  # no file yet
+    assert loops.cached_loop_budget(path) == measured and len(probes) == 1  # read back
+    good = json.loads(path.read_text())
+    (key,) = good["devices"]
+    other = {"name": "other", "description": "Mesa 1.0", "budget": 7}
+
+    def variant(change=None, **entry):
+        document = json.loads(json.dumps(good))
+        document["devices"][key].update(entry)
+        if change is not None:
+            change(document)
+        return json.dumps(document)
+
+    corrupt = ["{ not json", "[]", "\xff", variant(lambda d: d.update(format="other")),
+               variant(lambda d: d.update(version=2)),
+               variant(lambda d: d.update(probe_iterations=1024)),
+               variant(lambda d: d.update(devices=[])),
+               variant(budget=-3), variant(budget=0), variant(budget="65536"),
+               variant(budget=True), variant(budget=65536.0),
+               variant(budget=loops.PROBE_ITERATIONS + 1), variant(name="another GPU"),
+               variant(extra=1), variant(lambda d: d["devices"][key].pop("budget"))]
+    for count, text in enumerate(corrupt, start=2):
+        path.write_text(text, encoding="latin-1")
+        assert loops.cached_loop_budget(path) == measured
+        assert len(probes) == count, text
+        assert json.loads(path.read_text()) == good
+    others = {"other | Mesa 1.0": other}
+    path.write_text(variant(lambda d: d["devices"].update(others), budget=12345))
+    assert loops.cached_loop_budget(path) == 12345 and len(probes) == len(corrupt) + 1
+    path.write_text(variant(lambda d: d["devices"].update(others), budget=-1))
+    assert loops.cached_loop_budget(path) == measured
+    assert json.loads(path.read_text())["devices"] == {**good["devices"], **others}
 
 
 @pytest.mark.parametrize(("cut", "where"), [

@@ -50,10 +50,11 @@ BAKE_PARAMS_DTYPE = gpu.struct_dtype([("alpha", "f32"), ("psi_samples", "u32"),
 
 PSI_SAMPLES_PER_DISPATCH = 1024
 """Most psi samples one GPU bake dispatch sums per entry, so any ``psi_samples`` is baked. The
-psi loop is the kernel's only loop, so this must stay within :data:`gpu.SAFE_LOOP_ITERATIONS`
-(llvmpipe silently ends longer loops, see :mod:`wgbragg.gpu`, "Loop budget"); it is smaller
-because the float32 error of the kernel's sum and half-angle rotation grows with the part's
-length (``docs/performance.md``, "Rough Bragg layers")."""
+psi loop is the kernel's only loop, so a part also stays within what the device's loop budget
+allows (:func:`wgbragg.gpu.planned_loop_iterations`; a budget silently ends longer loops, see
+:mod:`wgbragg.gpu.loops`); it is far smaller because the float32 error of the kernel's sum
+and half-angle rotation grows with the part's length (``docs/performance.md``, "Rough Bragg
+layers")."""
 
 # Gauss-Legendre panels along theta_d (see difference_angle_grid): how well the App. C identity
 # holds with them is in docs/performance.md, "Rough Bragg layers".
@@ -250,9 +251,10 @@ def _bake_values_gpu(theta_i: np.ndarray, theta_d: np.ndarray, alpha: float,
     values = np.zeros(theta_i.size * theta_d.size)
     # One submission per part, summed here in float64: memory stays one table whatever
     # psi_samples is.
-    for first in range(0, psi_samples, PSI_SAMPLES_PER_DISPATCH):
+    part_samples = min(PSI_SAMPLES_PER_DISPATCH, gpu.planned_loop_iterations())
+    for first in range(0, psi_samples, part_samples):
         params["first_sample"] = first
-        params["sample_count"] = min(PSI_SAMPLES_PER_DISPATCH, psi_samples - first)
+        params["sample_count"] = min(part_samples, psi_samples - first)
         (part,) = kernel.run(inputs, [(values.shape, np.float32)], params)
         values += part
     return values.reshape(theta_i.size, theta_d.size)

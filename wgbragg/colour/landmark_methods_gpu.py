@@ -208,11 +208,12 @@ def landmark_xyz(mirror, theta, method: str = "averaged", subdivisions: int = 3,
         For an unknown method, a material that is not a BraggMirror, ``host != n1`` with
         "approx"/"subdivided", or a bad option.
     gpu.LoopBudgetError
-        (a ValueError) On llvmpipe, when an angle's landmarks need more loop iterations than
-        it allows (:data:`gpu.LOOP_BUDGET`): about 2000 band gaps in the visible for
-        "averaged" (``n1 d1 + n2 d2`` beyond ~0.3 mm; past n2's critical angle, where the
-        pass bands come one per pi of the n1 phase, about 1700 of them: ``q1 d1`` beyond
-        ~0.5 mm), fewer below N = 16 (exact panels) and with "subdivided" and a large ``s``.
+        (a ValueError) On a device with a loop budget (:func:`gpu.loop_budget`: Mesa 22's
+        lavapipe), when an angle's landmarks need more loop iterations than it allows: under
+        Mesa 22's, about 2000 band gaps in the visible for "averaged" (``n1 d1 + n2 d2``
+        beyond ~0.3 mm; past n2's critical angle, where the pass bands come one per pi of
+        the n1 phase, about 1700 of them: ``q1 d1`` beyond ~0.5 mm), fewer below N = 16
+        (exact panels) and with "subdivided" and a large ``s``.
     """
     kernel, params = _kernel_and_params(mirror, method, *_checked_options(
         subdivisions, averaging_from, panels_per_oscillation))

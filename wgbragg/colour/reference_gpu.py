@@ -2,9 +2,9 @@
 ``wgsl/colour/reference_film.wgsl``): the GPU twins of :mod:`wgbragg.colour.reference`.
 
 One invocation per angle sums ``R * weight`` over the quadrature nodes it is given, in chunks
-of at most :data:`CHUNK_NODES` nodes per dispatch (llvmpipe's loop budget) added on the host
-in float64. The Bragg kernel takes each angle's geometry and split optical paths from the host
-(:func:`angle_inputs`, :func:`split_float32`): ``docs/design.md``,
+of at most :func:`chunk_nodes` nodes per dispatch (the device's loop budget, and a dispatch's
+time) added on the host in float64. The Bragg kernel takes each angle's geometry and split
+optical paths from the host (:func:`angle_inputs`, :func:`split_float32`): ``docs/design.md``,
 "Float32 numerics" and "What the kernels are given".
 """
 
@@ -22,6 +22,7 @@ __all__ = [
     "WORKGROUP_SIZE",
     "angle_inputs",
     "benchmark_xyz",
+    "chunk_nodes",
     "integrate_xyz",
     "split_float32",
 ]
@@ -31,8 +32,16 @@ __all__ = [
 # (docs/performance.md, "Summary").
 WORKGROUP_SIZE = 64
 
-CHUNK_NODES = gpu.SAFE_LOOP_ITERATIONS
-"""Most nodes one dispatch integrates: the node loop is the kernels' only loop."""
+CHUNK_NODES = 32768
+"""Most nodes one dispatch integrates where the device's loop budget allows as many: a bound
+on a dispatch's time (:func:`chunk_nodes`)."""
+
+
+def chunk_nodes() -> int:
+    """Most nodes one dispatch integrates on this device: :data:`CHUNK_NODES`, or fewer where
+    the loop budget asks (:func:`wgbragg.gpu.planned_loop_iterations`; the node loop is the
+    kernels' only loop)."""
+    return min(CHUNK_NODES, gpu.planned_loop_iterations())
 
 
 def _kernel_and_params(material) -> tuple[gpu.Kernel, np.ndarray]:
@@ -102,7 +111,7 @@ def angle_inputs(mirror: BraggStack, theta) -> np.ndarray:
 
 
 def _dispatches(material, theta, wavelength_nm, weights):
-    """(one bound dispatch per chunk of at most CHUNK_NODES nodes, theta's shape)."""
+    """(one bound dispatch per chunk of at most chunk_nodes() nodes, theta's shape)."""
     kernel, params = _kernel_and_params(material)
     bragg = isinstance(material, BraggStack)
     wavelength = np.asarray(wavelength_nm, np.float64).ravel()
@@ -125,8 +134,9 @@ def _dispatches(material, theta, wavelength_nm, weights):
     else:
         per_angle = [gpu.DeviceArray.upload(flat)]
     dispatches = []
-    for start in range(0, wavelength.size, CHUNK_NODES):
-        nodes = slice(start, start + CHUNK_NODES)
+    chunk = chunk_nodes()
+    for start in range(0, wavelength.size, chunk):
+        nodes = slice(start, start + chunk)
         chunk_base = [] if base is None else [base[nodes] if material.dispersive else base]
         inputs = [nodes_in[nodes], weight[nodes], *chunk_base, *per_angle]
         dispatches.append(kernel.bind(inputs, [((flat.size, 4), np.float32)], params))
@@ -136,9 +146,10 @@ def _dispatches(material, theta, wavelength_nm, weights):
 def integrate_xyz(material, theta, wavelength_nm, weights) -> np.ndarray:
     """float32 GPU sum ``sum_k R(lambda_k, theta) w_k`` for every angle.
 
-    The nodes are integrated in chunks of at most :data:`CHUNK_NODES` per dispatch (one
-    submission), whose float32 sums are added in float64: llvmpipe would silently end a
-    longer loop (:mod:`wgbragg.gpu`, "Loop budget"), and every node counts whatever ``K``.
+    The nodes are integrated in chunks of at most :func:`chunk_nodes` per dispatch (one
+    submission), whose float32 sums are added in float64: a device with a loop budget would
+    silently end a longer loop (:mod:`wgbragg.gpu.loops`), and every node counts whatever
+    ``K``.
 
     Parameters
     ----------
@@ -182,7 +193,7 @@ def benchmark_xyz(material, theta, wavelength_nm, weights, repeats: int = 10) ->
     -------
     float
         The sum of the median seconds of its dispatches, one per chunk of at most
-        :data:`CHUNK_NODES` nodes (one dispatch for the reference's 471); 0.0 when there is
+        :func:`chunk_nodes` nodes (one dispatch for the reference's 471); 0.0 when there is
         nothing to integrate.
     """
     dispatches, _ = _dispatches(material, theta, wavelength_nm, weights)

@@ -264,7 +264,7 @@ def _robust_draws(pspace, robust, seed):
     layers = 1
     if family == "bragg":
         layers = 2 * int(pspace.members(pspace.upper[None])["N"][0])
-        if layers > MAX_ROBUST_LAYERS:  # also below the stack kernel's MAX_LAYERS
+        if layers > MAX_ROBUST_LAYERS:  # below the stack kernel's max_layers() too
             raise ValueError(f"robust per_layer takes mirrors of at most "
                              f"{MAX_ROBUST_LAYERS // 2} periods: bound N to that")
     return layer_perturbations(robust["samples"], layers, robust["sigma_thickness_nm"],

@@ -104,9 +104,10 @@ def population_xyz(members, theta) -> np.ndarray:
     """float32 GPU XYZ of every Bragg mirror at every angle by "averaged"; arguments and
     result as :func:`wgbragg.design.population.population_xyz` (``(P, A, 3)``, float64 array).
 
-    Members whose sweep llvmpipe cut short (:func:`wgbragg.gpu.check_loops`: thousands of
-    band gaps in view) get NaN, which a search ranks last; the flag is shared by a SIMD group,
-    so members evaluated beside such a one may get NaN too.
+    Members whose sweep the device's loop budget cut short (:func:`wgbragg.gpu.check_loops`:
+    thousands of band gaps in view, on Mesa 22's lavapipe) get NaN, which a search ranks
+    last; the flag is shared by a SIMD group, so members evaluated beside such a one may get
+    NaN too.
     """
     angle = np.ascontiguousarray(np.asarray(theta, np.float64).ravel(), np.float32)
     size = len(next(iter(members.values())))

@@ -7,10 +7,11 @@ characteristic (Abeles) matrices in float32 (``wgsl/design/stack.wgsl``), both p
 at once. The host forms each point's ``1 / lambda``, ``sin theta`` and ``cos theta`` in
 float64; the normal components follow without cancellation (``normal_square``) and each
 layer's phase is reduced in turns before any trigonometry (``layer_half_phase``). A layer
-costs one loop iteration, so a stack may hold up to :data:`MAX_LAYERS` layers (llvmpipe's
-loop budget, :data:`wgbragg.gpu.SAFE_LOOP_ITERATIONS`). Large populations run in blocks of
-stacks, each at most :data:`~wgbragg.design.population_gpu.MAX_POINTS_PER_DISPATCH` results
-and :data:`MAX_LAYER_ROWS` layers.
+costs one loop iteration, so a stack may hold up to :func:`max_layers` layers (the iterations
+the device's loop budget allows, :func:`wgbragg.gpu.planned_loop_iterations`). Large
+populations run in blocks of stacks, each at most
+:data:`~wgbragg.design.population_gpu.MAX_POINTS_PER_DISPATCH` results and
+:data:`MAX_LAYER_ROWS` layers.
 """
 
 from __future__ import annotations
@@ -22,13 +23,17 @@ from wgbragg.design.population_gpu import MAX_POINTS_PER_DISPATCH, POPULATION_DT
 from wgbragg.design.stack import stack_inputs
 from wgbragg.optics.pointwise_gpu import POLARIZATION_CODE, WORKGROUP_SIZE
 
-__all__ = ["MAX_LAYERS", "MAX_LAYER_ROWS", "stack_reflectance"]
-
-MAX_LAYERS = gpu.SAFE_LOOP_ITERATIONS
-"""Most layers a stack may hold on the GPU (one loop iteration each)."""
+__all__ = ["MAX_LAYER_ROWS", "max_layers", "stack_reflectance"]
 
 MAX_LAYER_ROWS = 1 << 21
 """Most ``(n, d)`` layer rows one dispatch uploads (16 MiB)."""
+
+
+def max_layers() -> int:
+    """Most layers a stack may hold on this device's GPU: one loop iteration each, so
+    :func:`wgbragg.gpu.planned_loop_iterations` (32768 under Mesa 22's loop budget, 1048576
+    without a budget, where it bounds an invocation's time)."""
+    return gpu.planned_loop_iterations()
 
 
 def stack_reflectance(host, indices, thicknesses_nm, base, wavelength_nm, theta,
@@ -38,8 +43,9 @@ def stack_reflectance(host, indices, thicknesses_nm, base, wavelength_nm, theta,
     host, index, thickness, base, wavelength, angle = stack_inputs(
         host, indices, thicknesses_nm, base, wavelength_nm, theta, polarization)
     size, count = index.shape
-    if count > MAX_LAYERS:
-        raise ValueError(f"indices must hold at most {MAX_LAYERS} layers a stack on the GPU, "
+    most = max_layers()
+    if count > most:
+        raise ValueError(f"indices must hold at most {most} layers a stack on the GPU, "
                          f"got {count}")
     points = wavelength.size
     out = np.empty((size, points))

@@ -261,9 +261,12 @@ def _layer_spectra(mirror, sigma_d, sigma_n, samples, wavelength, theta, seed, b
     their own normal errors, a bounded block of copies at a time; the draws continue one
     generator, so they do not depend on the block size."""
     layers = 2 * mirror.N
-    if layers > stack_gpu.MAX_LAYERS:
-        raise ValueError(f"per_layer takes mirrors of at most {stack_gpu.MAX_LAYERS // 2} "
-                         f"periods, got N = {mirror.N}")
+    # The GPU's stack kernel takes what the device's loop budget allows; numpy a block of
+    # copies holds at least one copy.
+    most = stack_gpu.max_layers() if backend == "gpu" else _LAYER_BLOCK_ROWS
+    if layers > most:
+        raise ValueError(f"per_layer takes mirrors of at most {most // 2} periods with "
+                         f"backend={backend!r}, got N = {mirror.N}")
     rng = np.random.default_rng(seed)
     members = structure_members(mirror, "bragg")
     nominal = {"layer_thickness": np.zeros((1, layers)), "layer_index": np.zeros((1, layers))}

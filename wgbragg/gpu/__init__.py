@@ -5,23 +5,20 @@ Every kernel of the package runs through it: one device per process, WGSL compos
 that upload numpy arrays, dispatch and read back. The names below are its public API; each
 lives in the submodule for its job, whose docstring says more:
 
-- :mod:`~wgbragg.gpu.device`: adapter (``WGBRAGG_ADAPTER``), device, buffer limits and
-  llvmpipe's "Loop budget";
+- :mod:`~wgbragg.gpu.device`: adapter (``WGBRAGG_ADAPTER``), device and buffer limits;
 - :mod:`~wgbragg.gpu.shaders`: shader folder, include composer, compile errors;
 - :mod:`~wgbragg.gpu.specialise`: the ``//! if`` blocks that override constants resolve;
 - :mod:`~wgbragg.gpu.layouts`: WGSL uniform structs and bilinear cell quads;
 - :mod:`~wgbragg.gpu.timing`: GPU timestamps and :func:`pass_clock`;
 - :mod:`~wgbragg.gpu.pipelines`: the "Binding convention", "Dispatch", "Any element count"
   (:class:`Rows`), "Chained dispatches" and "Specialisation" of kernels, device arrays,
-  :func:`submit` and :func:`benchmark`.
+  :func:`submit` and :func:`benchmark`;
+- :mod:`~wgbragg.gpu.loops`: the device's "Loop budget", measured by a probe kernel, and the
+  iterations kernels plan for.
 """
 
 from wgbragg.gpu.device import (
-    LOOP_BUDGET,
-    SAFE_LOOP_ITERATIONS,
-    LoopBudgetError,
     adapter_info,
-    check_loops,
     get_device,
     max_buffer_bytes,
     select_adapter,
@@ -31,6 +28,15 @@ from wgbragg.gpu.layouts import (
     bilinear_quads,
     bilinear_quads_fit,
     struct_dtype,
+)
+from wgbragg.gpu.loops import (
+    ITERATIONS_WITHOUT_BUDGET,
+    LoopBudgetError,
+    check_loops,
+    describe_loop_budget,
+    loop_budget,
+    planned_loop_iterations,
+    safe_loop_iterations,
 )
 from wgbragg.gpu.pipelines import (
     DeviceArray,
@@ -47,8 +53,7 @@ from wgbragg.gpu.timing import PassClock, pass_clock
 
 __all__ = [
     "BILINEAR_QUADS_MAX_BYTES",
-    "LOOP_BUDGET",
-    "SAFE_LOOP_ITERATIONS",
+    "ITERATIONS_WITHOUT_BUDGET",
     "DeviceArray",
     "Dispatch",
     "Kernel",
@@ -63,11 +68,15 @@ __all__ = [
     "bilinear_quads_fit",
     "check_loops",
     "compute_pipeline",
+    "describe_loop_budget",
     "get_device",
     "load_shader",
+    "loop_budget",
     "max_buffer_bytes",
     "pass_clock",
     "pipeline_cache_info",
+    "planned_loop_iterations",
+    "safe_loop_iterations",
     "select_adapter",
     "shader_dir",
     "struct_dtype",

@@ -1,20 +1,9 @@
-"""The process-wide wgpu device: adapter choice, limits and llvmpipe's loop budget.
+"""The process-wide wgpu device: adapter choice and limits.
 
 One device per process (:func:`get_device`), on the adapter that ``WGBRAGG_ADAPTER`` names or
 else the one wgpu prefers; :func:`adapter_info` describes it, and :func:`max_buffer_bytes`
-bounds every buffer a kernel binds.
-
-Loop budget
------------
-llvmpipe (lavapipe's shader compiler) ends every loop of an invocation once the loops of its
-SIMD group (8 lanes on AVX2) have taken :data:`LOOP_BUDGET` back-edges in total, counted over
-all loops, nested ones included, as the slowest lane of the group sees them. It does so
-silently: the kernel returns a partial sum, or a walk stops early. Every kernel whose loop
-count comes from its inputs therefore keeps an invocation's total iterations under
-:data:`SAFE_LOOP_ITERATIONS`, by splitting the work over invocations or dispatches or by
-refusing the input with a ``ValueError``. Kernels that can still overrun report it through
-``loops_were_cut()`` (``gpu/harness.wgsl``), and the host turns the flags into a
-:class:`LoopBudgetError` with :func:`check_loops`.
+bounds every buffer a kernel binds. Where the device ends loops early:
+:mod:`wgbragg.gpu.loops`.
 
 Environment
 -----------
@@ -31,19 +20,9 @@ import tempfile
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-import numpy as np
 import wgpu
 
 from wgbragg.gpu.driver import apply_driver_choice, mesa_version
-
-LOOP_BUDGET = 65535
-"""Back-edges llvmpipe lets one SIMD group of invocations take, over all its loops
-(``LP_MAX_TGSI_LOOP_ITERATIONS`` in Mesa's gallivm), before it ends them."""
-
-SAFE_LOOP_ITERATIONS = 32768
-"""Iterations a kernel may plan for one invocation: half of :data:`LOOP_BUDGET`, leaving room
-for the short inner loops (Newton steps, bisections, unrolled sums) that the plan does not
-count."""
 
 _OPTIONAL_FEATURES = ("timestamp-query", "shader-f64")
 
@@ -215,35 +194,4 @@ def check_buffer_size(nbytes: int, what: str) -> None:
         raise ValueError(
             f"{what}: {nbytes} bytes exceed this GPU's largest storage buffer ({largest} bytes,"
             f" {adapter_info()['name']}); split the work or reduce its size"
-        )
-
-
-# --------------------------------------------------------------------------- loop budget
-
-
-class LoopBudgetError(ValueError):
-    """The device ended a kernel's loops before its work was done (llvmpipe's
-    :data:`LOOP_BUDGET`): the input asks for more iterations than this backend can run."""
-
-
-def check_loops(cut, what: str) -> None:
-    """Raise :class:`LoopBudgetError` if any ``loops_were_cut()`` flag in ``cut`` is set.
-
-    Parameters
-    ----------
-    cut : array_like
-        The kernel's flags (non-zero = cut), any shape: one per point, or a single word
-        that any cut invocation sets.
-    what : str
-        The work and the input that sizes it, for the message.
-    """
-    cut = np.asarray(cut)
-    if np.any(cut != 0):
-        # Kernels that report in one shared word cannot say where.
-        where = (" at some points" if cut.size == 1
-                 else f" at {np.count_nonzero(cut)} of {cut.size} points")
-        raise LoopBudgetError(
-            f"{what}: the GPU ({adapter_info()['name']}) ended the kernel's loops early{where} "
-            f"(llvmpipe allows {LOOP_BUDGET} loop iterations per invocation); use "
-            "backend='numpy', or ask for less work per point"
         )

@@ -6,7 +6,7 @@ GPU in float32 or with the float64 numpy twin; :class:`PrefilteredEnvironment` l
 and packs them for the renderer. Directions follow :mod:`wgbragg.lighting.environment_map`;
 radiance is in the source's unit. The prefiltered quantities, resolutions and windows:
 ``docs/physics.md``, "Prefiltered environments"; the GPU's blocks and the loop budget:
-``docs/design.md``, "llvmpipe's loop budget" and "What the kernels are given".
+``docs/design.md``, "The loop budget" and "What the kernels are given".
 """
 
 from __future__ import annotations
@@ -34,6 +34,7 @@ __all__ = [
     "SIMD_LANES",
     "TRUNCATION",
     "PrefilteredEnvironment",
+    "block_iterations",
     "level_sizes",
     "prefilter_environment",
     "resample_environment",
@@ -50,10 +51,19 @@ TRUNCATION = 1e-4
 """``D(h) / D(n)`` at the edge of a GGX window (see :func:`window_angle`)."""
 MAX_ITERATIONS = 60_000
 """Loop turns the invocations of one output row may run per dispatch: column iterations plus
-one per input row. Under llvmpipe's :data:`gpu.LOOP_BUDGET` with room for the exit pass of
-each loop, which this count leaves out (at most one per input row, and input heights are at
-most 2048). It holds per SIMD group because a group never spans two output rows
-(:data:`SIMD_LANES`)."""
+one per input row, fewer where the device's loop budget asks (:func:`block_iterations`).
+Without a budget it bounds a dispatch's time. It holds per SIMD group because a group never
+spans two output rows (:data:`SIMD_LANES`)."""
+
+
+def block_iterations() -> int:
+    """:data:`MAX_ITERATIONS` on this device: the loop budget (:func:`wgbragg.gpu.loop_budget`)
+    less room for the exit pass of each loop, which the count leaves out (at most one per
+    input row, and input heights are at most 2048), where that is smaller."""
+    budget = gpu.loop_budget()
+    if budget is None:
+        return MAX_ITERATIONS
+    return max(1, min(MAX_ITERATIONS, budget - _LARGEST_HEIGHT))
 
 SIMD_LANES = 16
 """Invocations of an output row are padded to a multiple of this: llvmpipe's SIMD groups (8
@@ -401,16 +411,17 @@ class _Plan:
         centre = ((2 * np.arange(w_out) + 1) * w_in) // (2 * w_out)
         return cls(level, source, target, q_max, first, end, spans.astype(np.int32), centre)
 
-    def blocks(self) -> list[tuple[int, int]]:
-        """Input rows split so that no output row iterates more than MAX_ITERATIONS times in
-        a block: per input row, its column loop and one turn of the row loop. The GPU bake
-        pads output rows to SIMD_LANES invocations, so this bounds every SIMD group."""
+    def blocks(self, most: int = MAX_ITERATIONS) -> list[tuple[int, int]]:
+        """Input rows split so that no output row iterates more than ``most`` times in a
+        block (the GPU bake's :func:`block_iterations`): per input row, its column loop and
+        one turn of the row loop. The GPU bake pads output rows to SIMD_LANES invocations, so
+        this bounds every SIMD group."""
         w_in = self.source.width
         cost = np.where(self.spans >= 0, np.minimum(2 * self.spans + 1, w_in) + 1, 0)
         blocks, begin = [], 0
         total = np.zeros(self.target.height, np.int64)
         for row in range(self.source.height):
-            if np.any(total + cost[:, row] > MAX_ITERATIONS) and row > begin:
+            if np.any(total + cost[:, row] > most) and row > begin:
                 blocks.append((begin, row))
                 begin, total = row, np.zeros_like(total)
             total += cost[:, row]
@@ -501,7 +512,7 @@ def _bake_gpu(plan: _Plan, radiance: np.ndarray):
     count = stride * target.height
     sums = gpu.DeviceArray.empty((count * 4, 4), np.float32)
     result = gpu.DeviceArray.empty((count * 4, 4), np.float32)
-    blocks = plan.blocks()
+    blocks = plan.blocks(block_iterations())
     dispatches = []
     for index, (begin, end) in enumerate(blocks):
         params = np.zeros((), PARAMS_DTYPE)

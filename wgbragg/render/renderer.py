@@ -72,15 +72,16 @@ per pixel beside the colour (:meth:`Renderer.features`); :meth:`Renderer.denoise
 ``render(..., denoise=True)``) runs Intel Open Image Denoise on the CPU with them
 (:mod:`wgbragg.render.denoise`), leaving :meth:`Renderer.image` raw.
 
-Limits: area lights are not seen directly by the camera or by mirror bounces. On llvmpipe
-(lavapipe), which ends an invocation's loops after 65535 iterations (:mod:`wgbragg.gpu`, "Loop
-budget"), a path's loops must stay within that budget: its bounces, its shadow rays to every
-light, the BVH traversal of each ray (which grows with the mesh, and with many long thin
+Limits: area lights are not seen directly by the camera or by mirror bounces. On a device
+with a loop budget (:mod:`wgbragg.gpu.loops`: Mesa 22's lavapipe ends an invocation's loops
+after 65536 iterations), a path's loops must stay within it: its bounces, its shadow rays to
+every light, the BVH traversal of each ray (which grows with the mesh, and with many long thin
 triangles) and, with period maps in RGB mode, the landmark colour at each vertex (which grows
 with the period). Scenes whose lights alone exceed it are refused with a ``ValueError``
 (:func:`max_lights`); otherwise the kernels report cut loops and :meth:`Renderer.render` and
 :meth:`Renderer.primary_hits` raise :class:`wgbragg.gpu.LoopBudgetError` instead of returning a
-wrong image: render fewer lights, fewer bounces or a coarser mesh.
+wrong image: render fewer lights, fewer bounces or a coarser mesh. Without a budget only
+:func:`max_lights` bounds the lights, for a dispatch's time.
 """
 
 from __future__ import annotations
@@ -135,8 +136,9 @@ MAX_BOUNCES = 8
 """Default :class:`Renderer` ``max_bounces``."""
 PATHS_PER_DISPATCH = 65536
 """Paths a submission of :meth:`Renderer.render` traces at least, for an image of at least 2
-pixels (one pixel takes :data:`wgbragg.gpu.SAFE_LOOP_ITERATIONS` samples a submission: the
-kernel that sums them loops over them in one invocation)."""
+pixels (one pixel takes half as many a submission, fewer where the device's loop budget asks,
+:func:`wgbragg.gpu.planned_loop_iterations`: the kernel that sums them loops over them in one
+invocation)."""
 PROBE_PATHS = 1024
 """Paths of the first dispatch of :meth:`Renderer.render` with ``seconds`` when its cost per path
 is not known yet: the probe whose measured time plans the others (16 workgroups; at most a few
@@ -228,13 +230,14 @@ def _convex_alone(scene: Scene) -> bool:
 
 
 def max_lights(max_bounces: int, convex_alone: bool = False) -> int:
-    """Most point and area lights a scene may have under llvmpipe's loop budget.
+    """Most point and area lights a scene may have on this device.
 
     A path shades up to ``max_bounces`` vertices (one for a convex object alone), each looping
     over every light and tracing a shadow ray to it, whose BVH traversal takes at least one
     loop iteration more (none for a convex object alone): at most
-    :data:`wgbragg.gpu.SAFE_LOOP_ITERATIONS` in all. The traversals usually take more, which
-    the kernels detect (see the module docstring).
+    :func:`wgbragg.gpu.planned_loop_iterations` in all (the device's loop budget, or a bound
+    on a dispatch's time without one). The traversals usually take more, which the kernels
+    detect where there is a budget (see the module docstring).
 
     Parameters
     ----------
@@ -246,9 +249,11 @@ def max_lights(max_bounces: int, convex_alone: bool = False) -> int:
     Returns
     -------
     int
+        Under Mesa 22's loop budget 2048 at 8 bounces, 32768 for a convex object alone;
+        without a budget 32 times as many.
     """
     vertices, per_light = (1, 1) if convex_alone else (max_bounces, 2)
-    return gpu.SAFE_LOOP_ITERATIONS // (vertices * per_light)
+    return gpu.planned_loop_iterations() // (vertices * per_light)
 
 
 def check_size(size) -> tuple[int, int]:
@@ -482,8 +487,9 @@ class Renderer:
         self._accum = gpu.DeviceArray.empty((width * height, 4), np.float32)
         # accumulate sums a pixel's samples of a submission in one invocation's loop.
         self._batch = max(1, min(PATHS_PER_DISPATCH // (width * height),
-                                 gpu.SAFE_LOOP_ITERATIONS))
-        # render/renderer.wgsl's loops_cut: 1 once llvmpipe ended some invocation's loops early.
+                                 PATHS_PER_DISPATCH // 2, gpu.planned_loop_iterations()))
+        # render/renderer.wgsl's loops_cut: 1 once the device ended some invocation's loops
+        # early.
         self._loops_cut = gpu.DeviceArray.empty(1, np.uint32)
         # vec3 in a storage array: 16 bytes a path.
         self._paths = gpu.DeviceArray.empty((width * height * self._batch, 4), np.float32)
@@ -569,7 +575,7 @@ class Renderer:
         if len(scene.lights) > most:
             raise ValueError(
                 f"lights: a scene rendered with max_bounces={self._max_bounces} takes 0 to "
-                f"{most} point and area lights (llvmpipe's loop budget, see max_lights), got "
+                f"{most} point and area lights (the device's loop budget, see max_lights), got "
                 f"{len(scene.lights)}: merge lights or lower max_bounces")
         return mode, colour_method, ibl
 
@@ -749,7 +755,7 @@ class Renderer:
 
     def _check_loops(self, flag) -> None:
         """Raise :class:`gpu.LoopBudgetError` (and forget the samples) if the last submission
-        reported loops that llvmpipe ended early."""
+        reported loops that the device ended early."""
         if not flag[0]:
             return
         gpu.get_device().queue.write_buffer(self._loops_cut.resource, 0,
@@ -757,7 +763,7 @@ class Renderer:
         self.reset()
         raise gpu.LoopBudgetError(
             f"render: the GPU ({gpu.adapter_info()['name']}) ended a path's loops early "
-            f"(llvmpipe allows {gpu.LOOP_BUDGET} loop iterations per invocation), so the image "
+            f"({gpu.describe_loop_budget()}), so the image "
             f"would be wrong; its loops grow with max_bounces ({self._max_bounces}), the lights "
             f"({len(self.scene.lights)}), the BVH traversals ({self.triangles} triangles) and "
             "in-kernel layer colours (period maps): lower them")
@@ -841,7 +847,7 @@ class Renderer:
         ValueError
             Unless exactly one of ``spp`` and ``seconds`` is given, in range.
         wgbragg.gpu.LoopBudgetError
-            (a ValueError) When llvmpipe ended a path's loops early (see the module
+            (a ValueError) When the device ended a path's loops early (see the module
             docstring); the accumulated samples are then forgotten.
         """
         if (spp is None) == (seconds is None):
@@ -970,7 +976,7 @@ class Renderer:
         Raises
         ------
         wgbragg.gpu.LoopBudgetError
-            When llvmpipe ended a traversal early (see the module docstring).
+            When the device ended a traversal early (see the module docstring).
         """
         result, flag = gpu.submit([self._dispatch("primary_hits")],
                                   read=[self._accum, self._loops_cut])

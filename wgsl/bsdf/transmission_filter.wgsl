@@ -5,8 +5,8 @@
 // Angles arrive as (cos t, sin t, cos t/2, sin t/2), computed by the host in float64: f32(pi/2)
 // lies above pi/2, so cos of the rounded angle would be negative at grazing incidence.
 // The midpoint samples first .. first + count - 1 of psi_samples: F is the sum of these parts
-// over a partition of 0 .. psi_samples - 1, which lets the host keep count within llvmpipe's
-// loop budget (wgbragg/gpu/device.py, "Loop budget") whatever psi_samples is.
+// over a partition of 0 .. psi_samples - 1, which lets the host keep count within the device's
+// loop budget (wgbragg/gpu/loops.py, "Loop budget") whatever psi_samples is.
 fn transmission_filter(incident: vec4<f32>, difference: vec4<f32>, alpha: f32,
                        psi_samples: u32, first: u32, count: u32) -> f32 {
     let ci = incident.x;

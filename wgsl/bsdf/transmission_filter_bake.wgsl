@@ -1,7 +1,7 @@
 // Entry point: the transmission filter table, one invocation per (theta_i, theta_d) cell,
 // row-major (row = theta_i). Angles are (cos, sin, cos/2, sin/2) as bsdf/transmission_filter.wgsl
 // expects. One dispatch sums the psi samples first_sample .. first_sample + sample_count - 1
-// (transmission_filter.PSI_SAMPLES_PER_DISPATCH, within llvmpipe's loop budget); the host adds
+// (transmission_filter.PSI_SAMPLES_PER_DISPATCH, within the device's loop budget); the host adds
 // the parts.
 //! include "gpu/harness.wgsl"
 //! include "gpu/numerics.wgsl"

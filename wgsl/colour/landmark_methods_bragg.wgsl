@@ -32,7 +32,7 @@ struct LandmarkColourParams {
 
 @group(0) @binding(0) var<storage, read> theta: array<f32>;
 @group(0) @binding(1) var<storage, read> cmf: array<vec4<u32>>;
-@group(0) @binding(2) var<storage, read_write> xyz: array<vec4<f32>>;  // w = 1 where llvmpipe cut the loops short
+@group(0) @binding(2) var<storage, read_write> xyz: array<vec4<f32>>;  // w = 1 where the loop budget cut the loops short
 @group(0) @binding(3) var<uniform> params: LandmarkColourParams;
 
 @compute @workgroup_size(WORKGROUP_SIZE)

@@ -1,8 +1,9 @@
 // Entry point: D65-weighted XYZ of a Bragg mirror, one invocation per angle theta_i:
 //   xyz[i] = sum_k R(lambda_k, theta_i) weights[k].xyz,  R unpolarized (mean of s, p).
 // The host passes the quadrature: 1 nm nodes for the reference, K strata for "spectral"
-// (wgbragg/colour/reference.py), at most gpu.SAFE_LOOP_ITERATIONS per dispatch: llvmpipe would end
-// a longer loop early (wgbragg/gpu/device.py, "Loop budget"), so wgbragg/colour/reference_gpu.py sums chunks of nodes.
+// (wgbragg/colour/reference.py), at most reference_gpu.chunk_nodes() per dispatch: a device with a
+// loop budget would end a longer loop early (wgbragg/gpu/loops.py), so wgbragg/colour/reference_gpu.py
+// sums chunks of nodes.
 // The angle's fields come from the host in float64 (optics/yeh.wgsl, angle_geometry_given), the layer
 // phases from optical paths and 1 / lambda split on the host (split_cycles), so their fractions
 // keep float32's accuracy whatever the phase, which matters with a few heavily weighted nodes

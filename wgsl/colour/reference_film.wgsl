@@ -1,7 +1,7 @@
 // Entry point: D65-weighted XYZ of a thin film, one invocation per angle theta[i]:
 //   xyz[i] = sum_k R(wavelength_nm[k], theta[i]) weights[k].xyz,  R unpolarized (mean of s, p).
 // Twin of colour/reference_bragg.wgsl for wgbragg.ThinFilm, chunked alike (at most
-// gpu.SAFE_LOOP_ITERATIONS nodes per dispatch). Plain float32 sum, as there
+// reference_gpu.chunk_nodes() nodes per dispatch). Plain float32 sum, as there
 // (docs/performance.md, '"spectral": samples against error').
 //! include "gpu/harness.wgsl"
 //! include "gpu/numerics.wgsl"

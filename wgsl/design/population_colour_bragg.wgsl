@@ -19,7 +19,7 @@
 // Angle in the host (radians) of each point.
 @group(0) @binding(2) var<storage, read> theta: array<f32>;
 @group(0) @binding(3) var<storage, read> cmf: array<vec4<u32>>;
-// w = 1 where llvmpipe cut the loops short.
+// w = 1 where the device's loop budget cut the loops short.
 @group(0) @binding(4) var<storage, read_write> xyz: array<vec4<f32>>;
 @group(0) @binding(5) var<uniform> population: Population;
 

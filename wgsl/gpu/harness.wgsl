@@ -11,7 +11,8 @@ fn global_index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
     return gid.x + gid.y * nwg.x * WORKGROUP_SIZE;
 }
 
-// Whether llvmpipe ended this invocation's loops early (wgbragg.gpu, "Loop budget"). Call it
+// Whether the device ended this invocation's loops early (wgbragg/gpu/loops.py: a loop budget, as
+// Mesa 22's lavapipe has; never where the device has none). Call it
 // after the kernel's last loop and report the answer to the host, which refuses the result.
 // Its loop runs 2 or 3 times, a count the compiler cannot know from `unknown` (any runtime
 // value), so it is not unrolled away: once the SIMD group's budget is spent, the loop stops

@@ -2,10 +2,10 @@
 // whose docstring defines the sums), one invocation per output texel, in float32.
 //
 // A dispatch sums the input rows [row_begin, row_end) that lie in the texel's window into
-// `sums`, adding to what earlier dispatches of the level left there: llvmpipe silently ends the
-// loops of a SIMD group after 65535 iterations in total, counted as its slowest lane sees them,
-// so the host splits the rows into blocks of at most MAX_ITERATIONS (environment_prefilter.py)
-// loop turns per output row. Invocations run row by row with a stride of out_stride, a multiple
+// `sums`, adding to what earlier dispatches of the level left there: a device with a loop budget
+// (wgbragg/gpu/loops.py; Mesa 22's lavapipe) silently ends the loops of a SIMD group after so many
+// iterations in total, counted as its slowest lane sees them, so the host splits the rows into
+// blocks of at most block_iterations() (environment_prefilter.py) loop turns per output row. Invocations run row by row with a stride of out_stride, a multiple
 // of the SIMD width, so that no group mixes the loop counts of two output rows; the columns
 // past out_width idle. The last dispatch (finish = 1) also writes the normalised texel to
 // `prefiltered`, in the layout of lighting/environment_prefilter_lookup.wgsl: (radiance, 0), (mean, 0),

@@ -4,7 +4,7 @@
 //                  denoising features to albedo_sum and normal_sum
 //   primary_hits:  the closest hit of each pixel-centre camera ray, accum = (t, primitive, 0,
 //                  0), primitive -1 and t = 3.4e38 for a miss (to check the traversal against numpy)
-// Each sets loops_cut[0] = 1 where llvmpipe ended an invocation's loops early (wgbragg.gpu,
+// Each sets loops_cut[0] = 1 where the device ended an invocation's loops early (wgbragg.gpu.loops,
 // "Loop budget"): a path's loops (bounces, lights, BVH traversals, in-kernel colours) add up
 // to what the host cannot foresee, so it checks the flag after every submission.
 // Light transport: next-event estimation towards the environment, point lights and area
@@ -636,7 +636,7 @@ fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u3
     return radiance;
 }
 
-// Flags the dispatch when llvmpipe ended this invocation's loops early. Every writer stores
+// Flags the dispatch when the device ended this invocation's loops early. Every writer stores
 // the same value, so the race is harmless.
 fn report_cut_loops() {
     if (loops_were_cut(params.count)) {
@@ -648,8 +648,9 @@ fn report_cut_loops() {
 // the whole image by default), the pixel's sample (its count so far in accum.w) plus
 // index / count. The random numbers depend on the pixel and the sample only, so an image of n
 // samples a pixel is the same however its dispatches split the pixels and the samples. Looping
-// over samples in one invocation would be cheaper, but llvmpipe ends a loop after 65535
-// iterations counted over the whole invocation, and BVH traversals add up to thousands a path.
+// over samples in one invocation would be cheaper, but a loop budget (Mesa 22's lavapipe: 65536
+// iterations counted over the whole invocation) would end it, and BVH traversals add up to
+// thousands a path.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render(@builtin(global_invocation_id) gid: vec3<u32>,
           @builtin(num_workgroups) nwg: vec3<u32>) {

@@ -24,12 +24,13 @@ from wgbragg.optics import yeh_gpu
 __all__ = [
     "FACTORED_COLOUR_METHODS",
     "LAYER_DTYPE",
-    "MAX_INTEGRATED_LAYERS",
     "OPERATIONS",
     "PARAMS_DTYPE",
+    "WAVELENGTH_BLOCK_ITERATIONS",
     "WAVELENGTH_RANGE_NM",
     "benchmark",
     "brdf",
+    "max_integrated_layers",
     "pdf",
     "sample",
     "wavelengths_per_invocation",
@@ -70,18 +71,28 @@ VISIBLE_NODES = 471
 """Nodes of the 1 nm wavelength axis, 360..830 nm (``VISIBLE_NODES`` of
 ``wgsl/bsdf/layered/model.wgsl``, checked by ``tests/test_wgsl_layouts.py``)."""
 
-MAX_INTEGRATED_LAYERS = gpu.SAFE_LOOP_ITERATIONS // VISIBLE_NODES - 2
-"""Most layers of a structure whose RGB the kernel integrates over the 471 nodes in one
-invocation (``colour_method="integrated"``, or ``"reference"`` without LUT): each node costs
-the loop budget ``layers + 2`` iterations (:func:`wavelengths_per_invocation`)."""
+WAVELENGTH_BLOCK_ITERATIONS = 32768
+"""Loop iterations one invocation spends on a multiplexed wavelength axis at most, fewer
+where the device's loop budget asks (:func:`wgbragg.gpu.planned_loop_iterations`): longer
+axes are split over dispatches, which bounds a dispatch's time also without a budget."""
+
+
+def max_integrated_layers() -> int:
+    """Most layers of a structure whose RGB the kernel integrates over the 471 nodes in one
+    invocation (``colour_method="integrated"``, or ``"reference"`` without LUT) on this
+    device: each node costs ``layers + 2`` loop iterations (:func:`wavelengths_per_invocation`)
+    of the :func:`wgbragg.gpu.planned_loop_iterations` an invocation plans for; 67 under Mesa
+    22's loop budget, 2224 without a budget."""
+    return gpu.planned_loop_iterations() // VISIBLE_NODES - 2
 
 
 def wavelengths_per_invocation(layers: int) -> int:
     """Most multiplexed wavelengths one invocation evaluates, for ``layers`` rough layers.
 
-    An invocation plans for :data:`gpu.SAFE_LOOP_ITERATIONS` loop iterations (llvmpipe's
-    budget), and each wavelength takes one of the wavelength loop and ``layers + 1`` of the
-    layer loop (its exit test counts; a single layer is unrolled), as lavapipe's cuts confirm
+    An invocation plans for :data:`WAVELENGTH_BLOCK_ITERATIONS` loop iterations, or for
+    :func:`wgbragg.gpu.planned_loop_iterations` where the device's loop budget allows fewer,
+    and each wavelength takes one of the wavelength loop and ``layers + 1`` of the layer loop
+    (its exit test counts; a single layer is unrolled), as Mesa 22's cuts confirm
     (``docs/performance.md``, "Layered structures").
 
     Parameters
@@ -93,7 +104,8 @@ def wavelengths_per_invocation(layers: int) -> int:
     -------
     int
     """
-    return gpu.SAFE_LOOP_ITERATIONS // (layers + 2)
+    iterations = min(WAVELENGTH_BLOCK_ITERATIONS, gpu.planned_loop_iterations())
+    return max(1, iterations // (layers + 2))
 
 # What a kernel reads besides the transmission probabilities: the spectral tables (spectral
 # and integrated RGB results), the factored RGB tables, or nothing more (the density).
@@ -303,12 +315,13 @@ def _check_request(structure, wavelength, method: str, colour_method: str) -> No
     nodes_in_kernel = wavelength is None and (
         colour_method == INTEGRATED
         or (colour_method == "reference" and method != "single-reflection-lut"))
-    if nodes_in_kernel and layers > MAX_INTEGRATED_LAYERS:
+    most = max_integrated_layers() if nodes_in_kernel else layers
+    if layers > most:
         raise ValueError(
             f"layers: backend='gpu' sums colour_method={colour_method!r} over "
-            f"{VISIBLE_NODES} wavelengths in one invocation for 1 to {MAX_INTEGRATED_LAYERS} "
-            f"layers (llvmpipe's loop budget), got {layers}: pass wavelength_nm and integrate, "
-            "or use backend='numpy'")
+            f"{VISIBLE_NODES} wavelengths in one invocation for 1 to {most} layers (the "
+            f"device's loop budget), got {layers}: pass wavelength_nm and integrate, or use "
+            "backend='numpy'")
     if wavelength is not None:
         low, high = WAVELENGTH_RANGE_NM
         if not np.all((wavelength >= low) & (wavelength <= high)):
@@ -352,7 +365,7 @@ def _multiplexed(direction_shape: tuple, wavelength) -> bool:
 
 def _wavelength_parts(structure, direction_shape: tuple, wavelength) -> list:
     """``wavelength`` split along a multiplexed axis into parts that an invocation evaluates
-    within llvmpipe's loop budget (:func:`wavelengths_per_invocation`)."""
+    within its share of loop iterations (:func:`wavelengths_per_invocation`)."""
     if wavelength is None or not _multiplexed(direction_shape, wavelength):
         return [wavelength]
     step = wavelengths_per_invocation(len(structure.layers))
@@ -627,7 +640,7 @@ def benchmark(structure, operation: str, wi, second, wavelength=None,
         raise ValueError(
             f"wavelength: one dispatch evaluates 1 to "
             f"{wavelengths_per_invocation(len(structure.layers))} multiplexed wavelengths for "
-            f"{len(structure.layers)} layers (llvmpipe's loop budget), got "
+            f"{len(structure.layers)} layers (an invocation's share of loop iterations), got "
             f"{np.broadcast_shapes(shape, wavelength.shape)[-1]}")
     batch = _batch(shape, wavelength)
     if batch.count == 0:

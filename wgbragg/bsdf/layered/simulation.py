@@ -7,7 +7,7 @@ single-reflection model (eq 34). :func:`simulate` estimates the BRDF by next-eve
 (``wo`` given) or returns the paths' exit directions and weights (``wo=None``).
 
 The walk, the estimators and the wavelengths a path carries: ``docs/physics.md``, section 12;
-the loop budget: ``docs/design.md``, "llvmpipe's loop budget".
+the loop budget: ``docs/design.md``, "The loop budget".
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from wgbragg.common.validation import (
 from wgbragg.optics import yeh_gpu
 
 __all__ = ["MAX_WAVELENGTHS", "MODES", "PATH_WAVELENGTHS", "TRANSMISSIONS", "bounce_limit",
-           "simulate", "walk_iterations"]
+           "max_layers", "simulate", "walk_iterations"]
 
 MODES = ("all", "single")
 """``mode=``: every path, or the paths that reflect once (eq 34)."""
@@ -65,7 +65,7 @@ _PARAMS_DTYPE = gpu.struct_dtype([
 
 
 def walk_iterations(layers: int, max_bounces: int) -> int:
-    """Loop iterations that one walk may take in the kernel, at most (llvmpipe's budget).
+    """Loop iterations that one walk may take in the kernel, at most (the loop budget's plan).
 
     A walk makes up to ``max_bounces + 1`` reflections, each after crossing up to ``layers``
     layers, and each crossing or reflection loops over the layers above for next-event
@@ -88,9 +88,10 @@ def walk_iterations(layers: int, max_bounces: int) -> int:
 
 
 def bounce_limit(layers: int) -> int:
-    """Largest ``max_bounces`` of :func:`simulate` for a structure of ``layers`` rough layers:
-    one walk then fits in :data:`wgbragg.gpu.SAFE_LOOP_ITERATIONS` (:func:`walk_iterations`);
-    0 when not even one reflection does (63 layers or more).
+    """Largest ``max_bounces`` of :func:`simulate` for a structure of ``layers`` rough layers
+    on this device: one walk then fits in the iterations an invocation plans for
+    (:func:`wgbragg.gpu.planned_loop_iterations`, :func:`walk_iterations`); 0 when not even
+    one reflection does (from :func:`max_layers` + 1 layers on).
 
     Parameters
     ----------
@@ -100,12 +101,21 @@ def bounce_limit(layers: int) -> int:
     Returns
     -------
     int
-        233 for 4 layers, 81 for 8; below the default 64 from 10 layers on.
+        Under Mesa 22's loop budget 233 for 4 layers, 81 for 8, below the default 64 from 10
+        layers on; without a budget 7488 for 4 layers (a bound on a dispatch's time).
     """
-    return max(0, gpu.SAFE_LOOP_ITERATIONS // walk_iterations(layers, 0) - 1)
+    return max(0, gpu.planned_loop_iterations() // walk_iterations(layers, 0) - 1)
 
 
-_MAX_LAYERS = max(n for n in range(1, 1000) if bounce_limit(n) >= 1)
+def max_layers() -> int:
+    """Most rough layers a structure may have for :func:`simulate` on this device: those
+    whose walks may still reflect once (:func:`bounce_limit`); 62 under Mesa 22's loop budget,
+    360 without a budget."""
+    # walk_iterations(n, 1) grows with n (at least as n): the largest n whose walk fits.
+    planned, layers = gpu.planned_loop_iterations(), 0
+    while layers < planned and walk_iterations(layers + 1, 1) <= planned:
+        layers += 1
+    return layers
 
 
 def _check_wavelengths(wavelength_nm) -> np.ndarray | None:
@@ -227,7 +237,8 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
         With ``wo``: also return the standard error of the estimate.
     max_bounces : int
         Most reflections of a path, 1 to :func:`bounce_limit` of the structure's number of
-        layers (llvmpipe's loop budget: 233 for 4 layers); longer paths are cut off.
+        layers (the device's loop budget: 233 for 4 layers under Mesa 22's); longer paths are
+        cut off.
 
     Returns
     -------
@@ -247,7 +258,8 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
     ValueError
         For a parameter out of its range or of the wrong shape, named in the message.
     wgbragg.gpu.LoopBudgetError
-        (a ValueError) Should llvmpipe end a walk early all the same (the kernel reports it).
+        (a ValueError) Should the device end a walk early all the same (the kernel reports
+        it).
 
     Notes
     -----
@@ -280,7 +292,7 @@ def simulate(structure, wi, wo=None, wavelength_nm=None, paths=65536, mode="all"
     kernel = _pipeline(structure, mode, ballistic, next_event, lanes, quads)
     # bounce_limit guarantees that one walk fits.
     per_invocation = min(_PATHS_PER_INVOCATION if next_event else _PARTICLES_PER_INVOCATION,
-                         gpu.SAFE_LOOP_ITERATIONS // walk_iterations(layers, max_bounces))
+                         gpu.planned_loop_iterations() // walk_iterations(layers, max_bounces))
     walks = _Walks(paths, channels, groups, per_invocation, -(-paths // per_invocation),
                    next_event)
 
@@ -322,8 +334,8 @@ def _checked(structure, wi, wo, wavelength_nm, paths, mode, transmission, seed, 
     layers = len(structure.layers)
     most_bounces = bounce_limit(layers)
     if most_bounces < 1:
-        raise ValueError(f"structure: the GPU walk takes 1 to {_MAX_LAYERS} rough layers "
-                         f"(llvmpipe's loop budget), got {layers}")
+        raise ValueError(f"structure: the GPU walk takes 1 to {max_layers()} rough layers "
+                         f"(the device's loop budget), got {layers}")
     max_bounces = check_integer("max_bounces", max_bounces, 1, most_bounces)
     if not isinstance(return_error, bool):
         raise ValueError(f"return_error must be a bool, got {return_error!r}")

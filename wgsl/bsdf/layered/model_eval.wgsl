@@ -5,7 +5,7 @@
 //              (HERO: the colour from hero wavelengths offset by operand.w)
 //   density:   pdf(wi, wo)                                             -> value
 // value holds WAVELENGTHS floats per invocation (spectral) or 3 (RGB, WAVELENGTHS = 0); cut[0]
-// becomes 1 if llvmpipe ended any invocation's loops early (wgbragg.gpu, "Loop budget"), which
+// becomes 1 if the device ended any invocation's loops early (wgbragg.gpu.loops), which
 // the host refuses (one word for the dispatch, as bsdf/layered/simulation.wgsl, not one per
 // invocation, which would add to the readback): the batching keeps the planned loops within budget, but a landmark
 // colour's loops grow with the mirror's thickness in a way the host does not model.

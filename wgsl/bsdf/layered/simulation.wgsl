@@ -4,7 +4,7 @@
 // paths of one query (wi, wo) and one group of four wavelengths and, with NEXT_EVENT, writes
 // the paths' mean and sum of squared deviations (Welford) per wavelength or channel; without
 // it, each path's exit direction and weight. The host sizes per_invocation and max_reflections
-// so that an invocation's walks fit in llvmpipe's loop budget (wgbragg.gpu, "Loop budget");
+// so that an invocation's walks fit in the device's loop budget (wgbragg.gpu.loops);
 // should they not, the flag at the end of `directions` tells it.
 //
 // A path carries four wavelengths, one vec4: a group of the given ones, or in RGB mode hero
@@ -80,7 +80,7 @@ struct SimulationParams {
 @group(0) @binding(4) var<storage, read> inverse_cdf: array<f32>;  // [HERO_SEGMENTS + 1] nm (RGB)
 // NEXT_EVENT: [query][group][batch][mean, m2][4]; else [query][path][4] (one group).
 @group(0) @binding(5) var<storage, read_write> values: array<vec4<f32>>;
-// Without NEXT_EVENT [query][path] (w = 0); then one more element, whose w is 1 if llvmpipe
+// Without NEXT_EVENT [query][path] (w = 0); then one more element, whose w is 1 if the device
 // ended some invocation's loops early (the only element with NEXT_EVENT).
 @group(0) @binding(6) var<storage, read_write> directions: array<vec4<f32>>;
 @group(0) @binding(7) var<uniform> params: SimulationParams;

@@ -1,5 +1,7 @@
-// Test kernel: two loops of counts[i] iterations each; out[i] = (iterations taken,
-// loops_were_cut).
+// The loop-budget probe (wgbragg/gpu/loops.py): two loops of counts[i] iterations each, the
+// second after the first, so that a budget shared by all of an invocation's loops shows;
+// out[i] = (iterations taken, loops_were_cut). Where the device's compiler ends loops early,
+// the taken count is where it did.
 //! include "gpu/harness.wgsl"
 
 @group(0) @binding(0) var<storage, read> counts: array<u32>;
