@@ -21,6 +21,11 @@ Methods
 - ``tmm``: ``tmm.coh_tmm``, one Python call per (lambda, theta), O(N).
 - ``tmm_fast``: ``tmm_fast.coh_tmm`` (torch on the CPU, complex128), vectorised, O(N).
 
+A second table times the public array calls of the GPU backend (reflectance of mirrors and
+films, colours, the layered BRDF, a sweep's chunk) end to end against the GPU time of their
+own passes (:mod:`benchmarks.end_to_end`), with the target of issue 57: end to end at least
+half the kernel's throughput at a million points or more.
+
 The O(N) methods are measured up to N = 2000 only; N = 10^6 would take hours with them.
 Optional packages that cannot be imported are reported as "not installed".
 
@@ -77,6 +82,7 @@ THETA_RANGE_DEG = (0.0, 85.0)
 TARGET_GPU_RATE = 100e6  # evaluations/s, at every N
 TARGET_FLATNESS = 0.10  # max/min - 1 over N
 TARGET_TMM_FAST_RATIO = 3000.0  # GPU / tmm_fast at N = 20
+TARGET_E2E_SHARE = 0.5  # GPU end to end / GPU kernel at N = 20 (issue 57)
 
 NOT_INSTALLED = "not installed"
 
@@ -113,6 +119,9 @@ class Config:
         Most ``tmm.coh_tmm`` calls per repeat.
     passes : int
         Passes over the whole table; each cell keeps its best pass.
+    e2e_rounds : int
+        Rounds of each public call of the end-to-end table (:mod:`benchmarks.end_to_end`;
+        0 leaves the table out).
     """
 
     name: str
@@ -126,17 +135,18 @@ class Config:
     max_cells_tmm_fast: int
     max_calls_tmm: int
     passes: int
+    e2e_rounds: int = 0
 
 
 FULL = Config(
     name="full", gpu_side=2048, gpu_repeats=10, e2e_repeats=1, yeh_side=1024, cpu_repeats=1,
     target_s=1.0, max_points_linear=1 << 20, max_cells_tmm_fast=4_000_000, max_calls_tmm=5000,
-    passes=5,
+    passes=5, e2e_rounds=5,
 )
 QUICK = Config(
     name="quick", gpu_side=128, gpu_repeats=3, e2e_repeats=1, yeh_side=64, cpu_repeats=1,
     target_s=0.02, max_points_linear=4096, max_cells_tmm_fast=200_000, max_calls_tmm=50,
-    passes=1,
+    passes=1, e2e_rounds=1,
 )
 
 
@@ -207,6 +217,7 @@ class Results:
     measurements: dict[tuple[str, int], Measurement]
     missing: dict[str, str]  # method key -> why its package could not be imported
     environment: dict[str, Any]
+    end_to_end: dict[str, Any] = dataclasses.field(default_factory=dict)  # key -> Result
 
 
 # --------------------------------------------------------------------------- inputs
@@ -576,10 +587,16 @@ def run_benchmarks(cfg: Config, progress: bool = True) -> Results:
         result = _measure(key, N, cfg, sizes)
         if (key, N) not in measurements or result.rate > measurements[key, N].rate:
             measurements[key, N] = result
+    end_to_end = {}
+    if cfg.e2e_rounds:
+        from benchmarks import end_to_end as calls
+
+        end_to_end = calls.run(cfg.name == "quick", cfg.e2e_rounds,
+                               progress=lambda key: bar.set_postfix_str(f"end to end: {key}"))
     environment = _environment(modules)
     environment["workgroup_size"] = _bragg_kernel("s").workgroup_size
     environment["background_cores"] = load.background_cores()
-    return Results(cfg, measurements, missing, environment)
+    return Results(cfg, measurements, missing, environment, end_to_end)
 
 
 # --------------------------------------------------------------------------- report
@@ -625,6 +642,13 @@ def _targets(results: Results) -> list[list[str]]:
     else:
         rows.append([f"GPU kernel >= {TARGET_TMM_FAST_RATIO:,.0f}{TIMES} `tmm_fast` at N = 20",
                      NOT_INSTALLED, "not checked"])
+    if ("gpu", 20) in m and ("gpu_e2e", 20) in m:
+        share = m["gpu_e2e", 20].rate / m["gpu", 20].rate
+        points = m["gpu_e2e", 20].points
+        rows.append([f"GPU end to end >= {TARGET_E2E_SHARE:.0%} of the GPU kernel at N = 20, "
+                     f"{points:,} points", f"{share:.0%}",
+                     yes_no(share >= TARGET_E2E_SHARE) if points >= 1_000_000
+                     else "not checked (< 1M points)"])
     return rows
 
 
@@ -690,6 +714,12 @@ def render_section(results: Results, command: str) -> str:
     out += ["", "### Targets (lavapipe, 2 cores)", ""]
     out += _table(["target", "measured", "met"], _targets(results))
 
+    if results.end_to_end:
+        from benchmarks import end_to_end as calls
+
+        out += ["", "### Public calls end to end against their kernels", ""]
+        out += calls.render_table(results.end_to_end)
+
     out += ["", f"### Sizes (evaluations per call {TIMES} calls per timed repeat)", ""]
     rows = []
     for method in METHODS:
@@ -726,7 +756,15 @@ def render_section(results: Results, command: str) -> str:
         "compilation excluded): input checks, float conversion, upload, dispatch, readback."
     )
     out.append(
-        "5. CPU rows: wall clock (`time.perf_counter`), one timed run per pass. numpy Yeh "
+        "5. Public calls end to end: each call's wall clock (best of "
+        f"{cfg.e2e_rounds} round(s), after a warm-up call) against the GPU time of the compute "
+        "passes the same call submits (`gpu.pass_clock`, least of the rounds); share = "
+        "kernel time / end-to-end time. Flat grids are float32 arrays raveled from a "
+        "(θ, λ) grid, wavelength fastest; colours over one angle a colour; the sweep's chunk "
+        "evaluates one structure after another."
+    )
+    out.append(
+        "6. CPU rows: wall clock (`time.perf_counter`), one timed run per pass. numpy Yeh "
         f"on a {cfg.yeh_side}{TIMES}{cfg.yeh_side} grid. Transfer matrices and `tmm_fast` "
         "at the batch size where they are fastest (found by doubling a probe grid), called "
         f"repeatedly to fill about {cfg.target_s:g} s per run. `tmm.coh_tmm` timed over "
@@ -734,7 +772,7 @@ def render_section(results: Results, command: str) -> str:
         "call is fixed, so the rate extrapolates to any number of calls)."
     )
     out.append(
-        f"6. Every cell is the best of {cfg.passes} pass(es) over the whole table. The passes are "
+        f"7. Every cell is the best of {cfg.passes} pass(es) over the whole table. The passes are "
         "spread in time because lavapipe and the CPU methods share the machine's cores with "
         "anything else running (see 'Other processes' above): a burst of outside load then "
         "spoils one pass, not every repeat of a cell."

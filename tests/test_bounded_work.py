@@ -18,7 +18,8 @@ import pytest
 from wgbragg import BraggMirror, ThinFilm, gpu
 from wgbragg.common import blocks as blocks_module
 from wgbragg.common.blocks import DEFAULT_BLOCK, block_ranges, blockwise, flat_block
-from wgbragg.optics import pointwise_gpu, stacks
+from wgbragg.gpu import streams
+from wgbragg.optics import stacks
 from wgbragg.render import renderer as renderer_module
 from wgbragg.render.renderer import PassPlan, Renderer, TimeBudget
 from wgbragg.scene.reader import load_preset
@@ -265,26 +266,26 @@ def test_numpy_quantities_run_in_blocks_bit_identical_to_one_call(structure, mon
     ThinFilm(1.33, 300.0, base="Au"),
 ], ids=["mirror", "film-over-gold"])
 def test_gpu_reflectance_forms_its_points_a_block_at_a_time(structure, monkeypatch):
-    # A largest buffer of 4 KiB: 256 points of 4 words a block, formed on demand from flat
-    # ranges of the broadcast; the same values as in one block.
+    # A largest buffer of 4 KiB: 256 points of 4 words a block, formed in place and streamed
+    # (wgbragg.gpu.streams); the same values as in one block.
     wavelength = np.linspace(380.0, 780.0, 61)[:, None]
     theta = np.linspace(0.0, 1.5, 37)[None, :]
     whole = structure.reflectance(wavelength, theta, "s", backend="gpu")
     assert np.abs(whole - structure.reflectance(wavelength, theta, "s")).max() < 2e-3
-    ranges = []
-    real = pointwise_gpu.flat_block
+    counts = []
+    real = streams.Stream.submit
 
-    def spy(arrays, start, stop):
-        ranges.append((start, stop))
-        return real(arrays, start, stop)
+    def spy(self, count, targets):
+        counts.append(count)
+        return real(self, count, targets)
 
-    monkeypatch.setattr(pointwise_gpu, "flat_block", spy)
+    monkeypatch.setattr(streams.Stream, "submit", spy)
     monkeypatch.setattr(gpu.device, "max_buffer_bytes", lambda: 4096)
     np.testing.assert_array_equal(structure.reflectance(wavelength, theta, "s", backend="gpu"),
                                   whole)
-    size = 61 * 37
-    assert max(stop - start for start, stop in ranges) == 256
-    assert sorted(set(ranges)) == [(s, min(s + 256, size)) for s in range(0, size, 256)]
+    # Blocks of whole units (6 rows of 37 angles: 222 points), each within the buffers.
+    assert max(counts) <= 256 and len(counts) >= math.ceil(61 * 37 / 256)
+    assert sum(counts) == 61 * 37
 
 
 # --------------------------------------------------------------------------- time planning

@@ -26,16 +26,84 @@ GPU upload of a range of points needs), also without materialising the broadcast
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator, Sequence
+import os
+import threading
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-__all__ = ["DEFAULT_BLOCK", "block_ranges", "blockwise", "flat_block"]
+__all__ = ["DEFAULT_BLOCK", "MAX_HOST_THREADS", "block_part", "block_ranges", "block_shape",
+           "blockwise", "check_out", "flat_block", "full_rank", "host_threads", "parallel_map"]
 
 DEFAULT_BLOCK = 1 << 16
 """Elements of the broadcast per block of :func:`blockwise`: 65,536, so that a function with
 a few dozen float64 / complex128 temporaries a point stays within some tens of MB, while a
 block still takes milliseconds and the Python overhead per block (microseconds) is noise."""
+
+
+MAX_HOST_THREADS = 8
+"""Most threads :func:`parallel_map` runs: numpy's loops release the GIL, so blocks of a few
+ten thousand elements scale over a few cores; more threads only add their overhead."""
+
+_executor: ThreadPoolExecutor | None = None
+_executor_workers = 0
+_executor_lock = threading.Lock()
+
+
+def host_threads() -> int:
+    """Threads :func:`parallel_map` uses: the cores this process may run on (at most
+    :data:`MAX_HOST_THREADS`), or ``WGBRAGG_HOST_THREADS`` where set (1: the calling thread
+    alone)."""
+    setting = os.environ.get("WGBRAGG_HOST_THREADS", "").strip()
+    if setting:
+        try:
+            return max(1, int(setting))
+        except ValueError:
+            raise ValueError(f"WGBRAGG_HOST_THREADS must be an integer >= 1, got "
+                             f"{setting!r}") from None
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, min(MAX_HOST_THREADS, cores or 1))
+
+
+def parallel_map(function: Callable, items: Iterable, threads: int | None = None) -> list:
+    """``[function(item) for item in items]``, spread over :func:`host_threads` threads.
+
+    For functions that spend their time in numpy loops on disjoint outputs (blocks of an
+    array), which release the GIL: the host's share of a GPU call (forming its inputs) then
+    takes the cores that the device leaves idle. Exceptions propagate; results keep the
+    items' order.
+
+    Parameters
+    ----------
+    function : callable
+    items : iterable
+    threads : int, optional
+        At most this many threads (default :func:`host_threads`); 1 runs them here, in order.
+
+    Returns
+    -------
+    list
+    """
+    items = list(items)
+    threads = min(len(items), host_threads() if threads is None else max(1, int(threads)))
+    if threads <= 1:
+        return [function(item) for item in items]
+    global _executor, _executor_workers
+    with _executor_lock:
+        if _executor is None or _executor_workers < threads:
+            if _executor is not None:
+                _executor.shutdown(wait=False)
+            _executor = ThreadPoolExecutor(max_workers=threads,
+                                           thread_name_prefix="wgbragg-host")
+            _executor_workers = threads
+        executor = _executor
+    # One contiguous run of items a thread: each keeps its part of the output in its cache.
+    runs = [items[k * len(items) // threads:(k + 1) * len(items) // threads]
+            for k in range(threads)]
+    futures = [executor.submit(lambda run: [function(item) for item in run], run)
+               for run in runs]
+    return [result for future in futures for result in future.result()]
 
 
 def _check_block(block) -> int:
@@ -96,8 +164,9 @@ def block_ranges(shape: Sequence[int], block: int = DEFAULT_BLOCK
             yield index, (base + first) * inner, (base + last) * inner
 
 
-def _full_rank(arrays: Sequence, ndim: int) -> list[np.ndarray]:
-    """``arrays`` as views with ``ndim`` axes (leading axes of length 1 added)."""
+def full_rank(arrays: Sequence, ndim: int) -> list[np.ndarray]:
+    """``arrays`` as views with ``ndim`` axes (leading axes of length 1 added), for
+    :func:`block_part`."""
     views = []
     for array in arrays:
         array = np.asarray(array)
@@ -105,10 +174,17 @@ def _full_rank(arrays: Sequence, ndim: int) -> list[np.ndarray]:
     return views
 
 
-def _part(view: np.ndarray, index: tuple[slice, ...]) -> np.ndarray:
-    """The part of ``view`` (full rank) that broadcasts to the block ``index``."""
+def block_part(view: np.ndarray, index: tuple[slice, ...]) -> np.ndarray:
+    """The part of ``view`` (full rank, :func:`full_rank`) that broadcasts to the block
+    ``index`` of :func:`block_ranges`: a view, its axes of length 1 kept as they are (an
+    input broadcast along an axis stays broadcast in every block)."""
     return view[tuple(slice(0, 1) if view.shape[axis] == 1 else part
                       for axis, part in enumerate(index))]
+
+
+def block_shape(shape: Sequence[int], index: tuple[slice, ...]) -> tuple[int, ...]:
+    """The shape of the block ``index`` of :func:`block_ranges` in an array of ``shape``."""
+    return (*(part.stop - part.start for part in index), *shape[len(index):])
 
 
 def blockwise(function: Callable[..., np.ndarray | tuple], *arrays,
@@ -161,11 +237,11 @@ def blockwise(function: Callable[..., np.ndarray | tuple], *arrays,
     block = _check_block(block)
     inputs = [np.asarray(array) for array in arrays]
     shape = np.broadcast_shapes(*(array.shape for array in inputs))
-    views = _full_rank(inputs, len(shape))
-    outputs = None if out is None else _check_out(out, shape)
+    views = full_rank(inputs, len(shape))
+    outputs = None if out is None else _outputs(out, shape)
     single = out is not None and not isinstance(out, tuple)
     for index, _, _ in block_ranges(shape, block):
-        result = function(*(_part(view, index) for view in views))
+        result = function(*(block_part(view, index) for view in views))
         parts = result if isinstance(result, tuple) else (result,)
         if outputs is None:
             single = not isinstance(result, tuple)
@@ -187,7 +263,7 @@ def blockwise(function: Callable[..., np.ndarray | tuple], *arrays,
     return outputs[0] if single else outputs
 
 
-def _check_out(out, shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+def _outputs(out, shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:
     outputs = out if isinstance(out, tuple) else (out,)
     for array in outputs:
         if not isinstance(array, np.ndarray) or array.shape != shape:
@@ -195,6 +271,51 @@ def _check_out(out, shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:
             raise ValueError(f"out must be a numpy array of the broadcast shape {shape}, "
                              f"got {got}")
     return outputs
+
+
+def check_out(out, shape: tuple[int, ...], dtypes=(np.float64, np.float32),
+              name: str = "out") -> np.ndarray:
+    """A caller's preallocated output, checked, or a new float64 array of ``shape``.
+
+    Parameters
+    ----------
+    out : numpy.ndarray or None
+        None for a new array; else a writeable C-contiguous array of ``shape`` and one of
+        ``dtypes``, which the results are written into (and which is returned).
+    shape : tuple of int
+        The shape of the result.
+    dtypes : sequence of numpy.dtype
+        Accepted dtypes; the first is that of a new array.
+    name : str
+        The parameter's name, for errors.
+
+    Returns
+    -------
+    numpy.ndarray
+
+    Raises
+    ------
+    ValueError
+        Naming ``name``, for anything but such an array.
+    """
+    dtypes = tuple(np.dtype(d) for d in dtypes)
+    if out is None:
+        return np.empty(shape, dtypes[0])
+    if not isinstance(out, np.ndarray):
+        raise ValueError(f"{name} must be a numpy array, got {type(out).__name__}")
+    problems = []
+    if out.shape != tuple(shape):
+        problems.append(f"shape {out.shape} (expected the broadcast shape {tuple(shape)})")
+    if out.dtype not in dtypes:
+        problems.append(f"dtype {out.dtype} (expected "
+                        f"{' or '.join(str(d) for d in dtypes)})")
+    if not out.flags.c_contiguous:
+        problems.append("a layout that is not C-contiguous")
+    if not out.flags.writeable:
+        problems.append("a read-only buffer")
+    if problems:
+        raise ValueError(f"{name} has {', '.join(problems)}")
+    return out
 
 
 def flat_block(arrays: Sequence, start: int, stop: int) -> list[np.ndarray]:
@@ -234,7 +355,7 @@ def flat_block(arrays: Sequence, start: int, stop: int) -> list[np.ndarray]:
     if not shape:
         return [array.reshape(1)[start:stop] for array in inputs]
     multi = np.unravel_index(np.arange(start, stop, dtype=np.intp), shape)
-    views = _full_rank(inputs, len(shape))
+    views = full_rank(inputs, len(shape))
     # An input of size 1 is indexed by integers only: a scalar, broadcast to the range.
     return [np.broadcast_to(view[tuple(0 if view.shape[axis] == 1 else multi[axis]
                                        for axis in range(len(shape)))], (stop - start,))

@@ -40,9 +40,13 @@ POLARIZATIONS = ("s", "p", "unpolarized")
 BACKENDS = ("numpy", "gpu")
 
 
-def as_float_array(name: str, value, keep_float32: bool = False) -> np.ndarray:
+def as_float_array(name: str, value, keep_float32: bool = False, copy: bool = True
+                   ) -> np.ndarray:
     """``value`` as float64, or as it is if ``keep_float32`` and it is float32 already (for a
-    float32 kernel's input: no copy there and back)."""
+    float32 kernel's input: no copy there and back).
+
+    ``copy=False`` also returns a float64 array as it is, not a copy: for callers that only
+    read the result (it may be the caller's own array)."""
     message = f"{name} must be a real number or array of real numbers"
     try:
         raw = np.asarray(value)
@@ -52,8 +56,12 @@ def as_float_array(name: str, value, keep_float32: bool = False) -> np.ndarray:
     # refuse them rather than guess, as scalars are refused.
     if raw.dtype.kind not in "iuf":
         raise ValueError(f"{message}, got dtype {raw.dtype}")
-    array = raw if keep_float32 and raw.dtype == np.float32 else raw.astype(np.float64)
-    if np.isnan(array).any():
+    if keep_float32 and raw.dtype == np.float32:
+        array = raw
+    else:
+        array = raw.astype(np.float64) if copy else np.asarray(raw, np.float64)
+    # A NaN anywhere makes the minimum NaN: one reduction, no temporary of the array's size.
+    if array.size and np.isnan(np.min(array)):
         raise ValueError(f"{name} contains NaN")
     return array
 
@@ -141,11 +149,18 @@ def check_real(name: str, value, low: float, high: float) -> float:
     return float(value)
 
 
-def check_wavelength(value, name: str = "wavelength_nm") -> np.ndarray:
-    """Wavelengths in nm, in :data:`WAVELENGTH_RANGE_NM`."""
-    array = as_float_array(name, value)
+def _within(array: np.ndarray, low: float, high: float) -> bool:
+    """Whether every element of ``array`` (no NaN) lies in ``[low, high]``: two reductions."""
+    return array.size == 0 or (low <= float(array.min()) and float(array.max()) <= high)
+
+
+def check_wavelength(value, name: str = "wavelength_nm", copy: bool = True) -> np.ndarray:
+    """Wavelengths in nm, in :data:`WAVELENGTH_RANGE_NM`: a new float64 array, or with
+    ``copy=False`` a float32 or float64 array as it is (for callers that only read it, such
+    as a float32 kernel's: no copy of a large input)."""
+    array = as_float_array(name, value, keep_float32=not copy, copy=copy)
     low, high = WAVELENGTH_RANGE_NM
-    if not np.all((array >= low) & (array <= high)):
+    if not _within(array, low, high):
         raise ValueError(f"{name} must be in [{low:g}, {high:g}] nm")
     return array
 
@@ -154,12 +169,17 @@ def check_wavelength(value, name: str = "wavelength_nm") -> np.ndarray:
 _HALF_PI_FLOAT32 = float(np.float32(np.pi / 2))
 
 
-def check_angle(value, name: str = "theta") -> np.ndarray:
+def check_angle(value, name: str = "theta", copy: bool = True) -> np.ndarray:
     """Angles of incidence in radians, in [0, pi/2]; float32's pi/2 is accepted and clipped to
-    pi/2."""
-    array = as_float_array(name, value)
-    if not np.all((array >= 0.0) & (array <= _HALF_PI_FLOAT32)):
+    pi/2. A new float64 array; with ``copy=False`` a float32 or float64 array as it is where
+    nothing needs clipping (for callers that only read it)."""
+    array = as_float_array(name, value, keep_float32=not copy, copy=copy)
+    if not _within(array, 0.0, _HALF_PI_FLOAT32):
         raise ValueError(f"{name} must be in [0, pi/2] radians")
+    if not copy:
+        if array.size == 0 or float(array.max()) <= np.pi / 2:
+            return array
+        array = array.astype(np.float64)
     return np.minimum(array, np.pi / 2, out=array)  # array is a fresh copy
 
 

@@ -3,7 +3,8 @@
 :func:`struct_dtype` builds the numpy dtype of a kernel's params struct with WGSL's uniform
 alignment rules, so that a structured scalar uploads byte for byte. :func:`bilinear_quads`
 lays a 2-D table out as its cells' corners, one vec4 a lookup, where
-:func:`bilinear_quads_fit` says they fit.
+:func:`bilinear_quads_fit` says they fit. :func:`check_dtype`, :func:`as_bytes` and
+:func:`padded_size` say what a buffer may hold and how its bytes are laid out.
 """
 
 from __future__ import annotations
@@ -83,6 +84,42 @@ def struct_dtype(fields: Sequence[tuple[str, str]]) -> np.dtype:
         offset += size
     itemsize = max(16, -(-offset // 16) * 16)
     return np.dtype({"names": names, "formats": formats, "offsets": offsets, "itemsize": itemsize})
+
+
+# --------------------------------------------------------------------------- host arrays
+
+
+def check_dtype(dtype, what: str) -> np.dtype:
+    """``dtype`` if kernels can bind it: float32, int32 or uint32 (little-endian), or a
+    structured dtype whose itemsize is a multiple of 4; else a TypeError naming ``what``."""
+    dtype = np.dtype(dtype)
+    if dtype.fields is not None and dtype.itemsize % 4 == 0:
+        return dtype
+    if dtype.kind in "fiu" and dtype.itemsize == 4:
+        return dtype.newbyteorder("<")
+    raise TypeError(
+        f"{what}: dtype {dtype} is not float32/int32/uint32 or a 4-byte-aligned struct; "
+        "convert explicitly (e.g. .astype(np.float32)) so precision loss is a choice"
+    )
+
+
+def as_bytes(array: np.ndarray, what: str, multiple: int) -> memoryview:
+    """Little-endian bytes of ``array`` (a dtype :func:`check_dtype` allows), zero-padded to
+    a multiple of ``multiple``; no copy where the array is contiguous and needs no padding."""
+    array = np.asarray(array)
+    array = np.ascontiguousarray(array, dtype=check_dtype(array.dtype, what))
+    raw = array.reshape(-1).view(np.uint8)
+    size = max(multiple, -(-raw.size // multiple) * multiple)
+    if size == raw.size:
+        return memoryview(raw)
+    padded = np.zeros(size, np.uint8)
+    padded[: raw.size] = raw
+    return memoryview(padded)
+
+
+def padded_size(nbytes: int) -> int:
+    """Bytes of a buffer or binding holding ``nbytes``: a multiple of 4, at least 4."""
+    return max(4, -(-nbytes // 4) * 4)
 
 
 # --------------------------------------------------------------------------- bilinear quads

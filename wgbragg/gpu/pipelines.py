@@ -107,6 +107,7 @@ import wgpu
 
 from wgbragg.gpu import device as device_limits
 from wgbragg.gpu.device import adapter_info, check_buffer_size, get_device
+from wgbragg.gpu.layouts import as_bytes, check_dtype, padded_size
 from wgbragg.gpu.shaders import ShaderCompileError, ShaderSource, load_shader, shader_error
 from wgbragg.gpu.specialise import BlockError, specialise, strip_comments
 from wgbragg.gpu.timing import (
@@ -240,38 +241,6 @@ def pipeline_cache_info() -> dict[str, int]:
     return {**_cache_stats, "size": len(_pipeline_cache)}
 
 
-# --------------------------------------------------------------------------- host arrays
-
-
-def _check_dtype(dtype: np.dtype, what: str) -> np.dtype:
-    dtype = np.dtype(dtype)
-    if dtype.fields is not None and dtype.itemsize % 4 == 0:
-        return dtype
-    if dtype.kind in "fiu" and dtype.itemsize == 4:
-        return dtype.newbyteorder("<")
-    raise TypeError(
-        f"{what}: dtype {dtype} is not float32/int32/uint32 or a 4-byte-aligned struct; "
-        "convert explicitly (e.g. .astype(np.float32)) so precision loss is a choice"
-    )
-
-
-def _as_bytes(array: np.ndarray, what: str, multiple: int) -> memoryview:
-    """Little-endian bytes of ``array``, zero-padded to a multiple of ``multiple``."""
-    array = np.asarray(array)
-    array = np.ascontiguousarray(array, dtype=_check_dtype(array.dtype, what))
-    raw = array.reshape(-1).view(np.uint8)
-    size = max(multiple, -(-raw.size // multiple) * multiple)
-    if size == raw.size:
-        return memoryview(raw)
-    padded = np.zeros(size, np.uint8)
-    padded[: raw.size] = raw
-    return memoryview(padded)
-
-
-def _padded_size(nbytes: int) -> int:
-    return max(4, -(-nbytes // 4) * 4)
-
-
 # --------------------------------------------------------------------------- kernels
 
 
@@ -375,7 +344,9 @@ class Kernel:
                 f"params={want[2]}; got {got[0]} inputs, {got[1]} outputs, params={got[2]}"
             )
 
-    def _input(self, i: int, array) -> DeviceArray:
+    def input_array(self, i: int, array) -> DeviceArray:
+        """Input ``i`` on the device: ``array`` uploaded (as a texture where the kernel
+        declares ``texture_2d<f32>``), or a DeviceArray of the right kind as it is."""
         texture = self.input_textures[i]
         if not isinstance(array, DeviceArray):
             try:
@@ -397,22 +368,22 @@ class Kernel:
             raise TypeError(f"{self.source.name}: output {i} is a storage buffer, got {output!r}")
         return output
 
-    def _uniform(self, params: np.ndarray) -> Any:
+    def uniform(self, params: np.ndarray) -> Any:
         """A new uniform buffer holding ``params``."""
         return self._device.create_buffer_with_data(
-            data=_as_bytes(params, "params", 16),
+            data=as_bytes(params, "params", 16),
             usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST,
         )
 
-    def _bind_group(self, resources: Sequence[Any], params: np.ndarray | Any | None,
-                    sizes: Sequence[int | None] | None = None) -> Any:
+    def bind_group(self, resources: Sequence[Any], params: np.ndarray | Any | None,
+                   sizes: Sequence[int | None] | None = None) -> Any:
         """A bind group of ``resources`` (buffers and textures, in binding order) and of a
         uniform buffer holding ``params`` (a new one for an array, else the buffer given),
         where given. ``sizes``: bytes bound of each resource (None: the whole buffer)."""
         bindings: list[Any] = list(resources)
         sizes = list(sizes) if sizes is not None else [None] * len(bindings)
         if params is not None:
-            bindings.append(self._uniform(params) if isinstance(params, np.ndarray) else params)
+            bindings.append(self.uniform(params) if isinstance(params, np.ndarray) else params)
             sizes.append(None)
         entries = [
             {"binding": i, "resource": r.create_view()}
@@ -429,7 +400,9 @@ class Kernel:
         most :data:`MAX_INDEX` (``global_index`` is a u32)."""
         return min(self._max_groups**2 * self.workgroup_size, MAX_INDEX)
 
-    def _grid(self, count: int) -> tuple[int, int, int]:
+    def workgroups(self, count: int) -> tuple[int, int, int]:
+        """Workgroups ``(x, y, 1)`` of a dispatch of ``count`` invocations (see "Dispatch" in
+        the module docstring); a ValueError beyond :meth:`dispatch_limit`."""
         limit = self.dispatch_limit()
         if count > limit:
             raise ValueError(
@@ -453,7 +426,7 @@ class Kernel:
                 with contextlib.suppress(TypeError, ValueError):
                     array = np.asarray(a)
                     named.append((f"input {i}",
-                                  array.size * _check_dtype(array.dtype, "").itemsize))
+                                  array.size * check_dtype(array.dtype, "").itemsize))
         for i, o in enumerate(outputs):
             if not isinstance(o, DeviceArray):
                 with contextlib.suppress(TypeError, ValueError):
@@ -556,11 +529,11 @@ class Kernel:
                             "bound; bind arrays or DeviceArrays")
         n = self._count(outputs, count)
         # Checked before anything is uploaded.
-        grid = self._grid(n) if n else (0, 1, 1)
+        grid = self.workgroups(n) if n else (0, 1, 1)
         self._check_buffers(inputs, outputs)
-        resources = [self._input(i, a) for i, a in enumerate(inputs)]
+        resources = [self.input_array(i, a) for i, a in enumerate(inputs)]
         out = tuple(self._output(i, o) for i, o in enumerate(outputs))
-        bind_group = self._bind_group([a.resource for a in (*resources, *out)], params)
+        bind_group = self.bind_group([a.resource for a in (*resources, *out)], params)
         return Dispatch(self, out, n, grid, bind_group)
 
     def run(
@@ -638,18 +611,19 @@ class Kernel:
             if not shape or shape[0] != n:
                 raise ValueError(f"{self.source.name}: output {i}: the first axis of shape "
                                  f"{shape} must be the count {n} (one row an invocation)")
-            specs.append((shape, _check_dtype(dtype, f"output {i}")))
+            specs.append((shape, check_dtype(dtype, f"output {i}")))
         if n == 0:
             empty = [np.zeros(shape, dtype) for shape, dtype in specs]
             return (empty, 0.0) if timestamps else empty
         rows = self.plan_rows(inputs, specs, n, block_rows)
         # Everything that can be refused has been: allocate, then work.
         host = [np.empty(shape, dtype) for shape, dtype in specs]
-        shared = {i: self._input(i, a) for i, a in enumerate(inputs) if not isinstance(a, Rows)}
+        shared = {i: self.input_array(i, a) for i, a in enumerate(inputs)
+                  if not isinstance(a, Rows)}
         streamed = {i: DeviceArray.empty((rows, *a.row_shape), a.dtype)
                     for i, a in enumerate(inputs) if isinstance(a, Rows)}
         device_out = [DeviceArray.empty((rows, *shape[1:]), dtype) for shape, dtype in specs]
-        uniform = None if params is None else self._uniform(params)
+        uniform = None if params is None else self.uniform(params)
         seconds = 0.0
         for start in range(0, n, rows):
             stop = min(start + rows, n)
@@ -660,15 +634,15 @@ class Kernel:
                     sizes.append(None)
                     continue
                 data = a.block(start, stop, f"{self.source.name}: input {i}")
-                self._device.queue.write_buffer(streamed[i].resource, 0, _as_bytes(data, "", 4))
+                self._device.queue.write_buffer(streamed[i].resource, 0, as_bytes(data, "", 4))
                 resources.append(streamed[i].resource)
-                sizes.append(_padded_size(data.nbytes))
+                sizes.append(padded_size(data.nbytes))
             views = tuple(DeviceArray(o.resource, (stop - start, *o.shape[1:]), o.dtype, False)
                           for o in device_out)
             resources += [v.resource for v in views]
-            sizes += [_padded_size(v.nbytes) for v in views]
-            dispatch = Dispatch(self, views, stop - start, self._grid(stop - start),
-                                self._bind_group(resources, uniform, sizes))
+            sizes += [padded_size(v.nbytes) for v in views]
+            dispatch = Dispatch(self, views, stop - start, self.workgroups(stop - start),
+                                self.bind_group(resources, uniform, sizes))
             if timestamps:
                 seconds += pass_timings([dispatch], 1)[0][0]
                 parts = submit([], read=views)
@@ -722,7 +696,7 @@ def _spec_bytes(output, i: int) -> int:
     """Bytes of an output given as (shape, dtype)."""
     shape, dtype = output
     shape = (int(shape),) if isinstance(shape, int | np.integer) else tuple(shape)
-    return math.prod(shape) * _check_dtype(dtype, f"output {i}").itemsize
+    return math.prod(shape) * check_dtype(dtype, f"output {i}").itemsize
 
 
 def _zero_outputs(
@@ -732,7 +706,7 @@ def _zero_outputs(
     return [
         np.zeros(o.shape, o.dtype)
         if isinstance(o, DeviceArray)
-        else np.zeros(o[0], _check_dtype(o[1], f"output {i}"))
+        else np.zeros(o[0], check_dtype(o[1], f"output {i}"))
         for i, o in enumerate(outputs)
     ]
 
@@ -768,7 +742,7 @@ class Rows:
 
     def __post_init__(self):
         object.__setattr__(self, "row_shape", tuple(int(n) for n in self.row_shape))
-        object.__setattr__(self, "dtype", _check_dtype(self.dtype, "Rows"))
+        object.__setattr__(self, "dtype", check_dtype(self.dtype, "Rows"))
 
     @classmethod
     def of(cls, array: np.ndarray) -> Rows:
@@ -855,11 +829,11 @@ class DeviceArray:
         array = np.asarray(array)
         if texture:
             return cls._upload_texture(device, array)
-        data = _as_bytes(array, what, 4)
+        data = as_bytes(array, what, 4)
         check_buffer_size(data.nbytes, what)
         usage = wgpu.BufferUsage.STORAGE | wgpu.BufferUsage.COPY_DST | wgpu.BufferUsage.COPY_SRC
         buffer = device.create_buffer_with_data(data=data, usage=usage)
-        return cls(buffer, array.shape, _check_dtype(array.dtype, "array"), False)
+        return cls(buffer, array.shape, check_dtype(array.dtype, "array"), False)
 
     @classmethod
     def _upload_texture(cls, device: wgpu.GPUDevice, array: np.ndarray) -> DeviceArray:
@@ -903,8 +877,8 @@ class DeviceArray:
         DeviceArray
         """
         shape = (int(shape),) if isinstance(shape, int | np.integer) else tuple(shape)
-        dtype = _check_dtype(dtype, "array")
-        size = _padded_size(math.prod(shape) * dtype.itemsize)
+        dtype = check_dtype(dtype, "array")
+        size = padded_size(math.prod(shape) * dtype.itemsize)
         check_buffer_size(size, f"array of shape {shape}")
         usage = wgpu.BufferUsage
         buffer = get_device().create_buffer(
@@ -955,7 +929,7 @@ def _stage(encoder: Any, arrays: Sequence[DeviceArray]) -> list[Any]:
         if array.is_texture:
             raise TypeError("textures are kernel inputs only and cannot be read back")
         # The array's bytes (a view of a block may be shorter than its buffer).
-        size = min(_padded_size(array.nbytes), array.resource.size)
+        size = min(padded_size(array.nbytes), array.resource.size)
         buffer = device.create_buffer(
             size=size, usage=wgpu.BufferUsage.MAP_READ | wgpu.BufferUsage.COPY_DST
         )

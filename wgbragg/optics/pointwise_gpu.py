@@ -9,19 +9,47 @@ evaluation path for every optics kernel (``docs/design.md``, "Float32 numerics")
 Pipelines are specialised with WGSL ``override`` constants for what a call needs (the
 polarisation, reflectance or transmittance, and for Bragg mirrors whether the host medium
 equals ``n1``, which compiles the complex amplitude of Appendix D out).
+
+What a call costs besides the kernel (``docs/performance.md``, "End to end"): the host's
+forming of the inputs, their upload, and the copy of the results into the output. So that
+it stays below the kernel's own time, :func:`evaluate_pointwise`
+
+- forms everything that depends on the angle alone (``s``, ``cos theta``, the layers'
+  optical paths: sines, cosines and square roots) once per distinct angle of the broadcast,
+  not once per point: per angle of a broadcast ``theta``, and per run of a flat ``theta``
+  that holds a grid (:func:`grid_view`), leaving per point only a product, a rounding and
+  a subtraction per phase;
+- forms the points in cache-sized units (:data:`UNIT_POINTS`), each straight into the rows
+  of a :class:`~wgbragg.gpu.streams.Stream` block, while the device computes the block
+  before (buffers reused across blocks and calls);
+- takes float32 wavelengths and angles as they are (no float64 copy of the inputs: each
+  value is widened exactly where it is used) and writes the results straight into the
+  output, float64 (or a caller's ``out``).
+
+The inputs each point reads are bit for bit those of ``point_inputs``.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Callable
 
 import numpy as np
 
 from wgbragg import gpu
-from wgbragg.common.blocks import flat_block
+from wgbragg.common.blocks import (
+    block_part,
+    block_ranges,
+    block_shape,
+    check_out,
+    full_rank,
+    parallel_map,
+)
+from wgbragg.gpu.streams import Stream, Streamed
 
-__all__ = ["POLARIZATION_CODE", "QUANTITIES", "WORKGROUP_SIZE", "evaluate_pointwise",
-           "float64_points", "point_rows", "reduced_turns"]
+__all__ = ["POLARIZATION_CODE", "QUANTITIES", "UNIT_POINTS", "WORKGROUP_SIZE", "PointForm",
+           "evaluate_pointwise", "form_points", "grid_view", "reduced_turns"]
 
 WORKGROUP_SIZE = 256
 """Workgroup size of the reflectance kernels, the fastest on lavapipe (``docs/performance.md``,
@@ -33,6 +61,13 @@ POLARIZATION_CODE = {"s": 0, "p": 1, "unpolarized": 2}
 QUANTITIES = ("reflectance", "transmittance")
 """What a pointwise kernel writes: its ``TRANSMITTANCE`` override constant picks the second."""
 
+UNIT_POINTS = 1 << 15
+"""Points the host forms at a time: their float64 temporaries (256 KiB each) stay in a core's
+cache, where a whole block's (8 MiB) would stream through memory."""
+
+_GRID_MIN_POINTS = 1 << 12
+"""Flat inputs of fewer points are formed as they are (:func:`grid_view` is not worth it)."""
+
 
 def reduced_turns(cycles) -> np.ndarray:
     """float64 phases in turns reduced to ``[-1/2, 1/2]``: exact, so a float32 copy carries
@@ -41,28 +76,195 @@ def reduced_turns(cycles) -> np.ndarray:
     return cycles - np.round(cycles)
 
 
-def float64_points(wavelength_nm, theta):
-    """``(wavelength, angle, shape)``: the inputs as float64 arrays and their broadcast shape."""
-    wavelength = np.asarray(wavelength_nm, np.float64)
-    angle = np.asarray(theta, np.float64)
-    return wavelength, angle, np.broadcast_shapes(wavelength.shape, angle.shape)
+@dataclasses.dataclass(frozen=True)
+class PointForm:
+    """What a pointwise optics kernel reads per point, and how the host forms it.
+
+    The kernel's first input holds 4 float32 words a point: ``s``, ``cos theta``, then the
+    phases ``path / lambda`` reduced to ``[-1/2, 1/2]`` turn (one per path), then ``1 /
+    lambda`` where a word is left (``inverse_column``). Its second input holds ``1 / lambda``
+    (Bragg mirrors: two paths fill the row), or a dispersive base's ``(n, k)`` per point, or a
+    placeholder every point shares.
+
+    Attributes
+    ----------
+    angle_terms : callable
+        ``angle_terms(theta)`` of float64 angles (radians, in ``[0, pi/2]``, any shape):
+        ``(s, cos_theta, paths)``, the float32 ``s`` and ``cos theta`` and a tuple of float64
+        optical paths (nm), all of ``theta``'s shape.
+    inverse_column : bool
+        ``1 / lambda`` is the rows' fourth word (one path), not a buffer of its own.
+    base : callable, optional
+        A dispersive base: its complex index at float64 wavelengths (nm), whose ``(n, k)`` the
+        second input holds per point; None: the second input is a shared placeholder (with
+        ``inverse_column``).
+    """
+
+    angle_terms: Callable[[np.ndarray], tuple]
+    inverse_column: bool
+    base: Callable[[np.ndarray], np.ndarray] | None = None
+
+    def streams(self) -> list:
+        """The kernel's two inputs: :class:`~wgbragg.gpu.streams.Streamed` rows, or the shared
+        placeholder."""
+        if not self.inverse_column:
+            return [Streamed((4,)), Streamed(())]
+        if self.base is not None:
+            return [Streamed((4,)), Streamed((2,))]
+        return [Streamed((4,)), np.zeros((1, 2), np.float32)]
+
+    def terms(self, angle: np.ndarray) -> tuple[np.ndarray, ...]:
+        """``(geometry, *paths)`` of (float32 or float64) angles, widened and clipped to
+        ``pi/2`` in float64 (float32's pi/2 lies above it): ``geometry`` holds the float32
+        pair ``(s, cos theta)`` of each angle as one 8-byte word (``uint64``, the rows' first
+        two words), so that a unit copies both in one pass."""
+        theta = np.minimum(np.asarray(angle, np.float64), np.pi / 2)
+        s, cos_theta, paths = self.angle_terms(theta)
+        pairs = np.empty((*theta.shape, 2), np.float32)
+        pairs[..., 0], pairs[..., 1] = s, cos_theta
+        return (pairs.view(np.uint64)[..., 0], *paths)
+
+    def fill(self, hosts: list[np.ndarray], offset: int, shape: tuple[int, ...],
+             wavelength: np.ndarray, terms: tuple[np.ndarray, ...]) -> None:
+        """Form the points of one unit into rows ``offset ..`` of the host arrays ``hosts``.
+
+        Parameters
+        ----------
+        hosts : list of numpy.ndarray
+            The streamed inputs' host rows (:meth:`~wgbragg.gpu.streams.Stream.inputs`).
+        offset : int
+            First row of the unit.
+        shape : tuple of int
+            The unit's shape; ``wavelength`` and ``terms`` broadcast to it.
+        wavelength : numpy.ndarray
+            Wavelengths (nm, float32 or float64).
+        terms : tuple of numpy.ndarray
+            :meth:`terms` of the unit's angles.
+        """
+        count = math.prod(shape)
+        rows = hosts[0][offset:offset + count].reshape(*shape, 4)
+        geometry, *paths = terms
+        np.copyto(rows.view(np.uint64)[..., 0], geometry)
+        inverse = np.divide(1.0, wavelength, dtype=np.float64)
+        cycles = np.empty(shape)
+        whole = np.empty(shape)
+        for j, path in enumerate(paths):
+            np.multiply(path, inverse, out=cycles)
+            np.rint(cycles, out=whole)  # = np.round: halves to even
+            np.subtract(cycles, whole, out=rows[..., 2 + j], casting="same_kind")
+        if not self.inverse_column:
+            np.copyto(hosts[1][offset:offset + count].reshape(shape), inverse,
+                      casting="same_kind")
+            return
+        np.copyto(rows[..., 3], inverse, casting="same_kind")
+        if self.base is not None:
+            index = np.asarray(self.base(np.asarray(wavelength, np.float64)), np.complex128)
+            pairs = hosts[1][offset:offset + count].reshape(*shape, 2)
+            np.copyto(pairs[..., 0], index.real, casting="same_kind")
+            np.copyto(pairs[..., 1], index.imag, casting="same_kind")
 
 
-def point_rows(make, row_shape, wavelength_nm, theta) -> gpu.Rows:
-    """Per-point kernel input over the broadcast ``(wavelength_nm, theta)``, formed a block at
-    a time: ``make(wavelength, theta)`` takes 1-D float64 blocks of the broadcast (never the
-    whole of it) and returns their float32 rows of ``row_shape``."""
-    arrays = (wavelength_nm, theta)
-    return gpu.Rows(lambda start, stop: make(*flat_block(arrays, start, stop)), row_shape,
-                    np.float32)
+def form_points(form: PointForm, wavelength_nm, theta) -> tuple[list[np.ndarray], tuple]:
+    """The kernel's per-point inputs of every point at once (for tests and kernel
+    benchmarks: a call streams them instead), formed as :func:`evaluate_pointwise` forms them.
+
+    Returns
+    -------
+    inputs : list of numpy.ndarray
+        The streamed inputs of :meth:`PointForm.streams`, one row a point in C order.
+    shape : tuple of int
+        The broadcast shape.
+    """
+    wavelength, angle = np.asarray(wavelength_nm), np.asarray(theta)
+    shape = np.broadcast_shapes(wavelength.shape, angle.shape)
+    size = math.prod(shape)
+    hosts = [np.empty((size, *spec.row_shape), spec.dtype) for spec in form.streams()
+             if isinstance(spec, Streamed)]
+    if size:
+        form.fill(hosts, 0, shape, wavelength, form.terms(angle))
+    return hosts, shape
 
 
-def evaluate_pointwise(shader, constants, params, inputs, shape):
-    """Run entry point ``shader`` once per point; float64 result of ``shape``.
+def _first_index(flat: np.ndarray, test: Callable[[np.ndarray], np.ndarray], start: int) -> int:
+    """First index ``>= start`` where ``test`` of ``flat`` holds, or ``flat.size``; read in
+    units, so that an early hit costs little."""
+    for first in range(start, flat.size, UNIT_POINTS):
+        hits = np.flatnonzero(test(flat[first:first + UNIT_POINTS]))
+        if hits.size:
+            return first + int(hits[0])
+    return flat.size
 
-    Any number of points: the per-point inputs are :class:`~wgbragg.gpu.Rows`
-    (:func:`point_rows`), which :meth:`~wgbragg.gpu.Kernel.run` forms and dispatches a block at
-    a time, so host memory is the result plus one block.
+
+def _rows_equal(rows: np.ndarray, reference: np.ndarray) -> bool:
+    """Whether ``rows`` (2-D) equals ``reference`` broadcast to it (a column of one value per
+    row, or one row), read in units and stopping at the first difference."""
+    step = max(1, UNIT_POINTS // rows.shape[1])
+    per_row = reference.ndim == 2 and reference.shape[0] == rows.shape[0]
+    for first in range(0, rows.shape[0], step):
+        part = reference[first:first + step] if per_row else reference
+        if not np.all(rows[first:first + step] == part):
+            return False
+    return True
+
+
+def grid_view(wavelength: np.ndarray, angle: np.ndarray, shape: tuple[int, ...]):
+    """Flat inputs that hold a grid, as the broadcast of their axes.
+
+    A flat ``theta`` of the broadcast's size whose values come in runs of one length ``L``
+    (a raveled ``meshgrid`` with the angle slowest, as ``np.meshgrid(theta, wavelength,
+    indexing="ij")`` gives), or that repeats with a period ``P`` (the angle fastest), is the
+    same function of the flat index as a ``(size / L, 1)`` or ``(1, P)`` array broadcast to
+    ``(size / L, L)`` or ``(size / P, P)``. In that form the per-angle work is done once per
+    angle instead of once per point. Anything else is returned as it is.
+
+    Parameters
+    ----------
+    wavelength, angle : numpy.ndarray
+        The validated inputs.
+    shape : tuple of int
+        Their broadcast shape.
+
+    Returns
+    -------
+    wavelength, angle : numpy.ndarray
+        Views, broadcasting to ``grid_shape``; in C order the same values at the same flat
+        indices as the inputs broadcast to ``shape``.
+    grid_shape : tuple of int
+    """
+    size = math.prod(shape)
+    unchanged = wavelength, angle, shape
+    if (size < _GRID_MIN_POINTS or angle.size != size or not angle.flags.c_contiguous
+            or not (wavelength.size == 1 or (wavelength.size == size
+                                             and wavelength.flags.c_contiguous))):
+        return unchanged
+    flat = angle.reshape(-1)
+    flat_wavelength = wavelength.reshape(-1)
+    run = _first_index(flat, lambda part: part != flat[0], 1)
+    if 1 < run < size and size % run == 0:
+        rows = flat.reshape(-1, run)
+        if _rows_equal(rows, rows[:, :1]):  # constant along each row
+            grid = (size // run, run)
+            return flat_wavelength.reshape(-1 if wavelength.size == size else 1,
+                                           run if wavelength.size == size else 1), \
+                rows[:, :1], grid
+    period = _first_index(flat, lambda part: part == flat[0], 1)
+    if 1 < period < size and size % period == 0:
+        rows = flat.reshape(-1, period)
+        if _rows_equal(rows[1:], rows[0]):
+            grid = (size // period, period)
+            return flat_wavelength.reshape(-1 if wavelength.size == size else 1,
+                                           period if wavelength.size == size else 1), \
+                rows[:1], grid
+    return unchanged
+
+
+def evaluate_pointwise(shader: str, constants: dict, params: np.ndarray, form: PointForm,
+                       wavelength: np.ndarray, angle: np.ndarray, out=None) -> np.ndarray:
+    """Run entry point ``shader`` once per point of the broadcast ``(wavelength, angle)``.
+
+    Any number of points: they are formed a unit at a time into blocks streamed through the
+    device (:class:`~wgbragg.gpu.streams.Stream`), so host memory is the result plus a few
+    blocks.
 
     Parameters
     ----------
@@ -72,14 +274,57 @@ def evaluate_pointwise(shader, constants, params, inputs, shape):
         Override constants.
     params : numpy.ndarray
         The uniform.
-    inputs : sequence of gpu.Rows or numpy.ndarray
-        The storage inputs in binding order: per-point rows, or arrays every point shares.
-    shape : tuple of int
-        Shape of the result.
+    form : PointForm
+        What the kernel reads per point.
+    wavelength, angle : numpy.ndarray
+        Validated wavelengths (nm) and angles (radians), float32 or float64, broadcasting
+        together.
+    out : numpy.ndarray, optional
+        Where the result goes (:func:`~wgbragg.common.blocks.check_out`: C-contiguous,
+        float64 or float32, of the broadcast shape).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``out``, or a new float64 array of the broadcast shape.
     """
-    kernel = gpu.compute_pipeline(shader, constants=constants)
+    shape = np.broadcast_shapes(wavelength.shape, angle.shape)
+    out = check_out(out, shape)
     size = math.prod(shape)
     if size == 0:
-        return np.zeros(shape)
-    (out,) = kernel.run(inputs, [(size, np.float32)], params)
-    return out.reshape(shape).astype(np.float64)
+        return out
+    kernel = gpu.compute_pipeline(shader, constants=constants)
+    wavelength, angle, grid_shape = grid_view(wavelength, angle, shape)
+    # Per-angle terms once for the whole call where the angles are fewer than the points.
+    whole = form.terms(angle) if angle.size * 4 <= size else None
+    views = full_rank([wavelength, angle, *(whole or ())], len(grid_shape))
+    results = out.reshape(-1)
+    with Stream(kernel, form.streams(), [((), np.float32)], params, count=size) as stream:
+        units = block_ranges(grid_shape, min(UNIT_POINTS, stream.rows))
+        for first, block in _blocks(units, stream.rows):
+            hosts = stream.inputs()
+
+            def fill(unit, hosts=hosts, first=first):
+                index, start, _ = unit
+                parts = [block_part(view, index) for view in views]
+                terms = tuple(parts[2:]) if whole is not None else form.terms(parts[1])
+                form.fill(hosts, start - first, block_shape(grid_shape, index), parts[0],
+                          terms)
+
+            parallel_map(fill, block)
+            count = block[-1][2] - first
+            stream.submit(count, [results[first:first + count]])
+    return out
+
+
+def _blocks(units, rows: int):
+    """``(first point, units)`` of each block: consecutive units of :func:`block_ranges`,
+    together at most ``rows`` points."""
+    block: list = []
+    for unit in units:
+        if block and unit[2] - block[0][1] > rows:
+            yield block[0][1], block
+            block = []
+        block.append(unit)
+    if block:
+        yield block[0][1], block

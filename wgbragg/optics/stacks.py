@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wgbragg.common.blocks import blockwise
+from wgbragg.common.blocks import blockwise, check_out
 from wgbragg.common.validation import (
     check_angle,
     check_backend,
@@ -43,13 +43,21 @@ from wgbragg.optics.yeh import yeh_reflectance, yeh_transmittance
 __all__ = ["BraggStack", "ThinFilmStack"]
 
 
-def _checked_inputs(wavelength_nm, theta, polarization, backend):
+def _checked_inputs(wavelength_nm, theta, polarization, backend, out=None):
+    """Checked ``(wavelength, angle, out)``.
+
+    For the float32 kernels (``backend="gpu"``) float32 and float64 arrays are kept as they
+    are, without a copy (the kernels' inputs are formed from them and never written into
+    them); the numpy twins take float64 copies. ``out``: None, or a preallocated array of the
+    broadcast shape (:func:`~wgbragg.common.blocks.check_out`).
+    """
     check_polarization(polarization)
     check_backend(backend)
-    wavelength = check_wavelength(wavelength_nm)
-    angle = check_angle(theta)
-    check_broadcast(wavelength_nm=wavelength.shape, theta=angle.shape)
-    return wavelength, angle
+    copy = backend != "gpu"
+    wavelength = check_wavelength(wavelength_nm, copy=copy)
+    angle = check_angle(theta, copy=copy)
+    shape = check_broadcast(wavelength_nm=wavelength.shape, theta=angle.shape)
+    return wavelength, angle, (None if out is None else check_out(out, shape))
 
 
 @dataclass(frozen=True)
@@ -81,7 +89,8 @@ class BraggStack:
         """Cell thickness ``Lambda = d1 + d2`` in nm."""
         return self.d1 + self.d2
 
-    def reflectance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy"):
+    def reflectance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy",
+                    out=None):
         """Specular reflectance ``R(lambda, theta)`` in [0, 1], O(1) in N.
 
         Parameters
@@ -92,42 +101,56 @@ class BraggStack:
             Angle of incidence in the host, radians in ``[0, pi/2]``.
         polarization : {"unpolarized", "s", "p"}
         backend : {"numpy", "gpu"}
-            float64 reference or float32 WGSL kernel.
+            float64 reference or float32 WGSL kernel. The kernel takes float32 (or float64)
+            arrays as they are, without a copy.
+        out : numpy.ndarray, optional
+            A C-contiguous float64 or float32 array of the broadcast shape to write the result
+            into (float32 holds the kernel's values exactly), instead of a new one.
 
         Returns
         -------
         numpy.ndarray
-            float64 array of shape ``broadcast(wavelength_nm, theta)``.
+            ``out``, or a float64 array of shape ``broadcast(wavelength_nm, theta)``.
         """
-        wavelength, angle = _checked_inputs(wavelength_nm, theta, polarization, backend)
+        wavelength, angle, out = _checked_inputs(wavelength_nm, theta, polarization, backend,
+                                                 out)
         args = (self.n1, self.n2, self.d1, self.d2, self.N, wavelength, angle, polarization)
         if backend == "gpu":
-            return yeh_gpu.bragg_reflectance(*args, self.host)
+            return yeh_gpu.bragg_reflectance(*args, self.host, out=out)
         return blockwise(lambda w, t: yeh_reflectance(*args[:5], w, t, polarization,
-                                                      host=self.host), wavelength, angle)
+                                                      host=self.host), wavelength, angle,
+                         out=out)
 
-    def transmittance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy"):
+    def transmittance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy",
+                      out=None):
         """Transmittance into the ``n1`` substrate, in [0, 1], O(1) in N.
 
         The Poynting flux carried into the substrate over the incident one, as
         ``tmm.coh_tmm``'s ``T``; the layers are lossless, so ``R + T = 1``. It is formed
         directly, not as ``1 - R``, so it keeps its relative accuracy deep inside band gaps
         (on the GPU down to float32's range, about 1e-38). 0 beyond the critical angle of
-        ``n1`` under a denser host. Arguments and shape as :meth:`reflectance`
+        ``n1`` under a denser host. Arguments (``out`` too) and shape as :meth:`reflectance`
         (``"unpolarized"``: the mean of the s and p transmittances).
         """
-        wavelength, angle = _checked_inputs(wavelength_nm, theta, polarization, backend)
+        wavelength, angle, out = _checked_inputs(wavelength_nm, theta, polarization, backend,
+                                                 out)
         args = (self.n1, self.n2, self.d1, self.d2, self.N, wavelength, angle, polarization)
         if backend == "gpu":
-            return yeh_gpu.bragg_transmittance(*args, self.host)
+            return yeh_gpu.bragg_transmittance(*args, self.host, out=out)
         return blockwise(lambda w, t: yeh_transmittance(*args[:5], w, t, polarization,
-                                                        host=self.host), wavelength, angle)
+                                                        host=self.host), wavelength, angle,
+                         out=out)
 
-    def absorptance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy"):
-        """Absorptance: 0, every layer and the substrate being lossless; arguments and shape as
-        :meth:`transmittance` (``R + T + A = 1``)."""
-        wavelength, angle = _checked_inputs(wavelength_nm, theta, polarization, backend)
-        return np.zeros(np.broadcast_shapes(wavelength.shape, angle.shape))
+    def absorptance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy",
+                    out=None):
+        """Absorptance: 0, every layer and the substrate being lossless; arguments (``out``
+        too) and shape as :meth:`transmittance` (``R + T + A = 1``)."""
+        wavelength, angle, out = _checked_inputs(wavelength_nm, theta, polarization, backend,
+                                                 out)
+        if out is None:
+            return np.zeros(np.broadcast_shapes(wavelength.shape, angle.shape))
+        out[...] = 0.0
+        return out
 
     def landmarks(self, theta, polarization="s"):
         """Ordered spectral landmarks (modes, Airy points, band edges, zero points).
@@ -204,49 +227,60 @@ class ThinFilmStack:
         shape = np.shape(wavelength_nm)
         return np.full(shape, complex(self.n_base, self.k_base))
 
-    def reflectance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy"):
-        """Specular reflectance in [0, 1]; arguments as :meth:`BraggStack.reflectance`."""
-        wavelength, angle = _checked_inputs(wavelength_nm, theta, polarization, backend)
+    def reflectance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy",
+                    out=None):
+        """Specular reflectance in [0, 1]; arguments (``out`` too) as
+        :meth:`BraggStack.reflectance`."""
+        wavelength, angle, out = _checked_inputs(wavelength_nm, theta, polarization, backend,
+                                                 out)
         if backend == "gpu":
             return thin_film_gpu.thin_film_reflectance(
                 self.host, self.n_film, self.d, self.n_base, self.k_base, wavelength, angle,
-                polarization, self.base,
+                polarization, self.base, out=out,
             )
         return blockwise(lambda w, t: thin_film_reflectance(
             self.host, self.n_film, self.d, self.base_index(w), w, t, polarization),
-            wavelength, angle)
+            wavelength, angle, out=out)
 
-    def _base_flux(self, wavelength_nm, theta, polarization, backend):
+    def _base_flux(self, wavelength_nm, theta, polarization, backend, out):
         """(flux entering the base, whether the base absorbs) for the public quantities."""
-        wavelength, angle = _checked_inputs(wavelength_nm, theta, polarization, backend)
+        wavelength, angle, out = _checked_inputs(wavelength_nm, theta, polarization, backend,
+                                                 out)
         if backend == "gpu":
             flux = thin_film_gpu.base_flux(
                 self.host, self.n_film, self.d, self.n_base, self.k_base, wavelength, angle,
-                polarization, self.base,
+                polarization, self.base, out=out,
             )
         else:
             flux = blockwise(lambda w, t: base_flux(
                 self.host, self.n_film, self.d, self.base_index(w), w, t, polarization),
-                wavelength, angle)
-        absorbing = np.broadcast_to(self.base_index(wavelength).imag > 0, flux.shape)
-        return flux, absorbing
+                wavelength, angle, out=out)
+        # A constant base absorbs everywhere or nowhere: no array of its index per point.
+        absorbing = (self.base_index(wavelength).imag > 0 if self.dispersive
+                     else np.bool_(self.k_base > 0))
+        return flux, np.broadcast_to(absorbing, flux.shape)
 
-    def transmittance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy"):
+    def transmittance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy",
+                      out=None):
         """Transmittance into a lossless base, in [0, 1]; 0 over an absorbing base.
 
         The Poynting flux the base carries away over the incident one, as ``tmm.coh_tmm``'s
         ``T`` for a base with ``k = 0`` (0 beyond its critical angle). A base with ``k > 0``
         absorbs all the flux that enters it (:meth:`absorptance`). ``R + T + A = 1``.
-        Arguments and shape as :meth:`BraggStack.reflectance`, the wavelengths within a
-        dispersive base's tabulated range (``"unpolarized"``: the mean of the s and p values).
+        Arguments (``out`` too) and shape as :meth:`BraggStack.reflectance`, the wavelengths
+        within a dispersive base's tabulated range (``"unpolarized"``: the mean of the s and p
+        values).
         """
-        flux, absorbing = self._base_flux(wavelength_nm, theta, polarization, backend)
-        return np.where(absorbing, 0.0, flux)
+        flux, absorbing = self._base_flux(wavelength_nm, theta, polarization, backend, out)
+        np.copyto(flux, 0.0, where=absorbing)
+        return flux
 
-    def absorptance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy"):
+    def absorptance(self, wavelength_nm, theta, polarization="unpolarized", backend="numpy",
+                    out=None):
         """The fraction of the incident power an absorbing base (``k > 0``) absorbs, in [0, 1]:
         the flux that enters it (``tmm.coh_tmm``'s ``T`` there), ``1 - R``; 0 over a lossless
         base (the host and the film are lossless). Arguments and shape as
-        :meth:`transmittance`; ``R + T + A = 1``."""
-        flux, absorbing = self._base_flux(wavelength_nm, theta, polarization, backend)
-        return np.where(absorbing, flux, 0.0)
+        :meth:`transmittance` (``out`` too); ``R + T + A = 1``."""
+        flux, absorbing = self._base_flux(wavelength_nm, theta, polarization, backend, out)
+        np.copyto(flux, 0.0, where=~absorbing)
+        return flux

@@ -18,14 +18,13 @@ from wgbragg.optics.pointwise_gpu import (
     POLARIZATION_CODE,
     QUANTITIES,
     WORKGROUP_SIZE,
+    PointForm,
     evaluate_pointwise,
-    float64_points,
-    point_rows,
-    reduced_turns,
+    form_points,
 )
 from wgbragg.optics.yeh_gpu import float32_geometry
 
-__all__ = ["THIN_FILM_DTYPE", "base_flux", "base_index_buffer", "point_inputs",
+__all__ = ["THIN_FILM_DTYPE", "base_flux", "base_index_buffer", "point_form", "point_inputs",
            "thin_film_reflectance"]
 
 THIN_FILM_DTYPE = gpu.struct_dtype([
@@ -46,6 +45,22 @@ def base_index_buffer(base_index, shape=None) -> np.ndarray:
     return np.ascontiguousarray(np.stack([index.real, index.imag], -1), np.float32).reshape(-1, 2)
 
 
+def point_form(host, n_film, d_nm, base=None) -> PointForm:
+    """What the kernel reads per point, for the film ``host, n_film, d_nm`` (validated by the
+    caller) over a constant base (``base=None``) or a dispersive one (``base``: its complex
+    index at float64 wavelengths): ``s``, ``cos theta``, the film's phase and ``1 / lambda``
+    in the rows (:func:`point_inputs`), and the base's ``(n, k)`` per point."""
+
+    def angle_terms(theta):
+        s, cos_theta = host * np.sin(theta), cos_incidence(theta)
+        # The film's q as the kernel forms it, so that its phase and admittance describe one
+        # layer (yeh_gpu.float32_geometry).
+        q_film = np.sqrt(np.maximum(float32_geometry(n_film, host, s, cos_theta), 0.0))
+        return s.astype(np.float32), cos_theta.astype(np.float32), (q_film * d_nm,)
+
+    return PointForm(angle_terms, inverse_column=True, base=base)
+
+
 def point_inputs(host, n_film, d_nm, wavelength_nm, theta):
     """The kernel's per-point inputs, formed in float64 from the float64 inputs of the film
     ``host, n_film, d_nm`` (validated by the caller) at ``wavelength_nm``, ``theta`` as
@@ -61,51 +76,38 @@ def point_inputs(host, n_film, d_nm, wavelength_nm, theta):
     shape : tuple of int
         The broadcast shape.
     """
-    wavelength, angle, shape = float64_points(wavelength_nm, theta)
-    s, cos_theta = host * np.sin(angle), cos_incidence(angle)
-    # The film's q as the kernel forms it, so that its phase and admittance describe one
-    # layer (yeh_gpu.float32_geometry).
-    q_film = np.sqrt(np.maximum(float32_geometry(n_film, host, s, cos_theta), 0.0))
-    inv = 1.0 / wavelength
-    points = np.empty((*shape, 4), np.float32)
-    points[..., 0] = s
-    points[..., 1] = cos_theta
-    points[..., 2] = reduced_turns((q_film * d_nm) * inv)
-    points[..., 3] = inv
-    return points.reshape(-1, 4), shape
+    (points,), shape = form_points(point_form(host, n_film, d_nm), wavelength_nm, theta)
+    return points, shape
 
 
-def _evaluate(host, n_film, d_nm, n_base, k_base, wavelength_nm, theta, polarization,
-              base, quantity):
+def _evaluate(host, n_film, d_nm, n_base, k_base, wavelength, angle, polarization,
+              base, quantity, out):
     params = np.zeros((), THIN_FILM_DTYPE)
     params["host"], params["n_film"], params["d_nm"] = host, n_film, d_nm
     params["n_base"], params["k_base"] = n_base, k_base
     constants = {"POLARIZATION": POLARIZATION_CODE[polarization], "WORKGROUP_SIZE": WORKGROUP_SIZE,
                  "DISPERSIVE": base is not None,
                  "TRANSMITTANCE": QUANTITIES.index(quantity) == 1}
-    wavelength, angle, shape = float64_points(wavelength_nm, theta)
-    rows = [point_rows(lambda w, t: point_inputs(host, n_film, d_nm, w, t)[0], (4,),
-                       wavelength, angle),
-            base_index_buffer(None) if base is None
-            else point_rows(lambda w, t: base_index_buffer(base(w)), (2,), wavelength, angle)]
-    return evaluate_pointwise("optics/thin_film_reflectance.wgsl", constants, params, rows,
-                              shape)
+    return evaluate_pointwise("optics/thin_film_reflectance.wgsl", constants, params,
+                              point_form(host, n_film, d_nm, base), wavelength, angle, out)
 
 
 def thin_film_reflectance(host, n_film, d_nm, n_base, k_base, wavelength_nm, theta,
-                          polarization, base=None):
+                          polarization, base=None, out=None):
     """float32 GPU reflectance of a thin film; arguments as the :class:`ThinFilm` fields.
 
-    ``base``: a dispersive base, a function giving its complex index at an array of
-    wavelengths (nm), replacing ``n_base`` and ``k_base``; None for a constant base.
+    ``wavelength_nm``, ``theta``: validated arrays, float32 or float64. ``base``: a
+    dispersive base, a function giving its complex index at an array of wavelengths (nm),
+    replacing ``n_base`` and ``k_base``; None for a constant base. ``out``: as
+    :func:`~wgbragg.optics.pointwise_gpu.evaluate_pointwise`'s.
     """
     return _evaluate(host, n_film, d_nm, n_base, k_base, wavelength_nm, theta, polarization,
-                     base, "reflectance")
+                     base, "reflectance", out)
 
 
 def base_flux(host, n_film, d_nm, n_base, k_base, wavelength_nm, theta, polarization,
-              base=None):
+              base=None, out=None):
     """float32 GPU flux into the base (:func:`wgbragg.optics.thin_film.base_flux`, tmm's
     ``T``); arguments as :func:`thin_film_reflectance`."""
     return _evaluate(host, n_film, d_nm, n_base, k_base, wavelength_nm, theta, polarization,
-                     base, "transmittance")
+                     base, "transmittance", out)

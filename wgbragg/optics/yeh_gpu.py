@@ -17,15 +17,15 @@ from wgbragg.optics.pointwise_gpu import (
     POLARIZATION_CODE,
     QUANTITIES,
     WORKGROUP_SIZE,
+    PointForm,
     evaluate_pointwise,
-    float64_points,
-    point_rows,
-    reduced_turns,
+    form_points,
 )
 from wgbragg.optics.yeh import angle_geometry
 
 __all__ = ["BRAGG_MIRROR_DTYPE", "benchmark_bragg", "bragg_constants", "bragg_params",
-           "bragg_reflectance", "bragg_transmittance", "float32_geometry", "point_inputs"]
+           "bragg_reflectance", "bragg_transmittance", "float32_geometry", "point_form",
+           "point_inputs"]
 
 BRAGG_MIRROR_DTYPE = gpu.struct_dtype([
     ("n1", "f32"), ("n2", "f32"), ("d1_nm", "f32"), ("d2_nm", "f32"),
@@ -90,15 +90,34 @@ def float32_geometry(n, host, s, cos_theta):
     return (n - s) * (n + s)
 
 
+def point_form(n1, n2, d1_nm, d2_nm, host) -> PointForm:
+    """What the kernel reads per point, for the mirror ``n1, n2, d1_nm, d2_nm, host``
+    (validated by the caller): ``s``, ``cos theta`` and the two layers' phases in the rows,
+    ``1 / lambda`` on its own (:func:`point_inputs`)."""
+
+    def angle_terms(theta):
+        s, cos_theta, _, _ = angle_geometry(n1, n2, host, theta)
+        q1 = np.sqrt(np.maximum(float32_geometry(n1, host, s, cos_theta), 0.0))
+        q2 = np.sqrt(np.maximum(float32_geometry(n2, host, s, cos_theta), 0.0))
+        return s.astype(np.float32), cos_theta.astype(np.float32), (q1 * d1_nm, q2 * d2_nm)
+
+    return PointForm(angle_terms, inverse_column=False)
+
+
 def point_inputs(n1, n2, d1_nm, d2_nm, host, wavelength_nm, theta):
     """The kernel's per-point inputs, formed in float64 from the float64 inputs.
+
+    A call forms them a unit of points at a time, with the angles' terms once per distinct
+    angle (:func:`~wgbragg.optics.pointwise_gpu.evaluate_pointwise`); this forms them all at
+    once, the same bits, for tests and kernel benchmarks.
 
     Parameters
     ----------
     n1, n2, d1_nm, d2_nm, host : float
         The mirror (validated by the caller).
     wavelength_nm, theta : array_like
-        Vacuum wavelength (nm) and angle in the host (radians), broadcast together.
+        Vacuum wavelength (nm) and angle in the host (radians), broadcast together; float32
+        values are widened exactly.
 
     Returns
     -------
@@ -112,45 +131,32 @@ def point_inputs(n1, n2, d1_nm, d2_nm, host, wavelength_nm, theta):
     shape : tuple of int
         The broadcast shape.
     """
-    wavelength, angle, shape = float64_points(wavelength_nm, theta)
-    s, cos_theta, _, _ = angle_geometry(n1, n2, host, angle)
-    q1 = np.sqrt(np.maximum(float32_geometry(n1, host, s, cos_theta), 0.0))
-    q2 = np.sqrt(np.maximum(float32_geometry(n2, host, s, cos_theta), 0.0))
-    inv = 1.0 / wavelength
-    points = np.empty((*shape, 4), np.float32)
-    points[..., 0] = s
-    points[..., 1] = cos_theta
-    points[..., 2] = reduced_turns((q1 * d1_nm) * inv)
-    points[..., 3] = reduced_turns((q2 * d2_nm) * inv)
-    inv_wavelength = np.empty(shape, np.float32)
-    inv_wavelength[...] = inv
-    return points.reshape(-1, 4), inv_wavelength.reshape(-1), shape
+    (points, inv_wavelength), shape = form_points(point_form(n1, n2, d1_nm, d2_nm, host),
+                                                  wavelength_nm, theta)
+    return points, inv_wavelength, shape
 
 
-def _evaluate(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization, host, quantity):
-    params = bragg_params(n1, n2, d1_nm, d2_nm, N, host)
-    constants = bragg_constants(n1, host, polarization, quantity)
-    wavelength, angle, shape = float64_points(wavelength_nm, theta)
-
-    def points(w, t):
-        return point_inputs(n1, n2, d1_nm, d2_nm, host, w, t)[0]
-
-    rows = [point_rows(points, (4,), wavelength, angle),
-            point_rows(lambda w, t: (1.0 / w).astype(np.float32), (), wavelength, angle)]
-    return evaluate_pointwise("optics/yeh_reflectance.wgsl", constants, params, rows, shape)
+def _evaluate(n1, n2, d1_nm, d2_nm, N, wavelength, angle, polarization, host, quantity, out):
+    return evaluate_pointwise("optics/yeh_reflectance.wgsl",
+                              bragg_constants(n1, host, polarization, quantity),
+                              bragg_params(n1, n2, d1_nm, d2_nm, N, host),
+                              point_form(n1, n2, d1_nm, d2_nm, host), wavelength, angle, out)
 
 
-def bragg_reflectance(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization, host):
-    """float32 GPU reflectance of a Bragg mirror; arguments as :func:`optics.yeh_reflectance`."""
+def bragg_reflectance(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization, host,
+                      out=None):
+    """float32 GPU reflectance of a Bragg mirror; arguments as :func:`optics.yeh_reflectance`
+    (``wavelength_nm`` and ``theta`` validated arrays, float32 or float64), and ``out`` as
+    :func:`~wgbragg.optics.pointwise_gpu.evaluate_pointwise`'s."""
     return _evaluate(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization, host,
-                     "reflectance")
+                     "reflectance", out)
 
 
-def bragg_transmittance(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization, host):
-    """float32 GPU transmittance of a Bragg mirror; arguments as
-    :func:`optics.yeh_transmittance`."""
+def bragg_transmittance(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization, host,
+                        out=None):
+    """float32 GPU transmittance of a Bragg mirror; arguments as :func:`bragg_reflectance`."""
     return _evaluate(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization, host,
-                     "transmittance")
+                     "transmittance", out)
 
 
 def benchmark_bragg(n1, n2, d1_nm, d2_nm, N, wavelength_nm, theta, polarization, host,
