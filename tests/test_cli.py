@@ -59,6 +59,8 @@ def test_info_names_the_adapter_its_mesa_version_and_where_its_driver_came_from(
     if info["is_lavapipe"]:
         assert info["mesa"] and f"Mesa {info['mesa']}" in info["driver"]
     assert "  driver cache: " in out
+    budget = gpu.loop_budget()
+    assert f"  loop budget: {'none' if budget is None else budget}" in out
 
 
 @pytest.mark.gpu

@@ -132,6 +132,8 @@ def _info(args) -> int:
     info = gpu.adapter_info()
     for key, value in info.items():
         print(f"  {key}: {value}")
+    budget = gpu.loop_budget()
+    print(f"  loop budget: {'none (loops run to the end)' if budget is None else budget}")
     system = system_lavapipe()
     if system is not None:
         version = ".".join(map(str, system[1])) if system[1] else "of unknown version"
