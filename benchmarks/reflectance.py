@@ -410,6 +410,15 @@ def _measure_gpu_e2e(N: int, cfg: Config, first: bool) -> Measurement:
     return Measurement(wavelength.size / seconds, wavelength.size, seconds)
 
 
+def target_rates(N: int, side: int, repeats: int = 5) -> tuple[float, float]:
+    """The kernel's and ``BraggMirror.reflectance``'s throughput (evaluations per second) on
+    the same ``side x side`` grid, as this benchmark's target row measures them
+    (:mod:`benchmarks.drivers` compares them across drivers)."""
+    cfg = dataclasses.replace(FULL, gpu_side=side, gpu_repeats=repeats, e2e_repeats=repeats)
+    return (_measure_gpu_kernel(N, cfg, "s").rate,
+            _measure_gpu_e2e(N, cfg, first=True).rate)
+
+
 def _measure_yeh(N: int, cfg: Config, first: bool) -> Measurement:
     wavelength, theta = grid(cfg.yeh_side)
     if first:
