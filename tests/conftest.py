@@ -80,10 +80,19 @@ def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line("markers", "gpu: needs a wgpu adapter (see tests/conftest.py)")
 
 
-def pytest_report_header(config: pytest.Config) -> str:
+def adapter_line() -> str:
+    """The adapter with its Mesa version and where its driver came from (or why none)."""
     if GPU_INFO is None:
         return f"wgbragg adapter: none ({GPU_ERROR})"
     return f"wgbragg adapter: {GPU_INFO['driver']} (driver: {GPU_INFO['driver_source']})"
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    # Written even under -q (which hides pytest's report header): every run says which
+    # driver its GPU tests ran on, since results and times depend on it.
+    terminal = session.config.pluginmanager.get_plugin("terminalreporter")
+    if terminal is not None:
+        terminal.write_line(adapter_line())
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
