@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from conftest import bench_section, markdown_table
 
+from benchmarks import end_to_end, report
 from benchmarks import reflectance as bench
-from benchmarks import report
 
 pytestmark = pytest.mark.gpu
 
@@ -134,6 +134,42 @@ def test_header_facts(runs):
     assert re.search(r"WORKGROUP_SIZE = \d+", section)
 
 
+def test_end_to_end_table_has_every_public_call(runs):
+    (text, _), _ = runs
+    rows = _table_after(bench_section(bench, text), "### Public calls end to end")
+    labels = [call.label for call in end_to_end.CALLS]
+    assert [row for row in rows if row != "call"] == labels
+    for label in labels:
+        points, kernel, whole, share, met = rows[label]
+        assert int(points.replace(",", "")) > 0
+        assert report.parse_rate(kernel) > 0 and report.parse_rate(whole) > 0
+        assert re.fullmatch(r"\d+%", share), share
+        assert met == "not checked (< 1M points)"  # quick sizes
+
+
+def test_targets_hold_the_end_to_end_share(runs):
+    (text, _), _ = runs
+    rows = _table_after(bench_section(bench, text), "### Targets")
+    (label,) = [row for row in rows if row.startswith("GPU end to end >= 50% of the GPU kernel")]
+    assert "at N = 20, 16,384 points" in label  # quick: 128 x 128
+    measured, met = rows[label]
+    assert re.fullmatch(r"\d+%", measured) and met == "not checked (< 1M points)"
+
+
+def test_end_to_end_share_and_verdicts():
+    results = {"bragg_flat": end_to_end.Result(4_194_304, 0.08, 0.04),
+               "film": end_to_end.Result(4_194_304, 0.1, 0.04),
+               "sweep": end_to_end.Result(20_000, 0.01, 0.008)}
+    assert results["bragg_flat"].share == pytest.approx(0.5)
+    rows = {row.split(" | ")[0].lstrip("| "): row.split(" | ")
+            for row in end_to_end.render_table(results)[2:]}
+    labels = {call.key: call.label for call in end_to_end.CALLS}
+    assert rows[labels["bragg_flat"]][-1].startswith("yes")
+    assert rows[labels["film"]][-1].startswith("no")
+    assert rows[labels["sweep"]][-1].startswith("not checked")
+    assert len(rows) == 3
+
+
 # --------------------------------------------------------------------------- what is timed
 
 
@@ -169,7 +205,8 @@ def test_tmm_fast_reported_when_missing(monkeypatch):
 
     monkeypatch.setattr(bench, "optional_import", fake)
     cfg = bench.dataclasses.replace(bench.QUICK, gpu_side=8, yeh_side=8, max_points_linear=16,
-                                    max_calls_tmm=2, max_cells_tmm_fast=64, target_s=0.001)
+                                    max_calls_tmm=2, max_cells_tmm_fast=64, target_s=0.001,
+                                    e2e_rounds=0)
     # Only the missing package matters here: keep the run to the cheapest cells.
     monkeypatch.setattr(bench, "N_VALUES", (1, 20))
     results = bench.run_benchmarks(cfg, progress=False)

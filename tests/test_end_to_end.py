@@ -24,12 +24,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import wgpu
 
 from wgbragg import BraggMirror, ThinFilm, gpu
 from wgbragg.colour import colorimetry
 from wgbragg.common import blocks
 from wgbragg.common.validation import check_angle, check_wavelength
-from wgbragg.gpu import streams
+from wgbragg.gpu import buffers, streams
 from wgbragg.optics import pointwise_gpu, thin_film_gpu, yeh_gpu
 
 MIRROR = BraggMirror(1.0, 1.5, 125.0, 375.0, 20)
@@ -39,6 +40,10 @@ FILMS = (ThinFilm(1.33, 290.0), ThinFilm(1.45, 250.0, base="Cu"),
 KERNELS = Path(__file__).parent / "kernels"
 TWIN_TOLERANCE = 2e-3
 """|R32 - R64| at the same float64 inputs away from unresolved points (docs/design.md)."""
+
+
+def _stats() -> dict[str, int]:
+    return {**buffers.pool_info(), **streams.stream_info()}
 
 
 def _flat_grid(rows: int, columns: int, dtype=np.float32):
@@ -55,15 +60,21 @@ def _flat_grid(rows: int, columns: int, dtype=np.float32):
 def test_grid_view_of_angle_runs_and_periods():
     wave, angle, _, _ = _flat_grid(64, 96)
     w, a, shape = pointwise_gpu.grid_view(wave, angle, wave.shape)
-    assert shape == (64, 96) and a.shape == (64, 1) and w.shape == (64, 96)
+    assert shape == (64, 96) and a.shape == (64, 1) and w.shape == (1, 96)
     np.testing.assert_array_equal(np.broadcast_to(a, shape).ravel(), angle)
     np.testing.assert_array_equal(np.broadcast_to(w, shape).ravel(), wave)
-    # The angle fastest: a period of 64 angles.
+    # The angle fastest: a period of 64 angles, the wavelengths in runs of 64.
     wave_t, angle_t = wave.reshape(64, 96).T.ravel(), angle.reshape(64, 96).T.ravel()
     w, a, shape = pointwise_gpu.grid_view(wave_t, angle_t, wave_t.shape)
-    assert shape == (96, 64) and a.shape == (1, 64)
+    assert shape == (96, 64) and a.shape == (1, 64) and w.shape == (96, 1)
     np.testing.assert_array_equal(np.broadcast_to(a, shape).ravel(), angle_t)
     np.testing.assert_array_equal(np.broadcast_to(w, shape).ravel(), wave_t)
+    # Runs of angles beside wavelengths that are no grid's: every wavelength kept.
+    scrambled = wave.copy()
+    scrambled[100] = 400.0
+    w, a, shape = pointwise_gpu.grid_view(scrambled, angle, wave.shape)
+    assert shape == (64, 96) and a.shape == (64, 1) and w.shape == (64, 96)
+    np.testing.assert_array_equal(np.broadcast_to(w, shape).ravel(), scrambled)
     # One wavelength for every point.
     w, a, shape = pointwise_gpu.grid_view(np.float32(550.0), angle, angle.shape)
     assert shape == (64, 96) and w.shape == (1, 1)
@@ -227,15 +238,32 @@ def test_point_inputs_are_those_a_call_forms():
 def test_reused_buffers_give_identical_results_across_calls_of_any_size():
     wave, angle, wavelength, theta = _flat_grid(90, 300)
     first = MIRROR.reflectance(wave, angle, "p", backend="gpu")
-    before = streams.pool_info()
-    for rows in (1, 7, 300, 5000):  # calls of other sizes in between, reusing the buffers
+    before = _stats()
+    for rows in (1, 7, 300, 5000, 5001, 6000):  # other sizes in between, some in one class
         MIRROR.reflectance(wavelength[:rows % 300 + 1, None], theta[None, :5], backend="gpu")
         FILMS[1].reflectance(wave[:rows], angle[:rows], "s", backend="gpu")
     again = MIRROR.reflectance(wave, angle, "p", backend="gpu")
     np.testing.assert_array_equal(first, again)
-    after = streams.pool_info()
-    assert after["reused"] > before["reused"]
-    assert after["idle_bytes"] <= streams.POOL_BYTES
+    after = _stats()
+    assert after["streams"] - before["streams"] == 13
+    assert after["states_reused"] - before["states_reused"] >= 3  # 5000-6000, and `first`
+    assert after["idle_bytes"] <= buffers.POOL_BYTES
+    assert after["state_bytes"] <= streams.STATE_BYTES
+
+
+@pytest.mark.gpu
+def test_buffer_pool_hands_out_idle_buffers_of_the_class(monkeypatch):
+    monkeypatch.setattr(buffers, "POOL_BYTES", 1 << 40)  # room whatever earlier tests left
+    usage = wgpu.BufferUsage.STORAGE | wgpu.BufferUsage.COPY_DST
+    first = buffers.take_buffer(3000, usage)
+    assert first.size == 4096
+    buffers.give_buffer(first)
+    again = buffers.take_buffer(2100, usage)  # the same class: the idle one
+    assert again is first
+    other = buffers.take_buffer(2100, usage)  # none idle: a new one
+    assert other is not first and other.size == 4096
+    for buffer in (again, other):
+        buffers.give_buffer(buffer)
 
 
 @pytest.mark.gpu
@@ -322,3 +350,79 @@ def test_pass_clock_counts_every_block():
         values = MIRROR.reflectance(wave, angle, "s", backend="gpu")
     assert clock.passes == 2 and clock.seconds > 0.0
     np.testing.assert_array_equal(values, MIRROR.reflectance(wave, angle, "s", backend="gpu"))
+
+
+@pytest.mark.gpu
+@pytest.mark.parametrize("document", [
+    {"material": "bragg-mirror", "fixed": {"n1": 1.0, "n2": 1.5, "N": 12, "delta": 0.4},
+     "coords": {"period_nm": [150.0, 200.0, 260.0], "theta_deg": [0.0, 35.0, 70.0],
+                "wavelength_nm": [400.0, 500.0, 600.0, 700.0]},
+     "chunks": {"period_nm": 2},
+     "quantities": [{"kind": "reflectance", "polarization": "p"}, {"kind": "transmittance"}]},
+    {"material": "thin-film", "fixed": {"n_film": 1.45, "base": "Cu", "theta_deg": 30.0},
+     "coords": {"thickness_nm": [100.0, 250.0, 400.0], "wavelength_nm": [450.0, 550.0, 650.0]},
+     "chunks": {"thickness_nm": 2},
+     "dtype": "float32",
+     "quantities": [{"kind": "reflectance"}, {"kind": "transmittance"}]},
+], ids=["mirror", "film-fixed-angle"])
+def test_sweep_chunks_written_in_place_are_the_calls_values(document):
+    """A chunk's spectra written straight into it by deferred calls (the last ones still in
+    flight as the next structure is formed) hold each structure's own call's values."""
+    from wgbragg.sweep import parse_sweep
+    from wgbragg.sweep.evaluate import evaluate_block
+    from wgbragg.sweep.spec import ANGLE, WAVELENGTH
+
+    sweep = parse_sweep(document)
+    structure_dim = sweep.structure_dims[0]
+    for quantity in sweep.quantities:
+        for index in sweep.blocks(quantity):
+            chunk = evaluate_block(sweep, quantity, index)
+            ranges = sweep.block_slices(quantity, index)
+            theta = np.radians(sweep.angle_deg(ranges.get(ANGLE)))
+            wavelength = sweep.coords[WAVELENGTH][ranges[WAVELENGTH]]
+            assert chunk.dtype == np.dtype(sweep.dtype)
+            for local, value in enumerate(sweep.coords[structure_dim][ranges[structure_dim]]):
+                structure = sweep.structure({structure_dim: float(value)})
+                want = getattr(structure, quantity.kind)(
+                    wavelength[None, :], theta[:, None], quantity.polarization, "gpu")
+                if ANGLE not in ranges:
+                    want = want[0]
+                np.testing.assert_array_equal(chunk[local], want.astype(chunk.dtype))
+
+
+@pytest.mark.gpu
+def test_deferred_streams_fill_their_targets_by_the_end_and_do_not_nest():
+    wavelength, theta = np.linspace(380.0, 780.0, 200), np.radians(np.linspace(0, 80, 300))
+    mirrors = [BraggMirror(1.0, 1.5, d, 2 * d, 15) for d in (80.0, 100.0, 120.0)]
+    want = [m.reflectance(wavelength[:, None], theta, "s", "gpu") for m in mirrors]
+    outs = [np.full((200, 300), np.nan) for _ in mirrors] * 4  # more than DEFERRED_STREAMS
+    with streams.deferred():
+        for k, out in enumerate(outs):
+            mirrors[k % 3].reflectance(wavelength[:, None], theta, "s", "gpu", out=out)
+        with pytest.raises(RuntimeError, match="do not nest"), streams.deferred():
+            pass
+    for k, out in enumerate(outs):
+        np.testing.assert_array_equal(out, want[k % 3])
+    # An error inside the block drops what is in flight; later calls are unaffected.
+    with pytest.raises(KeyError), streams.deferred():
+        mirrors[0].reflectance(wavelength[:, None], theta, "s", "gpu", out=outs[0])
+        raise KeyError("inside")
+    np.testing.assert_array_equal(mirrors[1].reflectance(wavelength[:, None], theta, "s", "gpu"),
+                                  want[1])
+
+
+@pytest.mark.gpu
+@pytest.mark.parametrize("mapped", [True, False], ids=["storage-mapped", "staging-copies"])
+def test_streams_give_the_same_bits_mapped_or_through_staging(mapped, monkeypatch):
+    """A CPU adapter's streams map their storage buffers (``maps_storage``); a GPU's copy
+    through mappable staging buffers. Both give the values of the all-at-once inputs, over
+    several blocks."""
+    monkeypatch.setattr(streams, "maps_storage", lambda: mapped)
+    wave, angle, _, _ = _flat_grid(300, 1000)
+    points, inverse, _ = yeh_gpu.point_inputs(1.59, 1.67, 81.6, 78.4, 1.0, wave, angle)
+    kernel = gpu.compute_pipeline("optics/yeh_reflectance.wgsl",
+                                  constants=yeh_gpu.bragg_constants(1.59, 1.0, "p"))
+    (direct,) = kernel.run([points, inverse], [(wave.size, np.float32)],
+                           yeh_gpu.bragg_params(1.59, 1.67, 81.6, 78.4, 8, 1.0))
+    monkeypatch.setattr(gpu.device, "max_buffer_bytes", lambda: 1 << 20)  # 16 blocks
+    np.testing.assert_array_equal(HOSTED.reflectance(wave, angle, "p", backend="gpu"), direct)

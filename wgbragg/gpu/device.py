@@ -24,7 +24,10 @@ import wgpu
 
 from wgbragg.gpu.driver import apply_driver_choice, mesa_version
 
-_OPTIONAL_FEATURES = ("timestamp-query", "shader-f64")
+# mappable-primary-buffers (wgpu-native): on a CPU adapter, whose buffers are host memory,
+# streams map their storage buffers directly instead of copying through staging buffers
+# (wgbragg.gpu.streams).
+_OPTIONAL_FEATURES = ("timestamp-query", "shader-f64", "mappable-primary-buffers")
 
 # Backends in order of preference when several adapters match WGBRAGG_ADAPTER:
 # the project targets Vulkan; GL adapters (lavapipe also shows up as one) go last.

@@ -98,7 +98,6 @@ import dataclasses
 import math
 import os
 import re
-import statistics
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -106,17 +105,24 @@ import numpy as np
 import wgpu
 
 from wgbragg.gpu import device as device_limits
-from wgbragg.gpu.device import adapter_info, check_buffer_size, get_device
+from wgbragg.gpu.arrays import (
+    DeviceArray,
+    Dispatch,
+    benchmark,
+    read_staged,
+    stage_copies,
+    submit,
+)
+from wgbragg.gpu.buffers import give_buffer, maps_storage, take_buffer
+from wgbragg.gpu.device import adapter_info, get_device
 from wgbragg.gpu.layouts import as_bytes, check_dtype, padded_size
 from wgbragg.gpu.shaders import ShaderCompileError, ShaderSource, load_shader, shader_error
 from wgbragg.gpu.specialise import BlockError, specialise, strip_comments
 from wgbragg.gpu.timing import (
     MAX_QUERIES,
-    charge_clocks,
     clocks_open,
     encode_passes,
     pass_timings,
-    resolve_timestamps,
 )
 
 DEFAULT_WORKGROUP_SIZE = 64
@@ -591,11 +597,82 @@ class Kernel:
             # wgpu rejects zero-size buffers; nothing would run anyway.
             empty = _zero_outputs(outputs)
             return (empty, 0.0) if timestamps else empty
+        if not timestamps and not clocks_open():
+            return self._run_pooled(inputs, outputs, params, n)
         dispatch = self.bind(inputs, outputs, params, count=n)
         if not timestamps:
             return submit([dispatch], read=dispatch.outputs)
         seconds = pass_timings([dispatch], 1)[0][0]
         return submit([], read=dispatch.outputs), seconds
+
+    def _run_pooled(self, inputs, outputs, params, n: int) -> list[np.ndarray]:
+        """:meth:`run` through buffers of the pool (:mod:`wgbragg.gpu.buffers`): arrays
+        written into idle buffers, new outputs cleared (zero-initialised, as documented) and
+        read back through idle mappable ones, all returned to the pool afterwards."""
+        grid = self.workgroups(n)
+        self._check_buffers(inputs, outputs)
+        usage = wgpu.BufferUsage
+        mapped = maps_storage()  # then inputs are written and outputs read in place
+        storage = usage.STORAGE | usage.COPY_DST | usage.COPY_SRC
+        inputs_usage = usage.STORAGE | usage.MAP_WRITE if mapped else storage
+        outputs_usage = usage.STORAGE | usage.MAP_READ | usage.COPY_DST if mapped else storage
+        taken: list[Any] = []
+
+        def take(nbytes: int, usage: int) -> Any:
+            taken.append(take_buffer(nbytes, usage))
+            return taken[-1]
+
+        queue = self._device.queue
+        try:
+            resources, sizes = [], []
+            for i, a in enumerate(inputs):
+                if isinstance(a, DeviceArray) or self.input_textures[i]:
+                    resources.append(self.input_array(i, a).resource)
+                    sizes.append(None)
+                    continue
+                try:
+                    array = DeviceArray.upload(a, into=lambda nbytes: take(nbytes, inputs_usage))
+                except (TypeError, ValueError) as exc:
+                    raise type(exc)(f"{self.source.name}: input {i}: {exc}") from None
+                resources.append(array.resource)
+                sizes.append(padded_size(array.nbytes))
+            encoder = self._device.create_command_encoder()
+            out = []
+            for i, o in enumerate(outputs):
+                if isinstance(o, DeviceArray):
+                    out.append(self._output(i, o))
+                    resources.append(o.resource)
+                    sizes.append(None)
+                    continue
+                shape = (int(o[0]),) if isinstance(o[0], int | np.integer) else tuple(o[0])
+                try:
+                    dtype = check_dtype(o[1], "array")
+                except TypeError as exc:
+                    raise TypeError(f"{self.source.name}: output {i}: {exc}") from None
+                nbytes = padded_size(math.prod(shape) * dtype.itemsize)
+                resources.append(take(nbytes, outputs_usage))
+                sizes.append(nbytes)
+                encoder.clear_buffer(resources[-1], 0, nbytes)
+                out.append(DeviceArray(resources[-1], shape, dtype, False))
+            uniform = None
+            if params is not None:
+                data = as_bytes(params, "params", 16)
+                uniform = take(data.nbytes, wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
+                queue.write_buffer(uniform, 0, data)
+            dispatch = Dispatch(self, tuple(out), n, grid,
+                                self.bind_group(resources, uniform, sizes))
+            encode_passes(encoder, [dispatch], 1, None)
+            if mapped and all(a.resource in taken for a in out):
+                queue.submit([encoder.finish()])
+                return read_staged([a.resource for a in out], out, give=False)
+            staging = stage_copies(encoder, out)
+            queue.submit([encoder.finish()])
+            return read_staged(staging, out)  # returns the staging buffers to the pool
+        finally:
+            for buffer in taken:
+                if buffer.map_state == "mapped":
+                    buffer.unmap()
+                give_buffer(buffer)
 
     def _run_rows(self, inputs, outputs, params, n: int, timestamps: bool,
                   block_rows: int | None):
@@ -768,248 +845,3 @@ class Rows:
             raise TypeError(f"{what}: make({start}, {stop}) returned dtype {data.dtype}, "
                             f"expected {self.dtype}; convert explicitly")
         return data
-
-
-# --------------------------------------------------------------------------- chained dispatches
-
-
-class DeviceArray:
-    """An array kept on the device, so that dispatches can be chained without host round trips.
-
-    A storage buffer holds any shape of the dtypes the harness allows (see the module
-    docstring); a texture holds ``(height, width, 4)`` float32 as ``rgba32float``, for the
-    inputs a kernel declares ``texture_2d<f32>`` and reads with ``textureLoad``. Make one with
-    :meth:`upload` or :meth:`empty`, or take the outputs of a :class:`Dispatch`; read a buffer
-    back with :meth:`read` or :func:`submit` (textures are inputs only).
-
-    Attributes
-    ----------
-    shape : tuple of int
-    dtype : numpy.dtype
-    is_texture : bool
-    resource : wgpu.GPUBuffer or wgpu.GPUTexture
-    """
-
-    def __init__(self, resource: Any, shape: tuple[int, ...], dtype: np.dtype, is_texture: bool):
-        self.resource = resource
-        self.shape = shape
-        self.dtype = dtype
-        self.is_texture = is_texture
-
-    def __repr__(self) -> str:
-        kind = "texture" if self.is_texture else "buffer"
-        return f"DeviceArray({kind}, shape={self.shape}, dtype={self.dtype})"
-
-    @property
-    def nbytes(self) -> int:
-        """Bytes of the array (the buffer may be padded beyond them)."""
-        return math.prod(self.shape) * self.dtype.itemsize
-
-    @classmethod
-    def upload(cls, array: np.ndarray, *, texture: bool = False,
-               what: str = "array") -> DeviceArray:
-        """Copy ``array`` to a new storage buffer, or to an ``rgba32float`` texture.
-
-        Parameters
-        ----------
-        array : numpy.ndarray
-            For a buffer: a dtype the harness allows, at most
-            :func:`~wgbragg.gpu.device.max_buffer_bytes`. For a texture: float32 of shape
-            ``(height, width, 4)``, both at most the device's ``max-texture-dimension-2d``.
-        texture : bool
-            Make a texture (for ``texture_2d<f32>`` inputs) instead of a buffer.
-        what : str
-            What the array holds, for error messages.
-
-        Returns
-        -------
-        DeviceArray
-        """
-        device = get_device()
-        array = np.asarray(array)
-        if texture:
-            return cls._upload_texture(device, array)
-        data = as_bytes(array, what, 4)
-        check_buffer_size(data.nbytes, what)
-        usage = wgpu.BufferUsage.STORAGE | wgpu.BufferUsage.COPY_DST | wgpu.BufferUsage.COPY_SRC
-        buffer = device.create_buffer_with_data(data=data, usage=usage)
-        return cls(buffer, array.shape, check_dtype(array.dtype, "array"), False)
-
-    @classmethod
-    def _upload_texture(cls, device: wgpu.GPUDevice, array: np.ndarray) -> DeviceArray:
-        if array.dtype != np.float32 or array.ndim != 3 or array.shape[2] != 4:
-            raise TypeError(
-                f"a texture takes (height, width, 4) float32 (rgba32float); got shape "
-                f"{array.shape}, dtype {array.dtype}"
-            )
-        height, width = array.shape[:2]
-        largest = int(device.limits["max-texture-dimension-2d"])
-        if not (0 < height <= largest and 0 < width <= largest):
-            raise ValueError(
-                f"a texture's height and width must be in 1..{largest} on this device, got "
-                f"shape {array.shape}"
-            )
-        texture_object = device.create_texture(
-            size=(width, height, 1),
-            format=wgpu.TextureFormat.rgba32float,
-            usage=wgpu.TextureUsage.TEXTURE_BINDING | wgpu.TextureUsage.COPY_DST,
-        )
-        device.queue.write_texture(
-            {"texture": texture_object},
-            np.ascontiguousarray(array, "<f4").tobytes(),
-            {"bytes_per_row": 16 * width, "rows_per_image": height},
-            (width, height, 1),
-        )
-        return cls(texture_object, array.shape, np.dtype("<f4"), True)
-
-    @classmethod
-    def empty(cls, shape: tuple[int, ...] | int, dtype: Any) -> DeviceArray:
-        """A new zero-filled storage buffer.
-
-        Parameters
-        ----------
-        shape : int or tuple of int
-        dtype : numpy.dtype
-            One the harness allows.
-
-        Returns
-        -------
-        DeviceArray
-        """
-        shape = (int(shape),) if isinstance(shape, int | np.integer) else tuple(shape)
-        dtype = check_dtype(dtype, "array")
-        size = padded_size(math.prod(shape) * dtype.itemsize)
-        check_buffer_size(size, f"array of shape {shape}")
-        usage = wgpu.BufferUsage
-        buffer = get_device().create_buffer(
-            size=size,
-            usage=usage.STORAGE | usage.COPY_DST | usage.COPY_SRC,
-        )
-        return cls(buffer, shape, dtype, False)
-
-    def read(self) -> np.ndarray:
-        """Copy the buffer back to the host: :func:`submit` with no dispatch."""
-        return submit([], read=[self])[0]
-
-
-@dataclasses.dataclass(frozen=True)
-class Dispatch:
-    """One kernel dispatch with its arguments bound, made by :meth:`Kernel.bind`.
-
-    Run it with :func:`submit` or time it with :func:`benchmark`, alone or after other
-    dispatches; it can run any number of times.
-
-    Attributes
-    ----------
-    kernel : Kernel
-    outputs : tuple of DeviceArray
-        Its read_write buffers in binding order: inputs of a later dispatch, or arrays to read.
-    count : int
-        Invocations (0: the dispatch does nothing).
-    grid : tuple of int
-        Workgroups dispatched along x, y, z.
-    bind_group : wgpu.GPUBindGroup
-    """
-
-    kernel: Kernel
-    outputs: tuple[DeviceArray, ...]
-    count: int
-    grid: tuple[int, int, int]
-    bind_group: Any = dataclasses.field(repr=False)
-
-
-# --------------------------------------------------------------------------- submission
-
-
-def _stage(encoder: Any, arrays: Sequence[DeviceArray]) -> list[Any]:
-    """Encode copies of ``arrays`` into new mappable buffers."""
-    device = get_device()
-    staging = []
-    for array in arrays:
-        if array.is_texture:
-            raise TypeError("textures are kernel inputs only and cannot be read back")
-        # The array's bytes (a view of a block may be shorter than its buffer).
-        size = min(padded_size(array.nbytes), array.resource.size)
-        buffer = device.create_buffer(
-            size=size, usage=wgpu.BufferUsage.MAP_READ | wgpu.BufferUsage.COPY_DST
-        )
-        encoder.copy_buffer_to_buffer(array.resource, 0, buffer, 0, size)
-        staging.append(buffer)
-    return staging
-
-
-def _unstage(staging: Sequence[Any], arrays: Sequence[DeviceArray]) -> list[np.ndarray]:
-    result = []
-    for buffer, array in zip(staging, arrays, strict=True):
-        buffer.map_sync(wgpu.MapMode.READ)
-        raw = np.frombuffer(buffer.read_mapped(copy=False), np.uint8, count=array.nbytes).copy()
-        buffer.unmap()
-        result.append(raw.view(array.dtype).reshape(array.shape))
-    return result
-
-
-def submit(dispatches: Sequence[Dispatch], read: Sequence[DeviceArray] = ()) -> list[np.ndarray]:
-    """Run ``dispatches`` in order in one command submission, then read arrays back.
-
-    Parameters
-    ----------
-    dispatches : sequence of Dispatch
-        Each runs in its own compute pass, so it sees what the ones before it wrote.
-    read : sequence of DeviceArray
-        Buffers to copy back after the last dispatch, in the same submission.
-
-    Returns
-    -------
-    list of numpy.ndarray
-        Copies of ``read``, with their shapes and dtypes. Without ``read`` this returns as
-        soon as the work is submitted, except inside a
-        :func:`~wgbragg.gpu.timing.pass_clock` block, where it waits for the timestamps (and
-        splits more than 2048 dispatches over submissions).
-    """
-    timed = clocks_open() and len(dispatches) > 0
-    if timed and 2 * len(dispatches) > MAX_QUERIES:
-        # One query set per submission: time the rest in further ones, in order.
-        first = MAX_QUERIES // 2
-        submit(dispatches[:first])
-        return submit(dispatches[first:], read)
-    device = get_device()
-    encoder = device.create_command_encoder()
-    query_set = None
-    if timed:
-        count = 2 * len(dispatches)
-        query_set = device.create_query_set(type="timestamp", count=count)
-    encode_passes(encoder, dispatches, 1, query_set)
-    if timed:
-        resolved = resolve_timestamps(device, encoder, query_set, count)
-        read = [*read, DeviceArray(resolved, (count,), np.dtype("<u8"), False)]
-    staging = _stage(encoder, read)
-    device.queue.submit([encoder.finish()])
-    result = _unstage(staging, read)
-    if timed:
-        charge_clocks(result.pop(), len(dispatches))
-    return result
-
-
-def benchmark(dispatches: Sequence[Dispatch], repeats: int = 10) -> list[float]:
-    """Median GPU seconds of each dispatch, run in order as :func:`submit` runs them.
-
-    Parameters
-    ----------
-    dispatches : sequence of Dispatch
-    repeats : int
-        Timed rounds over all dispatches, after one untimed round; at most
-        ``2048 // len(dispatches)``, as a query set holds 4096 timestamps.
-
-    Returns
-    -------
-    list of float
-        One median per dispatch, from GPU timestamps (host clock, with a warning, where the
-        adapter has none).
-    """
-    most = MAX_QUERIES // (2 * max(1, len(dispatches)))
-    if not 1 <= repeats <= most:
-        raise ValueError(f"repeats must be in 1..{most}, got {repeats}")
-    if not dispatches:
-        return []
-    submit(dispatches)
-    return [statistics.median(seconds) for seconds in pass_timings(dispatches, repeats)]

@@ -9,21 +9,31 @@ dtype the results cast to), and goes on forming the next block while the device 
 this one. What the stream saves, per block and per call:
 
 - **buffers**: the device buffers (storage inputs and outputs, the mappable copies the
-  results are read through) come from a pool (:func:`take_buffer`, :func:`give_buffer`) and
-  go back to it, so that later blocks and later calls of any size reuse them instead of
-  allocating and zero-filling new ones;
-- **host arrays**: one set of input rows per block in flight, allocated once per call,
-  written in place (no array returned per block, no concatenation);
+  results are read through, the uniform) come from the pool of :mod:`wgbragg.gpu.buffers`,
+  so that later calls of any size reuse them instead of allocating and zero-filling new
+  ones; a stream's buffers, host rows and bind groups are kept together (a *state*) for the
+  next stream of the same kernel and block size class, which then creates no wgpu object
+  but its command encoder (new buffers, a uniform and a bind group cost a call of 40 000
+  points another 0.2-0.3 ms on lavapipe);
+- **copies**: on a CPU adapter (lavapipe, whose buffers are host memory) the storage buffers
+  the kernel reads and writes are mapped directly (:func:`~wgbragg.gpu.buffers.maps_storage`);
+  elsewhere the rows
+  go through mappable staging buffers the stream keeps, never ``queue.write_buffer``, which
+  stages each write in new memory (its page faults cost 30 ms per 64 MB on lavapipe);
+- **host arrays**: one set of input rows per block in flight, written in place (no array
+  returned per block, no concatenation);
 - **readback**: each block's results are copied once, from the mapped buffer straight into
   the caller's array (a float32 result into a float64 output is converted in that copy);
-- **waiting**: up to ``depth`` blocks are in flight (:func:`default_depth`). :meth:`Stream.submit`
-  returns once the block is queued; its results are copied out when its slot is needed
-  again or at :meth:`Stream.finish`, so on a GPU the host forms block ``k + 1`` while block
-  ``k`` runs.
+- **waiting**: up to ``depth`` blocks are in flight (:func:`default_depth`).
+  :meth:`Stream.submit` returns once the block is queued; its results are copied out when
+  its slot is needed again or at :meth:`Stream.finish`, so on a GPU the host forms block
+  ``k + 1`` while block ``k`` runs. Inside a :func:`deferred` block, streams leave their
+  last blocks in flight until the block ends (many small calls wait once).
 
 Memory: ``depth`` x (the rows of one block, host and device, and its outputs), whatever the
 count; blocks hold at most :data:`~wgbragg.gpu.pipelines.DEFAULT_BLOCK_BYTES` a buffer, or
-fewer rows where the call asks for fewer. The pool keeps at most :data:`POOL_BYTES`.
+fewer rows where the call asks for fewer. Idle states keep at most :data:`STATE_BYTES`, the
+pool :data:`~wgbragg.gpu.buffers.POOL_BYTES`.
 
 Inside a :func:`~wgbragg.gpu.timing.pass_clock` block every pass is timed, as
 :func:`~wgbragg.gpu.pipelines.submit` times its own.
@@ -31,128 +41,54 @@ Inside a :func:`~wgbragg.gpu.timing.pass_clock` block every pass is timed, as
 
 from __future__ import annotations
 
+import collections
+import contextlib
 import dataclasses
 import math
-from collections.abc import Sequence
+import threading
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 import numpy as np
 import wgpu
 
 from wgbragg.gpu import device as device_limits
-from wgbragg.gpu.device import adapter_info, get_device
-from wgbragg.gpu.layouts import check_dtype, padded_size
+from wgbragg.gpu.buffers import (
+    MAP_AFTER_SUBMIT,
+    give_buffer,
+    maps_storage,
+    shares_cores,
+    take_buffer,
+)
+from wgbragg.gpu.device import get_device
+from wgbragg.gpu.layouts import as_bytes, check_dtype, padded_size
 from wgbragg.gpu.pipelines import DEFAULT_BLOCK_BYTES, DeviceArray, Dispatch, Kernel
 from wgbragg.gpu.timing import charge_clocks, clocks_open, encode_passes, resolve_timestamps
 
-__all__ = ["CPU_ADAPTER_DEPTH", "GPU_DEPTH", "POOL_BYTES", "Stream", "Streamed", "default_depth",
-           "give_buffer", "pool_info", "take_buffer"]
+__all__ = ["CPU_ADAPTER_DEPTH", "DEFERRED_STREAMS", "GPU_DEPTH", "STATE_BYTES", "Stream",
+           "Streamed", "default_depth", "deferred", "stream_info"]
 
 GPU_DEPTH = 2
 """Blocks in flight on a GPU: the host forms one while the device computes the other."""
 
 CPU_ADAPTER_DEPTH = 1
 """Blocks in flight on a CPU adapter (lavapipe): its kernels already take every core, so the
-host forming the next block meanwhile only takes cores from them (measured slower on 2
-cores); the host forms each block while the device is idle, on every core
-(:func:`~wgbragg.common.blocks.parallel_map`)."""
-
-
-_depths: dict[int, int] = {}
+host forming the next block meanwhile only takes cores from them (slower on 2 busy cores,
+no faster on 2 idle ones); the host forms each block while the device is idle."""
 
 
 def default_depth() -> int:
-    """Blocks in flight by default: :data:`CPU_ADAPTER_DEPTH` on a CPU adapter, else
-    :data:`GPU_DEPTH`."""
-    device = get_device()
-    if id(device) not in _depths:
-        _depths.clear()
-        cpu = adapter_info()["adapter_type"] == "CPU"
-        _depths[id(device)] = CPU_ADAPTER_DEPTH if cpu else GPU_DEPTH
-    return _depths[id(device)]
+    """Blocks in flight by default: :data:`CPU_ADAPTER_DEPTH` on a CPU adapter
+    (:func:`~wgbragg.gpu.buffers.shares_cores`), else :data:`GPU_DEPTH`."""
+    return CPU_ADAPTER_DEPTH if shares_cores() else GPU_DEPTH
 
-POOL_BYTES = 1 << 27
-"""Most bytes of idle buffers the pool keeps (128 MiB): the buffers of a few calls' blocks in
-flight (:data:`~wgbragg.gpu.pipelines.DEFAULT_BLOCK_BYTES` each at most)."""
-
-_MIN_CAPACITY = 256
 
 _STORAGE = wgpu.BufferUsage.STORAGE | wgpu.BufferUsage.COPY_DST | wgpu.BufferUsage.COPY_SRC
 _READBACK = wgpu.BufferUsage.MAP_READ | wgpu.BufferUsage.COPY_DST
-
-_MAP_AFTER_SUBMIT = "READ_NOSYNC"
-"""How a block's results are mapped, right after the submission that copies them into the
-mappable buffer. wgpu-py's plain ``MapMode.READ`` first submits an empty command buffer (a
-workaround for maps with no submission before them), and a submission while the queue is
-busy waits for it: each block's map would wait for its kernel, and the host could not form
-the next block meanwhile. ``"READ_NOSYNC"`` is the mode wgpu-py's own
-``GPUQueue.read_buffer`` maps with after its copy's submission, as here."""
-
-
-# --------------------------------------------------------------------------- buffer pool
-
-
-class _Pool:
-    """Idle buffers by (usage, capacity), capacities powers of two, of one device."""
-
-    def __init__(self) -> None:
-        self.device: Any = None
-        self.idle: dict[tuple[int, int], list[Any]] = {}
-        self.bytes = 0
-        self.stats = {"taken": 0, "reused": 0}
-
-    def take(self, nbytes: int, usage: int) -> Any:
-        device = get_device()
-        if device is not self.device:  # a new device: the old one's buffers are of no use
-            self.idle, self.bytes, self.device = {}, 0, device
-        capacity = max(_MIN_CAPACITY, 1 << max(0, int(nbytes) - 1).bit_length())
-        # A power of two above the device's largest buffer is cut back to what was asked.
-        if capacity > device_limits.max_buffer_bytes():
-            capacity = padded_size(int(nbytes))
-        device_limits.check_buffer_size(capacity, f"a stream buffer of {nbytes} bytes")
-        self.stats["taken"] += 1
-        idle = self.idle.get((int(usage), capacity))
-        if idle:
-            self.stats["reused"] += 1
-            self.bytes -= capacity
-            return idle.pop()
-        return device.create_buffer(size=capacity, usage=usage)
-
-    def give(self, buffer: Any) -> None:
-        if self.device is not get_device() or buffer.map_state != "unmapped":
-            return
-        if self.bytes + buffer.size > POOL_BYTES:
-            buffer.destroy()
-            return
-        self.idle.setdefault((int(buffer.usage), int(buffer.size)), []).append(buffer)
-        self.bytes += buffer.size
-
-
-_pool = _Pool()
-
-
-def take_buffer(nbytes: int, usage: int) -> Any:
-    """A buffer of at least ``nbytes`` with ``usage`` (``wgpu.BufferUsage`` flags): an idle one
-    of the pool where it has one, else a new one of the next power of two (at least 256
-    bytes), so that later requests of other sizes find it. Its contents are undefined.
-
-    Raises
-    ------
-    ValueError
-        If ``nbytes`` exceeds the device's largest buffer.
-    """
-    return _pool.take(nbytes, usage)
-
-
-def give_buffer(buffer: Any) -> None:
-    """Return a buffer of :func:`take_buffer` to the pool (unmapped), or destroy it where the
-    pool holds :data:`POOL_BYTES` already. The caller must not use it afterwards."""
-    _pool.give(buffer)
-
-
-def pool_info() -> dict[str, int]:
-    """Buffers taken, how many of them were reused, and the idle bytes the pool holds."""
-    return {**_pool.stats, "idle_bytes": _pool.bytes}
+_UPLOAD = wgpu.BufferUsage.MAP_WRITE | wgpu.BufferUsage.COPY_SRC
+_MAPPED_INPUT = wgpu.BufferUsage.STORAGE | wgpu.BufferUsage.MAP_WRITE
+_MAPPED_OUTPUT = wgpu.BufferUsage.STORAGE | wgpu.BufferUsage.MAP_READ
+_UNIFORM = wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST
 
 
 # --------------------------------------------------------------------------- streams
@@ -178,14 +114,76 @@ class Streamed:
 
 @dataclasses.dataclass
 class _Slot:
-    """One block in flight: its host rows, device buffers and, once submitted, what waits."""
+    """One block in flight: its host rows, device buffers (``uploads`` and ``staging``, the
+    mappable copies of ``inputs`` and ``outputs``; where storage buffers map, no uploads and
+    ``staging`` the outputs themselves), bind groups and, once submitted, what waits."""
 
     host: list[np.ndarray]
+    uploads: list[Any]
     inputs: list[Any]
     outputs: list[Any]
     staging: list[Any]
     groups: dict[int, Any] = dataclasses.field(default_factory=dict)
     pending: tuple | None = None
+
+
+@dataclasses.dataclass
+class _State:
+    """What a stream holds, kept for later calls of the same kernel and sizes: its uniform and
+    shared inputs (rewritten per call), and its slots (host rows, buffers, bind groups), so
+    that a call of a few thousand points creates no buffer and no bind group."""
+
+    key: tuple
+    uniform: Any
+    shared: dict[int, tuple[Any, int | None]]
+    slots: list[_Slot] = dataclasses.field(default_factory=list)
+    buffers: list[Any] = dataclasses.field(default_factory=list)
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held: device buffers and host rows."""
+        return (sum(int(b.size) for b in self.buffers)
+                + sum(h.nbytes for slot in self.slots for h in slot.host))
+
+
+STATE_BYTES = 1 << 26
+"""Most bytes (device buffers and host rows) the idle stream states keep (64 MiB): the
+largest call's (about 21 MiB for a Bragg mirror's 2^19-point blocks) and many small ones,
+the least recently used dropped first (their buffers to the pool)."""
+
+_idle_states: collections.OrderedDict[tuple, _State] = collections.OrderedDict()
+_stream_stats = {"streams": 0, "states_reused": 0}
+
+
+def stream_info() -> dict[str, int]:
+    """Streams run (``streams``), how many found a kept state (``states_reused``), and the
+    bytes idle states hold (``state_bytes``)."""
+    return {**_stream_stats,
+            "state_bytes": sum(state.nbytes for state in _idle_states.values())}
+
+
+def _take_state(key: tuple) -> _State | None:
+    state = _idle_states.pop(key, None)
+    if state is not None and key[0] != id(get_device()):
+        state = None
+    return state
+
+
+def _keep_state(state: _State) -> None:
+    """Keep an idle state for a later call; drop the least recently used beyond
+    :data:`STATE_BYTES` (their buffers back to the pool)."""
+    old = _idle_states.pop(state.key, None)
+    if old is not None:
+        _drop_state(old)
+    _idle_states[state.key] = state
+    while _idle_states and sum(s.nbytes for s in _idle_states.values()) > STATE_BYTES:
+        _drop_state(_idle_states.popitem(last=False)[1])
+
+
+def _drop_state(state: _State) -> None:
+    for buffer in state.buffers:
+        give_buffer(buffer)
+    state.buffers, state.slots = [], []
 
 
 class Stream:
@@ -202,6 +200,11 @@ class Stream:
                 stream.submit(stop - start, [out[start:stop]])
         # leaving the block waits for the last blocks and copies them into out
 
+    What a stream holds (the uniform, the shared inputs' buffers, each block's host rows,
+    buffers and bind groups) is kept after it ends for a later stream of the same kernel and
+    sizes (at most :data:`STATE_BYTES` in all), which rewrites the uniform and the shared
+    inputs: repeated calls create no buffer and no bind group.
+
     Parameters
     ----------
     kernel : Kernel
@@ -210,7 +213,7 @@ class Stream:
         per-invocation buffer.
     inputs : sequence of Streamed, numpy.ndarray or DeviceArray
         In binding order: per-invocation rows (:class:`Streamed`), or inputs every invocation
-        shares (uploaded once).
+        shares (numpy arrays are written into buffers the stream holds, bound at their size).
     outputs : sequence of (row_shape, dtype)
         Each invocation's row of each output.
     params : numpy.ndarray, optional
@@ -257,47 +260,83 @@ class Stream:
                                kernel.dispatch_limit(), int(count),
                                int(block_rows) if block_rows is not None else count))
         self._device = get_device()
-        self._shared = {i: a if isinstance(a, DeviceArray) else kernel.input_array(i, a)
-                        for i, a in enumerate(inputs) if not isinstance(a, Streamed)}
-        self._uniform = None if params is None else kernel.uniform(params)
-        self._slots: list[_Slot] = []
         self._depth = depth
         self._next = 0
-        self._taken: list[Any] = []
+        shared = {i: a for i, a in enumerate(inputs) if not isinstance(a, Streamed)}
+        data = {i: as_bytes(a, f"{kernel.source.name}: input {i}", 4)
+                for i, a in shared.items() if not isinstance(a, DeviceArray)}
+        # A caller's DeviceArray is bound as it is: such a state serves this stream only.
+        self._reusable = len(data) == len(shared)
+        # Calls whose blocks round to the same power of two share a kept state.
+        capacity = 1 << max(0, self.rows - 1).bit_length()
+        key = (id(self._device), kernel, capacity, depth,
+               tuple((a.row_shape, a.dtype.str) for a in self._streamed.values()),
+               tuple((s.row_shape, s.dtype.str) for s in self._specs),
+               tuple((i, d.nbytes) for i, d in data.items()),
+               None if params is None else params.nbytes, maps_storage())
+        state = _take_state(key) if self._reusable else None
+        _stream_stats["streams"] += 1
+        _stream_stats["states_reused"] += state is not None
+        if state is None:
+            state = _State(key, None, {})
+            if params is not None:
+                state.uniform = take_buffer(padded_size(params.nbytes), _UNIFORM)
+                state.buffers.append(state.uniform)
+            for i, d in data.items():
+                state.shared[i] = (take_buffer(d.nbytes, _STORAGE), d.nbytes)
+                state.buffers.append(state.shared[i][0])
+        for i, a in shared.items():
+            if isinstance(a, DeviceArray):
+                state.shared[i] = (kernel.input_array(i, a).resource, None)
+        queue = self._device.queue
+        if params is not None:
+            queue.write_buffer(state.uniform, 0, as_bytes(params, "params", 16))
+        for i, d in data.items():
+            queue.write_buffer(state.shared[i][0], 0, d)
+        self._state = state
 
     # ---- slots
 
     def _take(self, nbytes: int, usage: int) -> Any:
         buffer = take_buffer(nbytes, usage)
-        self._taken.append(buffer)
+        self._state.buffers.append(buffer)
         return buffer
 
     def _slot(self) -> _Slot:
-        if len(self._slots) <= self._next:
-            self._slots.append(_Slot(
-                host=[np.empty((self.rows, *a.row_shape), a.dtype)
-                      for a in self._streamed.values()],
-                inputs=[self._take(self.rows * a.row_bytes, _STORAGE)
-                        for a in self._streamed.values()],
-                outputs=[self._take(self.rows * s.row_bytes, _STORAGE) for s in self._specs],
-                staging=[self._take(self.rows * s.row_bytes, _READBACK) for s in self._specs]))
-        return self._slots[self._next]
+        slots = self._state.slots
+        if len(slots) <= self._next:
+            rows = self._state.key[2]  # the capacity of every stream sharing the state
+            streamed, specs = self._streamed.values(), self._specs
+            host = [np.empty((rows, *a.row_shape), a.dtype) for a in streamed]
+            if self._state.key[-1]:  # storage buffers mapped directly (maps_storage)
+                inputs = [self._take(rows * a.row_bytes, _MAPPED_INPUT) for a in streamed]
+                outputs = [self._take(rows * s.row_bytes, _MAPPED_OUTPUT) for s in specs]
+                slots.append(_Slot(host, [], inputs, outputs, outputs))
+            else:
+                slots.append(_Slot(
+                    host, [self._take(rows * a.row_bytes, _UPLOAD) for a in streamed],
+                    [self._take(rows * a.row_bytes, _STORAGE) for a in streamed],
+                    [self._take(rows * s.row_bytes, _STORAGE) for s in specs],
+                    [self._take(rows * s.row_bytes, _READBACK) for s in specs]))
+        return slots[self._next]
 
     def _bind_group(self, slot: _Slot, count: int) -> Any:
         group = slot.groups.get(count)
         if group is None:
             resources, sizes, streamed = [], [], iter(slot.inputs)
             for i in range(self.kernel.n_inputs):
-                if i in self._shared:
-                    resources.append(self._shared[i].resource)
-                    sizes.append(None)
+                if i in self._state.shared:
+                    buffer, nbytes = self._state.shared[i]
+                    resources.append(buffer)
+                    sizes.append(None if nbytes is None else padded_size(nbytes))
                 else:
                     resources.append(next(streamed))
                     sizes.append(padded_size(count * self._streamed[i].row_bytes))
             resources += slot.outputs
             sizes += [padded_size(count * s.row_bytes) for s in self._specs]
-            group = self.kernel.bind_group(resources, self._uniform, sizes)
-            slot.groups = {count: group}  # a full block's, or the last block's
+            group = self.kernel.bind_group(resources, self._state.uniform, sizes)
+            # A full block's and the last block's (repeated calls of one size hit both).
+            slot.groups = {**dict(list(slot.groups.items())[-1:]), count: group}
         return group
 
     # ---- public
@@ -337,18 +376,31 @@ class Stream:
         slot = self._slot()
         self._drain(slot)
         queue = self._device.queue
-        for host, buffer in zip(slot.host, slot.inputs, strict=True):
-            queue.write_buffer(buffer, 0, host[:count])
+        encoder = self._device.create_command_encoder()
+        # Into the storage buffers themselves where they map, else through mappable buffers
+        # the stream keeps: queue.write_buffer stages each write in new memory, whose page
+        # faults cost more than the copy (30 ms per 64 MB on lavapipe).
+        direct = not slot.uploads
+        for k, (host, buffer) in enumerate(zip(slot.host, slot.inputs, strict=True)):
+            size = padded_size(host[:count].nbytes)
+            mapped = buffer if direct else slot.uploads[k]
+            mapped.map_async(wgpu.MapMode.WRITE, 0, size).sync_wait()
+            try:
+                mapped.write_mapped(host[:count], 0)
+            finally:
+                mapped.unmap()
+            if not direct:
+                encoder.copy_buffer_to_buffer(mapped, 0, buffer, 0, size)
         dispatch = Dispatch(self.kernel, (), count, self.kernel.workgroups(count),
                             self._bind_group(slot, count))
-        encoder = self._device.create_command_encoder()
         sizes = [padded_size(count * s.row_bytes) for s in self._specs]
         timed = clocks_open()
         query_set = (self._device.create_query_set(type="timestamp", count=2) if timed
                      else None)
         encode_passes(encoder, [dispatch], 1, query_set)
-        for source, target, size in zip(slot.outputs, slot.staging, sizes, strict=True):
-            encoder.copy_buffer_to_buffer(source, 0, target, 0, size)
+        if not direct:
+            for source, target, size in zip(slot.outputs, slot.staging, sizes, strict=True):
+                encoder.copy_buffer_to_buffer(source, 0, target, 0, size)
         staging = list(slot.staging)
         if timed:  # the pass's two timestamps, read back with the results
             resolved = resolve_timestamps(self._device, encoder, query_set, 2)
@@ -356,7 +408,7 @@ class Stream:
             encoder.copy_buffer_to_buffer(resolved, 0, staging[-1], 0, 16)
             sizes.append(16)
         queue.submit([encoder.finish()])
-        waits = [buffer.map_async(_MAP_AFTER_SUBMIT, 0, size)
+        waits = [buffer.map_async(MAP_AFTER_SUBMIT, 0, size)
                  for buffer, size in zip(staging, sizes, strict=True)]
         slot.pending = (count, list(targets), staging, waits, timed)
         self._next = (self._next + 1) % self._depth
@@ -385,20 +437,35 @@ class Stream:
 
     def finish(self) -> None:
         """Wait for the blocks in flight, copy them into their targets (in submission order)
-        and return the buffers to the pool."""
+        and keep what the stream holds for a later one (:data:`STATE_BYTES`); inside a
+        :func:`deferred` block, leave that to the block's end."""
+        waiting = getattr(_deferral, "streams", None)
+        if waiting is not None:
+            waiting.append(self)
+            if len(waiting) > DEFERRED_STREAMS:
+                waiting.pop(0).finish_now()
+            return
+        self.finish_now()
+
+    def finish_now(self) -> None:
+        """:meth:`finish`, also inside a :func:`deferred` block."""
+        slots = self._state.slots
         try:
-            for k in range(len(self._slots)):
-                self._drain(self._slots[(self._next + k) % len(self._slots)])
-        finally:
+            for k in range(len(slots)):
+                self._drain(slots[(self._next + k) % len(slots)])
+        except BaseException:
             self._release()
+            raise
+        if self._reusable:
+            _keep_state(self._state)
+        else:
+            _drop_state(self._state)
 
     def _release(self) -> None:
-        for slot in self._slots:
+        """After an error: wait for what is in flight and return the buffers to the pool."""
+        for slot in self._state.slots:
             self._drain(slot, copy=False)
-        self._slots = []
-        for buffer in self._taken:
-            give_buffer(buffer)
-        self._taken = []
+        _drop_state(self._state)
 
     def __enter__(self) -> Stream:
         return self
@@ -408,3 +475,43 @@ class Stream:
             self.finish()
         else:
             self._release()
+
+
+DEFERRED_STREAMS = 8
+"""Most streams a :func:`deferred` block leaves in flight; the oldest is finished beyond."""
+
+_deferral = threading.local()
+
+
+@contextlib.contextmanager
+def deferred() -> Iterator[None]:
+    """Let the streams that end inside the block leave their last blocks in flight.
+
+    Each is waited for and copied into its targets when more than :data:`DEFERRED_STREAMS`
+    wait, or at the block's end, in order. A run of many small calls (a sweep's structures,
+    each a call of some 40 000 points) then waits once instead of once a call, and the host
+    prepares each call while the device computes the one before.
+
+    Only for targets the caller reads after the block: a call that post-processes its
+    stream's output (a film's transmittance masks it) must not run inside one. Blocks do not
+    nest; each thread has its own. An error inside the block drops what is in flight.
+    """
+    if getattr(_deferral, "streams", None) is not None:
+        raise RuntimeError("deferred() blocks do not nest")
+    _deferral.streams = waiting = []
+    try:
+        yield
+    except BaseException:
+        _deferral.streams = None
+        for stream in waiting:
+            stream._release()
+        raise
+    _deferral.streams = None
+    while waiting:
+        stream = waiting.pop(0)
+        try:
+            stream.finish_now()
+        except BaseException:
+            for later in waiting:
+                later._release()
+            raise

@@ -46,9 +46,10 @@ from wgbragg.common.blocks import (
     full_rank,
     parallel_map,
 )
-from wgbragg.gpu.streams import Stream, Streamed
+from wgbragg.gpu.streams import Stream, Streamed, shares_cores
 
-__all__ = ["POLARIZATION_CODE", "QUANTITIES", "UNIT_POINTS", "WORKGROUP_SIZE", "PointForm",
+__all__ = ["PARALLEL_MIN_POINTS", "POLARIZATION_CODE", "QUANTITIES", "UNIT_POINTS",
+           "WORKGROUP_SIZE", "PointForm",
            "evaluate_pointwise", "form_points", "grid_view", "reduced_turns"]
 
 WORKGROUP_SIZE = 256
@@ -61,9 +62,17 @@ POLARIZATION_CODE = {"s": 0, "p": 1, "unpolarized": 2}
 QUANTITIES = ("reflectance", "transmittance")
 """What a pointwise kernel writes: its ``TRANSMITTANCE`` override constant picks the second."""
 
-UNIT_POINTS = 1 << 15
-"""Points the host forms at a time: their float64 temporaries (256 KiB each) stay in a core's
-cache, where a whole block's (8 MiB) would stream through memory."""
+UNIT_POINTS = 1 << 14
+"""Points the host forms at a time: their float64 temporaries (128 KiB each) and rows (256
+KiB) stay in a core's L2 cache, where a whole block's (8 MiB) would stream through memory.
+On the 2-core benchmark machine (1 MiB of L2 a core) a Bragg mirror's points took 4.1 ns
+each in units of 2^14, 10 ns in units of 2^15 (and 2^16, 2^17)."""
+
+PARALLEL_MIN_POINTS = 1 << 17
+"""Blocks of fewer points are formed on the calling thread alone: handing units to the host's
+threads costs up to a millisecond on 2 busy cores, more than forming them. On a CPU adapter
+every block is (:func:`~wgbragg.gpu.streams.shares_cores`): there the forming, held back by
+the GIL between numpy's loops of 2^14 points, took as long on 2 threads as on one."""
 
 _GRID_MIN_POINTS = 1 << 12
 """Flat inputs of fewer points are formed as they are (:func:`grid_view` is not worth it)."""
@@ -113,7 +122,7 @@ class PointForm:
             return [Streamed((4,)), Streamed((2,))]
         return [Streamed((4,)), np.zeros((1, 2), np.float32)]
 
-    def terms(self, angle: np.ndarray) -> tuple[np.ndarray, ...]:
+    def angle_terms_of(self, angle: np.ndarray) -> tuple[np.ndarray, ...]:
         """``(geometry, *paths)`` of (float32 or float64) angles, widened and clipped to
         ``pi/2`` in float64 (float32's pi/2 lies above it): ``geometry`` holds the float32
         pair ``(s, cos theta)`` of each angle as one 8-byte word (``uint64``, the rows' first
@@ -124,8 +133,18 @@ class PointForm:
         pairs[..., 0], pairs[..., 1] = s, cos_theta
         return (pairs.view(np.uint64)[..., 0], *paths)
 
+    def wavelength_terms(self, wavelength: np.ndarray) -> tuple[np.ndarray, ...]:
+        """``(1 / lambda, *base)`` of (float32 or float64) wavelengths: ``1 / lambda`` in
+        float64 (the phases' factor), and for a dispersive base its float32 ``n`` and ``k``."""
+        inverse = np.divide(1.0, wavelength, dtype=np.float64)
+        if self.base is None:
+            return (inverse,)
+        index = np.asarray(self.base(np.asarray(wavelength, np.float64)), np.complex128)
+        return inverse, index.real.astype(np.float32), index.imag.astype(np.float32)
+
     def fill(self, hosts: list[np.ndarray], offset: int, shape: tuple[int, ...],
-             wavelength: np.ndarray, terms: tuple[np.ndarray, ...]) -> None:
+             wavelength_terms: tuple[np.ndarray, ...],
+             angle_terms: tuple[np.ndarray, ...]) -> None:
         """Form the points of one unit into rows ``offset ..`` of the host arrays ``hosts``.
 
         Parameters
@@ -135,17 +154,16 @@ class PointForm:
         offset : int
             First row of the unit.
         shape : tuple of int
-            The unit's shape; ``wavelength`` and ``terms`` broadcast to it.
-        wavelength : numpy.ndarray
-            Wavelengths (nm, float32 or float64).
-        terms : tuple of numpy.ndarray
-            :meth:`terms` of the unit's angles.
+            The unit's shape; the terms broadcast to it.
+        wavelength_terms, angle_terms : tuple of numpy.ndarray
+            :meth:`wavelength_terms` and :meth:`angle_terms_of` of the unit's wavelengths and
+            angles.
         """
         count = math.prod(shape)
         rows = hosts[0][offset:offset + count].reshape(*shape, 4)
-        geometry, *paths = terms
+        inverse, *base = wavelength_terms
+        geometry, *paths = angle_terms
         np.copyto(rows.view(np.uint64)[..., 0], geometry)
-        inverse = np.divide(1.0, wavelength, dtype=np.float64)
         cycles = np.empty(shape)
         whole = np.empty(shape)
         for j, path in enumerate(paths):
@@ -157,11 +175,10 @@ class PointForm:
                       casting="same_kind")
             return
         np.copyto(rows[..., 3], inverse, casting="same_kind")
-        if self.base is not None:
-            index = np.asarray(self.base(np.asarray(wavelength, np.float64)), np.complex128)
+        if base:
             pairs = hosts[1][offset:offset + count].reshape(*shape, 2)
-            np.copyto(pairs[..., 0], index.real, casting="same_kind")
-            np.copyto(pairs[..., 1], index.imag, casting="same_kind")
+            np.copyto(pairs[..., 0], base[0])
+            np.copyto(pairs[..., 1], base[1])
 
 
 def form_points(form: PointForm, wavelength_nm, theta) -> tuple[list[np.ndarray], tuple]:
@@ -181,7 +198,7 @@ def form_points(form: PointForm, wavelength_nm, theta) -> tuple[list[np.ndarray]
     hosts = [np.empty((size, *spec.row_shape), spec.dtype) for spec in form.streams()
              if isinstance(spec, Streamed)]
     if size:
-        form.fill(hosts, 0, shape, wavelength, form.terms(angle))
+        form.fill(hosts, 0, shape, form.wavelength_terms(wavelength), form.angle_terms_of(angle))
     return hosts, shape
 
 
@@ -195,16 +212,17 @@ def _first_index(flat: np.ndarray, test: Callable[[np.ndarray], np.ndarray], sta
     return flat.size
 
 
-def _rows_equal(rows: np.ndarray, reference: np.ndarray) -> bool:
-    """Whether ``rows`` (2-D) equals ``reference`` broadcast to it (a column of one value per
-    row, or one row), read in units and stopping at the first difference."""
-    step = max(1, UNIT_POINTS // rows.shape[1])
-    per_row = reference.ndim == 2 and reference.shape[0] == rows.shape[0]
-    for first in range(0, rows.shape[0], step):
-        part = reference[first:first + step] if per_row else reference
-        if not np.all(rows[first:first + step] == part):
-            return False
-    return True
+def _constant_rows(rows: np.ndarray) -> bool:
+    """Whether each row of ``rows`` (2-D, no NaN) holds one value: its least and greatest
+    values agree (two reductions, no temporary of the array's size)."""
+    return bool(np.array_equal(rows.min(axis=1), rows.max(axis=1)))
+
+
+def _equal_rows(rows: np.ndarray) -> bool:
+    """Whether every row of ``rows`` (2-D, no NaN) equals the first: the columns' least and
+    greatest values are the first row's."""
+    return bool(np.array_equal(rows.min(axis=0), rows[0])
+                and np.array_equal(rows.max(axis=0), rows[0]))
 
 
 def grid_view(wavelength: np.ndarray, angle: np.ndarray, shape: tuple[int, ...]):
@@ -215,7 +233,9 @@ def grid_view(wavelength: np.ndarray, angle: np.ndarray, shape: tuple[int, ...])
     indexing="ij")`` gives), or that repeats with a period ``P`` (the angle fastest), is the
     same function of the flat index as a ``(size / L, 1)`` or ``(1, P)`` array broadcast to
     ``(size / L, L)`` or ``(size / P, P)``. In that form the per-angle work is done once per
-    angle instead of once per point. Anything else is returned as it is.
+    angle instead of once per point, and where the wavelengths repeat alike (the other axis
+    of the same grid) the per-wavelength work once per wavelength. Anything else is returned
+    as it is.
 
     Parameters
     ----------
@@ -242,20 +262,30 @@ def grid_view(wavelength: np.ndarray, angle: np.ndarray, shape: tuple[int, ...])
     run = _first_index(flat, lambda part: part != flat[0], 1)
     if 1 < run < size and size % run == 0:
         rows = flat.reshape(-1, run)
-        if _rows_equal(rows, rows[:, :1]):  # constant along each row
-            grid = (size // run, run)
-            return flat_wavelength.reshape(-1 if wavelength.size == size else 1,
-                                           run if wavelength.size == size else 1), \
-                rows[:, :1], grid
+        if _constant_rows(rows):
+            return (*_wavelength_rows(flat_wavelength, run, across=False), rows[:, :1],
+                    (size // run, run))
     period = _first_index(flat, lambda part: part == flat[0], 1)
     if 1 < period < size and size % period == 0:
         rows = flat.reshape(-1, period)
-        if _rows_equal(rows[1:], rows[0]):
-            grid = (size // period, period)
-            return flat_wavelength.reshape(-1 if wavelength.size == size else 1,
-                                           period if wavelength.size == size else 1), \
-                rows[:1], grid
+        if _equal_rows(rows):
+            return (*_wavelength_rows(flat_wavelength, period, across=True), rows[:1],
+                    (size // period, period))
     return unchanged
+
+
+def _wavelength_rows(flat: np.ndarray, width: int, across: bool) -> tuple[np.ndarray]:
+    """The flat wavelengths as rows of ``width`` beside a grid's angles: one row for all where
+    every row repeats the first (``across=False``: the angles vary along the columns' rows),
+    one value per row where each row is constant (``across=True``), else every row."""
+    if flat.size == 1:
+        return (flat.reshape(1, 1),)
+    rows = flat.reshape(-1, width)
+    if not across and _equal_rows(rows):
+        return (rows[:1],)
+    if across and _constant_rows(rows):
+        return (rows[:, :1],)
+    return (rows,)
 
 
 def evaluate_pointwise(shader: str, constants: dict, params: np.ndarray, form: PointForm,
@@ -295,10 +325,21 @@ def evaluate_pointwise(shader: str, constants: dict, params: np.ndarray, form: P
         return out
     kernel = gpu.compute_pipeline(shader, constants=constants)
     wavelength, angle, grid_shape = grid_view(wavelength, angle, shape)
-    # Per-angle terms once for the whole call where the angles are fewer than the points.
-    whole = form.terms(angle) if angle.size * 4 <= size else None
-    views = full_rank([wavelength, angle, *(whole or ())], len(grid_shape))
+    # Each axis's terms once for the whole call where it holds fewer values than the points
+    # (a broadcast or a grid's axis), else a unit's at a time.
+    whole_w = form.wavelength_terms(wavelength) if wavelength.size * 4 <= size else None
+    whole_a = form.angle_terms_of(angle) if angle.size * 4 <= size else None
+    views = full_rank([wavelength, angle], len(grid_shape))
+    w_views = None if whole_w is None else full_rank(whole_w, len(grid_shape))
+    a_views = None if whole_a is None else full_rank(whole_a, len(grid_shape))
     results = out.reshape(-1)
+
+    def terms(index, whole_views, view, of):
+        if whole_views is not None:
+            return tuple(block_part(v, index) for v in whole_views)
+        return of(block_part(view, index))
+
+    shared = shares_cores()
     with Stream(kernel, form.streams(), [((), np.float32)], params, count=size) as stream:
         units = block_ranges(grid_shape, min(UNIT_POINTS, stream.rows))
         for first, block in _blocks(units, stream.rows):
@@ -306,13 +347,12 @@ def evaluate_pointwise(shader: str, constants: dict, params: np.ndarray, form: P
 
             def fill(unit, hosts=hosts, first=first):
                 index, start, _ = unit
-                parts = [block_part(view, index) for view in views]
-                terms = tuple(parts[2:]) if whole is not None else form.terms(parts[1])
-                form.fill(hosts, start - first, block_shape(grid_shape, index), parts[0],
-                          terms)
+                form.fill(hosts, start - first, block_shape(grid_shape, index),
+                          terms(index, w_views, views[0], form.wavelength_terms),
+                          terms(index, a_views, views[1], form.angle_terms_of))
 
-            parallel_map(fill, block)
             count = block[-1][2] - first
+            parallel_map(fill, block, None if count >= PARALLEL_MIN_POINTS and not shared else 1)
             stream.submit(count, [results[first:first + count]])
     return out
 
