@@ -56,6 +56,9 @@ ENTRY_POINT_TWIN_TESTS = {
         "test_design.py::test_population_colour_gpu_matches_numpy",
     "design/stack_population.wgsl":
         "test_design_stack_gpu.py::test_stack_kernel_matches_the_transfer_matrix_solver",
+    # The loop-budget probe has no float64 twin: its test checks the iterations it counts
+    # against the counts it was asked for.
+    "gpu/loops_probe.wgsl": "test_gpu_harness.py::test_loop_budget_is_what_the_probe_kernel_shows",
 }
 """Each compute entry point and the test that compares it with its float64 numpy twin."""
 

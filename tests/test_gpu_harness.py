@@ -407,7 +407,7 @@ def test_loop_budget_is_what_the_probe_kernel_shows():
     counts[:32] = 1
     counts[0] = gpu.planned_loop_iterations() // 2  # first SIMD group (8 or 16 lanes): safe
     counts[32] = 40000  # the last: 80000 iterations asked for, in two loops
-    (out,) = gpu.compute_pipeline("gpu/loop_budget_probe.wgsl").run(
+    (out,) = gpu.compute_pipeline("gpu/loops_probe.wgsl").run(
         [counts], [((counts.size, 2), np.uint32)])
     taken, cut = out.T
     np.testing.assert_array_equal(taken[:32], 2 * counts[:32])

@@ -9,7 +9,7 @@ sum, or a walk stops early. llvmpipe (lavapipe's compiler) did so up to Mesa 22 
 back-edges, ``LP_MAX_TGSI_LOOP_ITERATIONS`` in gallivm); Mesa 25's has no such budget.
 
 The budget is therefore measured, not assumed from the adapter's name: :func:`loop_budget`
-runs ``wgsl/gpu/loop_budget_probe.wgsl`` once per driver (one invocation asking for
+runs ``wgsl/gpu/loops_probe.wgsl`` once per driver (one invocation asking for
 :data:`PROBE_ITERATIONS` iterations over two loops) and keeps the answer in
 :func:`loop_budget_path`, keyed by the adapter's name and the driver's description (which
 names the Mesa and LLVM versions). A cached answer is validated before use; a file of another
@@ -72,7 +72,7 @@ CACHE_FORMAT = "wgbragg-loop-budget"
 """The ``format`` entry of that file; its ``version`` is 1."""
 
 _CACHE_VERSION = 1
-_PROBE = "gpu/loop_budget_probe.wgsl"
+_PROBE = "gpu/loops_probe.wgsl"
 
 
 # --------------------------------------------------------------------------- measuring
