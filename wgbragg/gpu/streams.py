@@ -125,6 +125,30 @@ class _Slot:
     staging: list[Any]
     groups: dict[int, Any] = dataclasses.field(default_factory=dict)
     pending: tuple | None = None
+    writable: list[Any] = dataclasses.field(default_factory=list)
+
+    @property
+    def written(self) -> list[Any]:
+        """The buffers the host writes the rows into: the uploads, or the inputs themselves."""
+        return self.uploads or self.inputs
+
+    def map_for_writing(self) -> None:
+        """Ask for the written buffers' maps now (they resolve once the device is done with
+        them), so that the next block finds them mapped: one wait for the device a block,
+        not two (each a round trip through wgpu-py's poll thread, milliseconds on busy
+        cores)."""
+        self.writable = [buffer.map_async(wgpu.MapMode.WRITE, 0, buffer.size)
+                         for buffer in self.written]
+
+    def unmap_all(self) -> None:
+        """Wait for the maps asked for and undo every map (before the buffers go back)."""
+        for wait in self.writable:
+            with contextlib.suppress(Exception):
+                wait.sync_wait()
+        self.writable = []
+        for buffer in (*self.written, *self.staging):
+            if buffer.map_state == "mapped":
+                buffer.unmap()
 
 
 @dataclasses.dataclass
@@ -181,6 +205,8 @@ def _keep_state(state: _State) -> None:
 
 
 def _drop_state(state: _State) -> None:
+    for slot in state.slots:
+        slot.unmap_all()
     for buffer in state.buffers:
         give_buffer(buffer)
     state.buffers, state.slots = [], []
@@ -381,16 +407,19 @@ class Stream:
         # the stream keeps: queue.write_buffer stages each write in new memory, whose page
         # faults cost more than the copy (30 ms per 64 MB on lavapipe).
         direct = not slot.uploads
-        for k, (host, buffer) in enumerate(zip(slot.host, slot.inputs, strict=True)):
+        if not slot.writable:
+            slot.map_for_writing()
+        for host, mapped, wait, buffer in zip(slot.host, slot.written, slot.writable,
+                                              slot.inputs, strict=True):
             size = padded_size(host[:count].nbytes)
-            mapped = buffer if direct else slot.uploads[k]
-            mapped.map_async(wgpu.MapMode.WRITE, 0, size).sync_wait()
+            wait.sync_wait()
             try:
                 mapped.write_mapped(host[:count], 0)
             finally:
                 mapped.unmap()
             if not direct:
                 encoder.copy_buffer_to_buffer(mapped, 0, buffer, 0, size)
+        slot.writable = []
         dispatch = Dispatch(self.kernel, (), count, self.kernel.workgroups(count),
                             self._bind_group(slot, count))
         sizes = [padded_size(count * s.row_bytes) for s in self._specs]
@@ -410,6 +439,7 @@ class Stream:
         queue.submit([encoder.finish()])
         waits = [buffer.map_async(MAP_AFTER_SUBMIT, 0, size)
                  for buffer, size in zip(staging, sizes, strict=True)]
+        slot.map_for_writing()  # for the slot's next block, or the next call's
         slot.pending = (count, list(targets), staging, waits, timed)
         self._next = (self._next + 1) % self._depth
 
