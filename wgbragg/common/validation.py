@@ -47,6 +47,13 @@ def as_float_array(name: str, value, keep_float32: bool = False, copy: bool = Tr
 
     ``copy=False`` also returns a float64 array as it is, not a copy: for callers that only
     read the result (it may be the caller's own array)."""
+    return _extent(name, value, keep_float32, copy)[0]
+
+
+def _extent(name: str, value, keep_float32: bool = False, copy: bool = True):
+    """(:func:`as_float_array`, its least value, its greatest value); (array, None, None) for
+    an empty one. One reduction each, no temporary of the array's size; a NaN anywhere makes
+    both NaN, and is refused."""
     message = f"{name} must be a real number or array of real numbers"
     try:
         raw = np.asarray(value)
@@ -60,10 +67,12 @@ def as_float_array(name: str, value, keep_float32: bool = False, copy: bool = Tr
         array = raw
     else:
         array = raw.astype(np.float64) if copy else np.asarray(raw, np.float64)
-    # A NaN anywhere makes the minimum NaN: one reduction, no temporary of the array's size.
-    if array.size and np.isnan(np.min(array)):
+    if not array.size:
+        return array, None, None
+    low, high = float(array.min()), float(array.max())
+    if math.isnan(low) or math.isnan(high):
         raise ValueError(f"{name} contains NaN")
-    return array
+    return array, low, high
 
 
 def as_float(name: str, value) -> float:
@@ -149,18 +158,13 @@ def check_real(name: str, value, low: float, high: float) -> float:
     return float(value)
 
 
-def _within(array: np.ndarray, low: float, high: float) -> bool:
-    """Whether every element of ``array`` (no NaN) lies in ``[low, high]``: two reductions."""
-    return array.size == 0 or (low <= float(array.min()) and float(array.max()) <= high)
-
-
 def check_wavelength(value, name: str = "wavelength_nm", copy: bool = True) -> np.ndarray:
     """Wavelengths in nm, in :data:`WAVELENGTH_RANGE_NM`: a new float64 array, or with
     ``copy=False`` a float32 or float64 array as it is (for callers that only read it, such
     as a float32 kernel's: no copy of a large input)."""
-    array = as_float_array(name, value, keep_float32=not copy, copy=copy)
+    array, least, greatest = _extent(name, value, keep_float32=not copy, copy=copy)
     low, high = WAVELENGTH_RANGE_NM
-    if not _within(array, low, high):
+    if least is not None and not (low <= least and greatest <= high):
         raise ValueError(f"{name} must be in [{low:g}, {high:g}] nm")
     return array
 
@@ -173,11 +177,11 @@ def check_angle(value, name: str = "theta", copy: bool = True) -> np.ndarray:
     """Angles of incidence in radians, in [0, pi/2]; float32's pi/2 is accepted and clipped to
     pi/2. A new float64 array; with ``copy=False`` a float32 or float64 array as it is where
     nothing needs clipping (for callers that only read it)."""
-    array = as_float_array(name, value, keep_float32=not copy, copy=copy)
-    if not _within(array, 0.0, _HALF_PI_FLOAT32):
+    array, least, greatest = _extent(name, value, keep_float32=not copy, copy=copy)
+    if least is not None and not (0.0 <= least and greatest <= _HALF_PI_FLOAT32):
         raise ValueError(f"{name} must be in [0, pi/2] radians")
     if not copy:
-        if array.size == 0 or float(array.max()) <= np.pi / 2:
+        if least is None or greatest <= np.pi / 2:
             return array
         array = array.astype(np.float64)
     return np.minimum(array, np.pi / 2, out=array)  # array is a fresh copy
