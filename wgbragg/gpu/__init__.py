@@ -5,6 +5,9 @@ Every kernel of the package runs through it: one device per process, WGSL compos
 that upload numpy arrays, dispatch and read back. The names below are its public API; each
 lives in the submodule for its job, whose docstring says more:
 
+- :mod:`~wgbragg.gpu.driver`: the Vulkan driver list chosen before the first adapter (the
+  user's, the system's, or a current lavapipe from the driver cache), and
+  :mod:`~wgbragg.gpu.driver_fetch`, which fills that cache from the backports suite;
 - :mod:`~wgbragg.gpu.device`: adapter (``WGBRAGG_ADAPTER``), device and buffer limits;
 - :mod:`~wgbragg.gpu.shaders`: shader folder, include composer, compile errors;
 - :mod:`~wgbragg.gpu.specialise`: the ``//! if`` blocks that override constants resolve;
@@ -12,7 +15,10 @@ lives in the submodule for its job, whose docstring says more:
 - :mod:`~wgbragg.gpu.timing`: GPU timestamps and :func:`pass_clock`;
 - :mod:`~wgbragg.gpu.pipelines`: the "Binding convention", "Dispatch", "Any element count"
   (:class:`Rows`), "Chained dispatches" and "Specialisation" of kernels, device arrays,
-  :func:`submit` and :func:`benchmark`;
+  :func:`submit` and :func:`benchmark`, with :mod:`~wgbragg.gpu.arrays` (device arrays,
+  dispatches, submission) and :mod:`~wgbragg.gpu.buffers` (the pool of reused buffers);
+- :mod:`~wgbragg.gpu.streams`: block-wise streams of points through kept buffers, for the
+  public array calls;
 - :mod:`~wgbragg.gpu.loops`: the device's "Loop budget", measured by a probe kernel, and the
   iterations kernels plan for.
 """
