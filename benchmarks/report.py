@@ -208,8 +208,10 @@ class LoadMeter:
 
     @staticmethod
     def _own() -> float:
+        # The benchmark's own child processes (Mitsuba's variants, benchmarks.drivers'
+        # workloads) are part of it, not other load: their CPU time counts once waited for.
         times = os.times()
-        return times.user + times.system
+        return times.user + times.system + times.children_user + times.children_system
 
     def background_cores(self) -> float | None:
         """Average number of cores busy with other processes (or stolen by the hypervisor)."""
