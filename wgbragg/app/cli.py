@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from wgbragg.app import design_cli, sweep_cli
+from wgbragg.app import design_cli, info_cli, sweep_cli
 from wgbragg.common.atomic import check_output_folder, check_output_path
 from wgbragg.common.luts import LutWarning
 
@@ -114,46 +114,6 @@ def _mirror(args):
 
     return BraggMirror(n1=args.n1, n2=args.n2, d1=args.d1, d2=args.d2, N=args.periods,
                        host=args.host)
-
-
-def _info(args) -> int:
-    import wgpu
-
-    from wgbragg import gpu
-    from wgbragg._version import __version__
-    from wgbragg.gpu.driver import driver_cache_dir, system_lavapipe
-    from wgbragg.gpu.driver_fetch import fetch_driver
-
-    fetched = None
-    if args.fetch_driver:
-        fetched = fetch_driver(force=args.force)
-        print(fetched.message, file=sys.stderr)
-    print(f"wgbragg {__version__}, wgpu {wgpu.__version__}")
-    info = gpu.adapter_info()
-    for key, value in info.items():
-        print(f"  {key}: {value}")
-    budget = gpu.loop_budget()
-    print(f"  loop budget: {'none (loops run to the end)' if budget is None else budget}")
-    system = system_lavapipe()
-    if system is not None:
-        version = ".".join(map(str, system[1])) if system[1] else "of unknown version"
-        print(f"  system lavapipe: Mesa {version} ({system[0]})")
-    print(f"  driver cache: {driver_cache_dir()}")
-    print(f"  shaders: {gpu.shader_dir()}")
-    return 0 if fetched is None or fetched.ok else 1
-
-
-def _add_info_command(commands) -> None:
-    info = _command(commands, "info", "adapter, driver (Mesa version and where it came from), "
-                                      "versions and shader folder")
-    info.add_argument("--fetch-driver", action="store_true",
-                      help="first fetch a current lavapipe (Mesa >= 24) from the distribution's "
-                           "backports suite into wgbragg's driver cache, when the system's is "
-                           "older; installs no system package (exit status 1 if none could be "
-                           "had: wgbragg then goes on with the system driver)")
-    info.add_argument("--force", action="store_true",
-                      help="with --fetch-driver: fetch again even if a current driver is there")
-    info.set_defaults(run=_info)
 
 
 def _reflectance(args) -> int:
@@ -518,7 +478,7 @@ def build_parser() -> argparse.ArgumentParser:
     imports."""
     parser = argparse.ArgumentParser(prog="wgbragg", description=DESCRIPTION)
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    _add_info_command(commands)
+    info_cli.add_info_command(commands, _command)  # info, --fetch-driver
     _add_reflectance_command(commands)
     _add_map_command(commands)
     _add_bake_command(commands)
