@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from wgbragg.app import cli
+from wgbragg.app import info_cli
 from wgbragg.app.cli import main
 from wgbragg.bsdf import filter_cache
 from wgbragg.colour import tables
@@ -548,7 +548,7 @@ def test_cli_prints_a_lut_warning_as_one_line(cache, capsys, monkeypatch):
         warnings.warn("something else", UserWarning, stacklevel=1)
         return 0
 
-    monkeypatch.setattr(cli, "_info", command)
+    monkeypatch.setattr(info_cli, "run_info", command)
     with warnings.catch_warnings(record=True) as passed_on:
         warnings.simplefilter("always")
         assert main(["info"]) == 0
