@@ -28,6 +28,8 @@
 //! include "optics/thin_film.wgsl"
 //! include "colour/thin_film.wgsl"
 //! include "bsdf/rough_thin_film.wgsl"
+//! include "render/renderer_bindings.wgsl"
+//! include "render/renderer_shading.wgsl"
 //! include "render/renderer_scene.wgsl"
 //! include "lighting/procedural_environment.wgsl"
 //! include "lighting/environment_map.wgsl"
@@ -40,105 +42,13 @@
 override MAX_BOUNCES: u32 = 8u;
 // Russian roulette from this bounce on: the first bounces carry most of the image.
 override ROULETTE_FROM: u32 = 3u;
-// The scene holds layered Bragg materials: otherwise their code is never reached.
-override LAYERED: bool = false;
-// Hero-wavelength transport: layered materials by their spectral model.
-override SPECTRAL: bool = false;
 // Next-event estimation samples one light per vertex, chosen by its power, instead of every
 // light: fewer shadow rays, more noise per sample (docs/performance.md compares them).
 override ONE_LIGHT: bool = false;
 // The scene is one convex object: a ray leaving its surface (above the face it leaves) meets
 // nothing but the environment, so only camera rays are traced.
 override CONVEX_ALONE: bool = false;
-// The environment is an equirectangular image (environment_texels), not procedural.
-override ENVIRONMENT_MAP: bool = false;
-// The scene holds thin-film materials; FILM_MAPS: some of them vary their thickness over uv;
-// FILM_PREFILTERED: film_table has the prefiltering axis (filtered image-based lighting).
-override THIN_FILMS: bool = false;
-override FILM_MAPS: bool = false;
-override FILM_PREFILTERED: bool = false;
-// How the environment lights surfaces: IBL_MONTE_CARLO traces paths; the filtered modes shade
-// each camera hit once from prefiltered environments, without environment visibility or
-// bounces (RGB mode; thin films, layered Bragg materials in air, Lambertian materials).
-override IBL: u32 = 0u;
-const IBL_MONTE_CARLO: u32 = 0u;
-const IBL_SPLIT_SUM: u32 = 1u;
-const IBL_KNEIPHOF: u32 = 2u;
 
-const MATERIAL_LAMBERTIAN: u32 = 0u;
-const MATERIAL_LAYERED: u32 = 1u;
-const MATERIAL_THIN_FILM: u32 = 2u;
-const FAR: f32 = 3.4e38;
-
-struct Material {
-    albedo: vec3<f32>,    // Lambertian albedo, linear sRGB
-    kind: u32,
-    structure: u32,       // index in structures (layered materials) or films (thin films)
-    period_map: u32,      // index in map_records (VARYING_LAYERS): period (nm) over uv
-    delta_map: u32,       // d1 / period over uv
-    ibl_level: u32,       // its first level of the prefiltered environment (filtered IBL)
-    ibl_layers: u32,      // layered: its layers, whose levels follow ibl_level (then the
-                          // base's cosine level)
-}
-
-struct Params {
-    camera: Camera,
-    environment: Environment,
-    _pad0: u32,
-    count: u32,           // pixels: the image's, or those of a render / accumulate range
-    width: u32,
-    point_lights: u32,
-    area_lights: u32,
-    epsilon: f32,         // ray offset from a surface, in scene units, besides 1e-5 of
-                          // the hit point's largest coordinate (its float32 rounding)
-    seed: u32,
-    samples: u32,         // paths per pixel in this render dispatch
-    triangles: u32,       // primitives: triangles, spheres, planes, then area lights
-    spheres: u32,
-    planes: u32,
-    first: u32,           // first pixel of a render / accumulate range (0: the whole image)
-}
-
-@group(0) @binding(0) var<storage, read> vertices: array<vec4<f32>>;
-@group(0) @binding(1) var<storage, read> normals: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> faces: array<vec4<u32>>;
-@group(0) @binding(3) var node_texels: texture_2d<f32>;
-// The exact spheres and planes (render/renderer_scene.wgsl).
-@group(0) @binding(4) var shape_texels: texture_2d<f32>;
-// The triangles' corners in BVH order (render/renderer_scene.wgsl's triangle_hit).
-@group(0) @binding(5) var triangle_texels: texture_2d<f32>;
-@group(0) @binding(6) var<storage, read> materials: array<Material>;
-@group(0) @binding(7) var<storage, read> structures: array<LayeredStructure>;
-@group(0) @binding(8) var<storage, read> layers: array<RoughLayer>;
-@group(0) @binding(9) var<storage, read> tables: array<f32>;
-// Point lights (position, intensity), then area lights (corner with w = 1 when two-sided,
-// edge_u, edge_v, radiance), then a row per light of next-event estimation, the environment
-// first under Monte Carlo lighting (wgbragg/render/packing.py light_buffer): (the cumulative
-// probability of choosing it, that probability, 0, 0); the probability is 1 for every light
-// when all are sampled at each vertex.
-@group(0) @binding(10) var<storage, read> lights: array<vec4<f32>>;
-// Spectral mode (wgbragg/render/renderer.py _spectra): 471 rows of basis spectra, 471 rows of the
-// linear sRGB response per nm (360..830 nm), then the hero wavelengths' inverse CDF in x.
-@group(0) @binding(11) var<storage, read> spectra: array<vec4<f32>>;
-// EnvironmentMap.packed() (wgsl/lighting/environment_map.wgsl) when ENVIRONMENT_MAP.
-@group(0) @binding(12) var<storage, read> environment_texels: array<vec4<f32>>;
-// pack_maps (wgbragg/scene/parameter_maps.py) when VARYING_LAYERS: record 0 is unused.
-@group(0) @binding(13) var<storage, read> map_records: array<ParameterMapRecord>;
-@group(0) @binding(14) var<storage, read> map_texels: array<f32>;
-// Thin films (THIN_FILMS, wgbragg/render/renderer.py _film_buffers): their records, the Fourier
-// colour's windows and evanescent nodes (film_colour, colour/thin_film.wgsl) and table, and
-// each film's base index (n, k) every FILM_BASE_STEP_NM from 360 nm (spectral mode).
-@group(0) @binding(15) var<storage, read> films: array<FilmMaterial>;
-@group(0) @binding(16) var<storage, read> fourier_windows: array<FourierWindow>;
-@group(0) @binding(17) var<storage, read> evanescent_nodes: array<EvanescentNode>;
-@group(0) @binding(18) var film_table: texture_2d<f32>;
-@group(0) @binding(19) var<storage, read> film_base: array<vec4<f32>>;
-// Filtered image-based lighting (IBL != IBL_MONTE_CARLO): the prefiltered environment
-// (wgbragg.lighting.environment_prefilter, read by lighting/environment_prefilter_lookup.wgsl) and, per level, the
-// microfacet albedo E(cos_v) at IBL_ALBEDO_NODES cosines (wgbragg.lighting.ibl.microfacet_albedo_table).
-@group(0) @binding(20) var<storage, read> prefiltered_levels: array<PrefilteredLevel>;
-@group(0) @binding(21) var<storage, read> prefiltered_texels: array<vec4<f32>>;
-@group(0) @binding(22) var<storage, read> ibl_albedo: array<f32>;
 @group(0) @binding(23) var<storage, read_write> accum: array<vec4<f32>>;
 // The radiance of each path of a render dispatch, for accumulate.
 @group(0) @binding(24) var<storage, read_write> paths: array<vec3<f32>>;
@@ -153,217 +63,6 @@ struct Params {
 @group(0) @binding(28) var<storage, read_write> path_features: array<vec4<u32>>;
 @group(0) @binding(29) var<uniform> params: Params;
 
-// ----------------------------------------------------------------------------- spectra
-
-const SPECTRUM_NODES: u32 = 471u;
-
-var<private> wavelengths: vec4<f32>;
-// 1 / (4 pdf) of each hero wavelength (per nm).
-var<private> lane_scale: vec4<f32>;
-
-fn spectra_at(first_row: u32, wavelength_nm: f32) -> vec3<f32> {
-    let at = clamp(wavelength_nm - LAMBDA_LO_NM, 0.0, f32(SPECTRUM_NODES - 1u));
-    let lower = min(u32(at), SPECTRUM_NODES - 2u);
-    return mix(spectra[first_row + lower], spectra[first_row + lower + 1u],
-               at - f32(lower)).xyz;
-}
-
-// bsdf/layered/model.wgsl's transmissivity lookup: the layer's table in `tables`.
-fn layer_transmissivity(layer: RoughLayer, row: Lerp, column: Lerp) -> f32 {
-    return table_bilinear(layer.transmissivity, row, column);
-}
-
-fn hero_cdf_node(j: u32) -> f32 {
-    return spectra[2u * SPECTRUM_NODES + j].x;
-}
-
-fn start_wavelengths(u: f32) {
-    let hero = hero_wavelengths(u);
-    wavelengths = hero.nm;
-    lane_scale = hero.scale;
-}
-
-// An RGB quantity as the path carries it.
-fn upsample(rgb: vec3<f32>) -> vec4<f32> {
-    if (!SPECTRAL) {
-        return vec4<f32>(rgb, 0.0);
-    }
-    return vec4<f32>(dot(rgb, spectra_at(0u, wavelengths.x)),
-                     dot(rgb, spectra_at(0u, wavelengths.y)),
-                     dot(rgb, spectra_at(0u, wavelengths.z)),
-                     dot(rgb, spectra_at(0u, wavelengths.w)));
-}
-
-// Linear sRGB of a path's result: the hero wavelengths' estimate of the colour integral.
-fn to_rgb(value: vec4<f32>) -> vec3<f32> {
-    if (!SPECTRAL) {
-        return value.xyz;
-    }
-    let w = value * lane_scale;
-    return w.x * spectra_at(SPECTRUM_NODES, wavelengths.x)
-        + w.y * spectra_at(SPECTRUM_NODES, wavelengths.y)
-        + w.z * spectra_at(SPECTRUM_NODES, wavelengths.z)
-        + w.w * spectra_at(SPECTRUM_NODES, wavelengths.w);
-}
-
-fn lanes_max(value: vec4<f32>) -> f32 {
-    let rgb = max(max(value.x, value.y), value.z);
-    return select(rgb, max(rgb, value.w), SPECTRAL);
-}
-
-// ----------------------------------------------------------------------------- environment
-
-fn sky_radiance(e: Environment, d: vec3<f32>) -> vec3<f32> {
-    //! if ENVIRONMENT_MAP
-    return environment_map_radiance(d);
-    //! else
-    return environment_radiance(e, d);
-    //! endif
-}
-
-fn sky_pdf(e: Environment, d: vec3<f32>) -> f32 {
-    //! if ENVIRONMENT_MAP
-    return environment_map_pdf(d);
-    //! else
-    return environment_pdf(e, d);
-    //! endif
-}
-
-fn sky_sample(e: Environment, u: vec3<f32>) -> vec3<f32> {
-    //! if ENVIRONMENT_MAP
-    return environment_map_sample(u.xy);
-    //! else
-    return environment_sample(e, u);
-    //! endif
-}
-
-// ----------------------------------------------------------------------------- materials
-
-const FILM_BASE_STEP_NM: f32 = 10.0;
-const FILM_BASE_ROWS: u32 = 48u;
-
-// bsdf/rough_thin_film.wgsl's base index: the film's rows of `film_base`.
-fn film_base_index(f: FilmMaterial, wavelength_nm: f32) -> vec2<f32> {
-    let at = clamp((wavelength_nm - LAMBDA_LO_NM) / FILM_BASE_STEP_NM, 0.0,
-                   f32(FILM_BASE_ROWS - 1u));
-    let lower = min(u32(at), FILM_BASE_ROWS - 2u);
-    return mix(film_base[f.first_base + lower], film_base[f.first_base + lower + 1u],
-               at - f32(lower)).xy;
-}
-
-// Visible normals (Heitz 2018): the weight f cos / pdf is R G1(wo).
-fn film_sample(f: FilmMaterial, wi: vec3<f32>, u: vec2<f32>) -> BsdfSample {
-    let m = ggx_sample_visible_normal(wi, u, f.alpha);
-    let c = dot(wi, m);
-    let wo = 2.0 * c * m - wi;
-    if (c <= 0.0 || wo.z <= 0.0) {
-        return BsdfSample(wo, vec4<f32>(0.0), 0.0, false);
-    }
-    let pdf = ggx_visible_normal_pdf(wi, m, f.alpha) / (4.0 * c);
-    return BsdfSample(wo, film_reflectance(f, c, 0.0) * ggx_G1(wo.z, f.alpha), pdf, false);
-}
-
-struct BsdfSample {
-    wo: vec3<f32>,
-    weight: vec4<f32>,    // f cos / pdf, or the Dirac lobe's weight
-    pdf: f32,             // 0 for a Dirac lobe
-    dirac: bool,
-}
-
-fn layered_eval(s: LayeredStructure, p: LayeredPair) -> vec4<f32> {
-    //! if SPECTRAL
-    return layered_eval_spectral4(s, p, wavelengths);
-    //! else
-    return vec4<f32>(layered_eval_rgb(s, p), 0.0);
-    //! endif
-}
-
-// f (1/sr) for local directions, +z the shading normal.
-fn bsdf_eval(m: Material, wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
-    //! if THIN_FILMS
-    if (m.kind == MATERIAL_THIN_FILM) {
-        return film_eval(films[m.structure], wi, wo);
-    }
-    //! endif
-    //! if LAYERED
-    if (m.kind == MATERIAL_LAYERED) {
-        let s = structures[m.structure];
-        return layered_eval(s, layered_pair(s, wi, wo));
-    }
-    //! endif
-    return select(vec4<f32>(0.0), upsample(m.albedo / PI), wi.z > 0.0 && wo.z > 0.0);
-}
-
-fn bsdf_pdf(m: Material, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
-    //! if THIN_FILMS
-    if (m.kind == MATERIAL_THIN_FILM) {
-        return film_pdf(films[m.structure], wi, wo);
-    }
-    //! endif
-    //! if LAYERED
-    if (m.kind == MATERIAL_LAYERED) {
-        return layered_pdf(structures[m.structure], wi, wo);
-    }
-    //! endif
-    return select(0.0, wo.z / PI, wi.z > 0.0 && wo.z > 0.0);
-}
-
-fn bsdf_sample(m: Material, wi: vec3<f32>, u: vec3<f32>) -> BsdfSample {
-    //! if THIN_FILMS
-    if (m.kind == MATERIAL_THIN_FILM) {
-        return film_sample(films[m.structure], wi, u.yz);
-    }
-    //! endif
-    //! if LAYERED
-    if (m.kind == MATERIAL_LAYERED) {
-        let s = structures[m.structure];
-        let drawn = layered_sample(s, wi, u);
-        // The coating's Fresnel reflectance is the same at every wavelength.
-        var weight = vec4<f32>(drawn.dirac);
-        if (drawn.cos_over_pdf > 0.0) {
-            weight += layered_eval(s, layered_pair(s, wi, drawn.wo)) * drawn.cos_over_pdf;
-        }
-        return BsdfSample(drawn.wo, weight, drawn.pdf, drawn.dirac > 0.0);
-    }
-    //! endif
-    let wo = cosine_direction(u.yz);
-    return BsdfSample(wo, upsample(m.albedo), wo.z / PI, false);
-}
-
-// ----------------------------------------------------------------------------- filtered IBL
-
-// lighting/ibl.wgsl's table of microfacet albedos: node i of `ibl_albedo`.
-fn ibl_albedo_node(i: u32) -> f32 {
-    return ibl_albedo[i];
-}
-
-// Radiance towards v (world, unit) of a surface with shading normal n, lit by the
-// prefiltered environment: Lbar(r) E(cos_v) Rbar (split sum: Rbar at the ideal reflection).
-fn ibl_radiance(m: Material, n: vec3<f32>, v: vec3<f32>) -> vec4<f32> {
-    if (m.kind == MATERIAL_LAMBERTIAN) {
-        return upsample(m.albedo * prefiltered_lookup(m.ibl_level, n).radiance);
-    }
-    let cos_v = clamp(dot(n, v), 0.0, 1.0);
-    //! if LAYERED
-    if (m.kind == MATERIAL_LAYERED) {
-        return vec4<f32>(layered_ibl(structures[m.structure], m.ibl_level, m.ibl_layers, n,
-                                     v, cos_v), 0.0);
-    }
-    //! endif
-    var reflectance = vec4<f32>(0.0);
-    let p = prefiltered_lookup(m.ibl_level, 2.0 * cos_v * n - v);
-    //! if THIN_FILMS
-    if (m.kind == MATERIAL_THIN_FILM) {
-        let f = films[m.structure];
-        //! if IBL == IBL_KNEIPHOF
-        reflectance = film_kneiphof(f, light_spread(p, v));
-        //! else
-        reflectance = film_reflectance(f, cos_v, 0.0);
-        //! endif
-    }
-    //! endif
-    return upsample(p.radiance) * microfacet_albedo(m.ibl_level, cos_v) * reflectance;
-}
 
 // ----------------------------------------------------------------------------- transport
 
@@ -577,17 +276,7 @@ fn path_radiance(start: vec3<f32>, direction: vec3<f32>, state: ptr<function, u3
         }
         let surface = surface_at(origin, d, hit);
         let m = materials[surface.material];
-        if (VARYING_LAYERS && m.kind == MATERIAL_LAYERED) {
-            varying_layer = vec2<f32>(parameter_map_value(m.period_map, surface.uv),
-                                      parameter_map_value(m.delta_map, surface.uv));
-        }
-        if (THIN_FILMS && m.kind == MATERIAL_THIN_FILM) {
-            let f = films[m.structure];
-            film_thickness = f.colour.d_nm;
-            if (FILM_MAPS && f.thickness_map != 0u) {
-                film_thickness = parameter_map_value(f.thickness_map, surface.uv);
-            }
-        }
+        prepare_material(m, surface.uv);
         let frame = frame_about(surface.shading);
         let wi = to_local(frame, -d);
         if (depth == 0u) {
