@@ -248,19 +248,52 @@ fn trace(origin: vec3<f32>, direction: vec3<f32>, t_max: f32, any_hit: bool) -> 
         return best;
     }
     let inverse = 1.0 / direction;
-    var stack: array<u32, STACK_SIZE>;
-    var top = 1u;
-    stack[0] = 0u;
-    while (top > 0u) {
-        top -= 1u;
-        let node = bvh_node(stack[top]);
-        let span = box_span(origin, inverse, node.lo, node.hi);
-        if (span.x > span.y || span.y < 0.0 || span.x >= best.t) {
-            continue;
+    let root = bvh_node(0u);
+    let root_span = box_span(origin, inverse, root.lo, root.hi);
+    if (root_span.x > root_span.y || root_span.y < 0.0 || root_span.x >= best.t) {
+        return best;
+    }
+    if (root.count < INTERIOR) {
+        // A tree of one leaf.
+        for (var k = 0u; k < root.count; k++) {
+            let face = root.left_or_first + k;
+            let h = triangle_hit(origin, direction, face);
+            if (h.x > 0.0 && h.x < best.t) {
+                best = Hit(h.x, i32(face), h.y, h.z);
+                if (any_hit) {
+                    return best;
+                }
+            }
         }
-        if (node.count < INTERIOR) {
-            for (var k = 0u; k < node.count; k++) {
-                let face = node.left_or_first + k;
+        return best;
+    }
+    // `pair`: the left child of the interior node being opened (its right child follows).
+    // Both children's boxes are tested here, at the parent; a hit leaf is tested at once, and
+    // of two hit interior children the nearer (by entry distance) is opened next and the
+    // other pushed, so the stack holds only boxes known to be hit.
+    var stack: array<u32, STACK_SIZE>;
+    var top = 0u;
+    var pair = root.left_or_first;
+    loop {
+        let a = bvh_node(pair);
+        let b = bvh_node(pair + 1u);
+        let span_a = box_span(origin, inverse, a.lo, a.hi);
+        let span_b = box_span(origin, inverse, b.lo, b.hi);
+        var hit_a = span_a.x <= span_a.y && span_a.y >= 0.0 && span_a.x < best.t;
+        var hit_b = span_b.x <= span_b.y && span_b.y >= 0.0 && span_b.x < best.t;
+        let leaf_a = hit_a && a.count < INTERIOR;
+        let leaf_b = hit_b && b.count < INTERIOR;
+        if (leaf_a || leaf_b) {
+            // Both leaves' faces in one loop: the nearer leaf's first.
+            let a_first = !leaf_b || (leaf_a && span_a.x <= span_b.x);
+            let first = select(b.left_or_first, a.left_or_first, a_first);
+            let first_count = select(0u, select(b.count, a.count, a_first),
+                                     select(leaf_b, leaf_a, a_first));
+            let second = select(a.left_or_first, b.left_or_first, a_first);
+            let second_count = select(0u, select(a.count, b.count, a_first),
+                                      leaf_a && leaf_b);
+            for (var k = 0u; k < first_count + second_count; k++) {
+                let face = select(second + k - first_count, first + k, k < first_count);
                 let h = triangle_hit(origin, direction, face);
                 if (h.x > 0.0 && h.x < best.t) {
                     best = Hit(h.x, i32(face), h.y, h.z);
@@ -269,16 +302,25 @@ fn trace(origin: vec3<f32>, direction: vec3<f32>, t_max: f32, any_hit: bool) -> 
                     }
                 }
             }
-            continue;
+            hit_a = hit_a && !leaf_a && span_a.x < best.t;
+            hit_b = hit_b && !leaf_b && span_b.x < best.t;
         }
-        let left = node.left_or_first;
-        // The nearer child is popped first, so that its hits prune the other: the right one
-        // when the ray runs against the axis along which the children's centres part most.
-        let axis = (node.count >> 1u) & 3u;
-        let right_first = (direction[axis] < 0.0) != ((node.count & 1u) == 1u);
-        stack[top] = select(left, left + 1u, !right_first);
-        stack[top + 1u] = select(left + 1u, left, !right_first);
-        top += 2u;
+        if (hit_a && hit_b) {
+            let a_near = span_a.x <= span_b.x;
+            stack[top] = select(a.left_or_first, b.left_or_first, a_near);
+            top += 1u;
+            pair = select(b.left_or_first, a.left_or_first, a_near);
+        } else if (hit_a) {
+            pair = a.left_or_first;
+        } else if (hit_b) {
+            pair = b.left_or_first;
+        } else {
+            if (top == 0u) {
+                break;
+            }
+            top -= 1u;
+            pair = stack[top];
+        }
     }
     return best;
 }
