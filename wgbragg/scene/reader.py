@@ -89,6 +89,8 @@ from wgbragg.common.validation import (
     check_thickness,
 )
 from wgbragg.optics.metals import METALS
+from wgbragg.scene import gltf  # a cycle: gltf reads through parse_scene, at call time
+from wgbragg.scene.gltf_io import GLTF_SUFFIXES
 from wgbragg.scene.meshes import MAX_COORDINATE, MESH_SUFFIXES
 from wgbragg.scene.model import (
     ENVIRONMENT_TYPES,
@@ -132,13 +134,14 @@ _LIGHT_TYPES = ("point", "area")
 # ------------------------------------------------------------------------------------- loading
 
 
-def load_scene(path: str | os.PathLike, *, allow_outside: bool = False) -> Scene:
+def load_scene(path: str | os.PathLike, *, allow_outside: bool = False, **gltf_options) -> Scene:
     """Read a scene file.
 
     Parameters
     ----------
     path : str or os.PathLike
-        A TOML file (UTF-8). Paths inside it resolve against its folder.
+        A TOML file (UTF-8). Paths inside it resolve against its folder. A ``.gltf`` or
+        ``.glb`` file is read by :func:`wgbragg.scene.gltf.load_gltf`.
     allow_outside : bool, default False
         Accept paths in the file that lead outside its folder once symlinks are resolved
         (``../x.obj``, absolute paths, a link to elsewhere). Off, they are refused: a scene
@@ -157,7 +160,18 @@ def load_scene(path: str | os.PathLike, *, allow_outside: bool = False) -> Scene
         path, the path as written and what is accepted).
     OSError
         If the file cannot be read.
+
+    Other Parameters
+    ----------------
+    **gltf_options
+        ``camera``, ``environment``, ``settings``, ``cache``: the options of
+        :func:`~wgbragg.scene.gltf.load_gltf`, for glTF files only.
     """
+    if Path(path).suffix.lower() in GLTF_SUFFIXES:
+        return gltf.load_gltf(path, allow_outside=allow_outside, **gltf_options)
+    if gltf_options:
+        raise ValueError(f"{path}: {', '.join(sorted(gltf_options))}: options of glTF files "
+                         f"only (.gltf, .glb)")
     path = Path(path).resolve()
     return _parse(path.read_bytes(), path.name, path.parent, allow_outside=allow_outside)
 
