@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from wgbragg.app import design_cli, info_cli, sweep_cli
+from wgbragg.app import design_cli, export_cli, info_cli, sweep_cli
 from wgbragg.common.atomic import check_output_folder, check_output_path
 from wgbragg.common.luts import LutWarning
 
@@ -373,7 +373,7 @@ def _render(args) -> int:
     from wgbragg.colour import colorimetry
     from wgbragg.common.exr import write_exr
     from wgbragg.render import Renderer, denoise_image, save_png
-    from wgbragg.scene import load_preset, load_scene
+    from wgbragg.scene import load_preset
 
     if (args.scene_file is None) == (args.scene is None):
         raise ValueError("give either a scene file or --scene NAME, not both or neither")
@@ -393,8 +393,7 @@ def _render(args) -> int:
         raise ValueError(f"--spp must be an integer >= 1, got {args.spp}")
     if args.size is not None:
         _check_render_size(args.size)
-    scene = (load_preset(args.scene) if args.scene
-             else load_scene(args.scene_file, allow_outside=args.allow_outside_paths))
+    scene = load_preset(args.scene) if args.scene else export_cli.load_scene_argument(args)
     renderer = Renderer(scene, size=args.size, mode=args.mode, ibl=args.ibl,
                         light_sampling=args.light_sampling)
     start = time.perf_counter()
@@ -487,6 +486,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_render_command(commands)
     sweep_cli.add_commands(commands, _command, _size)  # sweep, atlas, render-batch (Dask)
     design_cli.add_design_commands(commands, _command)  # fit, design (inverse design)
+    export_cli.add_export_command(commands, _command)  # export: glTF 2.0, MaterialX
     return parser
 
 
@@ -592,7 +592,8 @@ def _add_render_command(commands) -> None:
     render = _command(
         commands, "render", "path-trace a scene to a PNG (8-bit sRGB) and optionally an EXR "
         "(linear)")
-    render.add_argument("scene_file", nargs="?", default=None, help="a scene TOML file")
+    render.add_argument("scene_file", nargs="?", default=None,
+                        help="a scene file: TOML, .gltf or .glb")
     render.add_argument("--scene", default=None, metavar="NAME",
                         help="a built-in preset instead of a file: " + ", ".join(PRESET_NAMES))
     render.add_argument("--allow-outside-paths", action="store_true",
@@ -632,6 +633,7 @@ def _add_render_command(commands) -> None:
                              "CAT02)")
     render.add_argument("--no-progress", dest="progress", action="store_false",
                         help="no progress bar")
+    export_cli.add_gltf_options(render)  # --camera, --environment
     render.set_defaults(run=_render)
 
 

@@ -3,7 +3,8 @@
 ``wgbragg fit SPECTRUM.csv --family bragg|film --theta-deg 0,30,60`` fits a structure to a
 measured spectrum; ``wgbragg design --target "#d4af37@0" --target "#2e8b57@60" --family bragg``
 designs one for target colours over angle. Both print a table and write a report PNG and a
-scene TOML whose material is the structure (``wgbragg render OUT.toml`` renders it).
+scene TOML whose material is the structure (``wgbragg render OUT.toml`` renders it), and with
+``--export FILE`` the same scene as glTF 2.0 or MaterialX.
 
 Building the parser imports nothing heavy; each command imports what it runs when it runs.
 """
@@ -15,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from wgbragg.app import export_cli
 from wgbragg.common.atomic import check_output_path
 
 __all__ = ["add_design_commands", "parse_assignments", "parse_target"]
@@ -95,6 +97,7 @@ def _outputs(args) -> tuple[Path, Path]:
             raise ValueError(f"{flag} must be a finite number >= 0, got {value:g}")
     if not 1 <= args.samples <= 10**6:
         raise ValueError(f"--samples must be in [1, 1000000], got {args.samples}")
+    export_cli.check_export(args.export)
     png = check_output_path(f"{args.output}.png", "--output", ".png")
     toml = check_output_path(f"{args.output}.toml", "--output", ".toml")
     return png, toml
@@ -129,6 +132,9 @@ def _add_search_arguments(parser) -> None:
                              "matrices on the GPU) instead of all layers of a kind together, "
                              "in the tolerance histogram and (design) --robust")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--export", default=None, metavar="FILE",
+                        help="also write the result's scene as glTF 2.0 (.glb, .gltf) or "
+                             "MaterialX (.mtlx), as 'wgbragg export' does")
 
 
 def add_design_commands(commands, command) -> None:
@@ -233,6 +239,8 @@ def _write(structure, args, toml) -> None:
     from wgbragg.design.files import write_scene_toml
 
     write_scene_toml(structure, toml, alpha=args.alpha)
+    if args.export is not None:
+        export_cli.write_structure(structure, args.export, args.alpha)
 
 
 def run_design(args) -> int:

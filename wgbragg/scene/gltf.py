@@ -21,7 +21,6 @@ from the file.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import hashlib
 import io
 import json
@@ -32,20 +31,15 @@ from pathlib import Path
 
 import numpy as np
 
-from wgbragg.bsdf.materials import ThinFilm
 from wgbragg.colour.colorimetry import delta_e_2000
 from wgbragg.common.atomic import atomic_path
 from wgbragg.common.luts import cache_dir
-from wgbragg.optics.metals import METALS
 from wgbragg.scene import reader  # reader.load_scene dispatches here: a module import
+from wgbragg.scene.gltf_fallback import BRAGG_EXTENSION, metal_colours
 from wgbragg.scene.gltf_io import GltfBuilder, decode_image, read_gltf
 from wgbragg.scene.model import Environment, Scene, Settings
 
-__all__ = ["BRAGG_EXTENSION", "GltfWarning", "load_gltf", "metal_colours", "toml_text"]
-
-BRAGG_EXTENSION = "WGBRAGG_materials_bragg"
-"""The vendor extension of a layered Bragg material: the keys of a ``layered-bragg`` table of
-a TOML scene (``docs/scenes.md``), as JSON."""
+__all__ = ["GltfWarning", "load_gltf", "toml_text"]
 
 READ_EXTENSIONS = ("KHR_materials_iridescence", "KHR_materials_ior", "KHR_lights_punctual",
                    BRAGG_EXTENSION)
@@ -118,13 +112,6 @@ def load_gltf(path: str | os.PathLike, *, camera: str | None = None,
         warnings.warn(f"{gltf.path}: not rendered as the file describes: "
                       + "; ".join(dict.fromkeys(importer.notes)), GltfWarning, stacklevel=2)
     return scene
-
-
-@functools.cache
-def metal_colours() -> dict[str, np.ndarray]:
-    """Normal-incidence linear sRGB colour of each bundled metal (``"reference"`` method)."""
-    return {name: np.asarray(ThinFilm(1.0, 0.0, base=name).rgb(0.0), np.float64)
-            for name in METALS}
 
 
 def _srgb_decode(values: np.ndarray) -> np.ndarray:

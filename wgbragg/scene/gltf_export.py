@@ -8,9 +8,9 @@
   ``iridescenceIor = n_film``, the thickness or its map as the thickness texture's G channel
   between minimum and maximum), over a dielectric base (``KHR_materials_ior``, black base
   colour: wgbragg's film has no diffuse base) or a metallic one (its normal-incidence colour).
-- Layered Bragg materials become the vendor extension :data:`~wgbragg.scene.gltf.BRAGG_EXTENSION`
-  (the ``layered-bragg`` keys of a TOML scene, every number exact), with a fallback any viewer
-  shows: ``KHR_materials_iridescence`` over a metallic base fitted to the Bragg colour travel
+- Layered Bragg materials become the vendor extension ``WGBRAGG_materials_bragg`` (the
+  ``layered-bragg`` keys of a TOML scene, every number exact), with a fallback any viewer shows:
+  ``KHR_materials_iridescence`` over a metallic base fitted to the Bragg colour travel
   (:mod:`wgbragg.scene.gltf_fallback`).
 - What glTF cannot hold (area lights, the environment, the render settings) is kept in the
   scene's ``extras.wgbragg``, which :func:`wgbragg.scene.gltf.load_gltf` reads back.
@@ -28,8 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from wgbragg.scene.gltf import BRAGG_EXTENSION, metal_colours
-from wgbragg.scene.gltf_fallback import fit_fallback
+from wgbragg.scene.gltf_fallback import BRAGG_EXTENSION, fit_fallback, metal_colours
 from wgbragg.scene.gltf_io import GltfBuilder
 from wgbragg.scene.meshes import load_mesh, plane_mesh, sphere_mesh, utah_teapot
 from wgbragg.scene.model import (

@@ -19,11 +19,12 @@ References
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 from scipy.optimize import minimize
 
-from wgbragg.bsdf.materials import BraggMirror
+from wgbragg.bsdf.materials import BraggMirror, ThinFilm
 from wgbragg.colour.colorimetry import (
     delta_e_2000,
     linear_srgb_to_xyz,
@@ -32,10 +33,15 @@ from wgbragg.colour.colorimetry import (
     xyz_to_linear_srgb,
     xyz_weights,
 )
+from wgbragg.optics.metals import METALS
 from wgbragg.scene.model import LayeredBraggMaterial
 
-__all__ = ["FALLBACK_ANGLES_DEG", "Fallback", "bragg_colours", "fit_fallback",
-           "iridescence_rgb"]
+__all__ = ["BRAGG_EXTENSION", "FALLBACK_ANGLES_DEG", "Fallback", "bragg_colours",
+           "fit_fallback", "iridescence_rgb", "metal_colours"]
+
+BRAGG_EXTENSION = "WGBRAGG_materials_bragg"
+"""The vendor extension of a layered Bragg material: the keys of a ``layered-bragg`` table of
+a TOML scene (``docs/scenes.md``), as JSON."""
 
 FALLBACK_ANGLES_DEG = np.arange(0.0, 81.0, 5.0)
 """Angles of incidence (degrees) over which the fallback is fitted and its error measured."""
@@ -48,6 +54,13 @@ _VAR = np.array([4.3278e09, 9.3046e09, 6.6121e09])
 _XYZ_TO_REC709 = np.array([[3.2404542, -1.5371385, -0.4985314],
                            [-0.9692660, 1.8760108, 0.0415560],
                            [0.0556434, -0.2040259, 1.0572252]])
+
+
+@functools.cache
+def metal_colours() -> dict[str, np.ndarray]:
+    """Normal-incidence linear sRGB colour of each bundled metal (``"reference"`` method)."""
+    return {name: np.asarray(ThinFilm(1.0, 0.0, base=name).rgb(0.0), np.float64)
+            for name in METALS}
 
 
 def _sensitivity(opd_nm: np.ndarray, shift: np.ndarray) -> np.ndarray:

@@ -13,6 +13,7 @@ environment of radiance 1 around a white Lambertian object making it appear with
 from __future__ import annotations
 
 import dataclasses
+import os
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
@@ -491,3 +492,17 @@ class Scene:
     lights: tuple[PointLight | AreaLight, ...]
     environment: Environment
     settings: Settings
+
+    def to_gltf(self, *, binary: bool = True) -> bytes:
+        """The scene as the bytes of a ``.glb`` (``binary=False``: a ``.gltf``), by
+        :func:`wgbragg.scene.gltf_export.scene_to_gltf`."""
+        return gltf_export.scene_to_gltf(self, binary=binary)
+
+    def save_gltf(self, path: str | os.PathLike) -> dict:
+        """Write the scene to a ``.glb`` or ``.gltf`` file, atomically
+        (:func:`wgbragg.scene.gltf_export.save_gltf`, which says what it returns)."""
+        return gltf_export.save_gltf(self, path)
+
+
+# Last: the exporter reads the classes above (a cycle that only this order allows).
+from wgbragg.scene import gltf_export  # noqa: E402
