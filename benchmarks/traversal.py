@@ -8,8 +8,9 @@ other processes' load on the shared cores falls on both alike.
 
 A process renders each scene at ``size`` x ``size``, RGB, ``max_bounces = 8`` (as
 :mod:`benchmarks.mitsuba_peer`): one untimed pass of ``pass_spp`` (the kernel's compile),
-then ``passes`` timed passes, and reports the median wall and CPU time per sample (CPU time is
-the process's: lavapipe's threads and Python's), and the camera rays' closest hits
+then ``passes`` timed passes, and reports the least wall and CPU time per sample of a pass (the
+pass least disturbed by other processes; CPU time is the process's: lavapipe's threads and
+Python's), and the camera rays' closest hits
 (``Renderer.primary_hits``) so that the variants' hits can be compared.
 
 Scenes: ``teapot`` (:mod:`benchmarks.mitsuba_peer`'s: 4,034 triangles on an exact plane, a
@@ -65,7 +66,7 @@ class Config:
     rounds: int
 
 
-FULL = Config("full", size=128, pass_spp=4, passes=5, rounds=5)
+FULL = Config("full", size=128, pass_spp=4, passes=8, rounds=6)
 QUICK = Config("quick", size=16, pass_spp=1, passes=1, rounds=1)
 
 _ICOSPHERE = """
@@ -119,9 +120,50 @@ for path in sys.argv[4:]:
         cpu.append(time.process_time() - c0)
     t, face = r.primary_hits()
     n = spp * size * size
-    out[path] = {"wall": float(np.median(wall)) / n, "cpu": float(np.median(cpu)) / n,
+    out[path] = {"wall": min(wall) / n, "cpu": min(cpu) / n,
                  "t": np.where(np.isfinite(t), t, -1.0).ravel().tolist(),
                  "face": face.ravel().tolist()}
+print("RESULT " + json.dumps(out))
+"""
+
+
+# Variants that differ in their WGSL only: one process, each pass's shaders read from the
+# variant's folder, the variants' passes alternating (their order reversed each round).
+_SHADER_WORKER = r"""
+import json, sys, time, warnings
+import numpy as np
+import wgbragg.gpu.shaders as shaders
+from pathlib import Path
+from wgbragg.render import Renderer
+from wgbragg.scene import load_scene
+size, spp, rounds = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
+split = sys.argv.index("--")
+paths, folders = sys.argv[4:split], [Path(f) for f in sys.argv[split + 1:]]
+def use(folder):
+    shaders.shader_dir = lambda: folder
+out = [[{} for _ in range(rounds)] for _ in folders]
+for path in paths:
+    renderers = []
+    for k, folder in enumerate(folders):
+        use(folder)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            r = Renderer(load_scene(path), size=(size, size), mode="rgb", max_bounces=8,
+                         seed=3)
+        r.render(spp=spp)
+        t, face = r.primary_hits()
+        renderers.append((r, np.where(np.isfinite(t), t, -1.0).ravel().tolist(),
+                          face.ravel().tolist()))
+    n = spp * size * size
+    for i in range(rounds):
+        order = range(len(folders)) if i % 2 == 0 else reversed(range(len(folders)))
+        for k in order:
+            use(folders[k])
+            r, t, face = renderers[k]
+            w0, c0 = time.perf_counter(), time.process_time()
+            r.render(spp=spp)
+            out[k][i][path] = {"wall": (time.perf_counter() - w0) / n,
+                               "cpu": (time.process_time() - c0) / n, "t": t, "face": face}
 print("RESULT " + json.dumps(out))
 """
 
@@ -169,6 +211,34 @@ def _measure(tree: Path, scenes: dict[str, Path], cfg: Config) -> dict:
     return {name: raw[str(path)] for name, path in scenes.items()}
 
 
+def _measure_shaders(folders: Sequence[Path], scenes: dict[str, Path], cfg: Config,
+                     rounds: int) -> list[list[dict]]:
+    completed = subprocess.run(
+        [sys.executable, "-c", _SHADER_WORKER, str(cfg.size), str(cfg.pass_spp), str(rounds),
+         *map(str, scenes.values()), "--", *map(str, folders)],
+        capture_output=True, text=True, cwd=report.REPO_ROOT, timeout=WORKER_TIMEOUT_S,
+        check=False)
+    lines = [line for line in completed.stdout.splitlines() if line.startswith("RESULT ")]
+    if completed.returncode != 0 or not lines:
+        raise RuntimeError(f"traversal worker failed:\n{completed.stderr[-2000:]}")
+    raw = json.loads(lines[-1][len("RESULT "):])
+    return [[{name: by_round[str(path)] for name, path in scenes.items()}
+             for by_round in by_variant] for by_variant in raw]
+
+
+def run_shaders_ab(base: Path, candidate: Path, cfg: Config, rounds: int) -> dict:
+    """A/B of two WGSL folders under this checkout's Python, in one process: ``rounds``
+    passes each, alternating (see the module docstring)."""
+    meter = report.LoadMeter()
+    with tempfile.TemporaryDirectory() as folder:
+        scenes = write_scenes(Path(folder))
+        runs = _measure_shaders([base, candidate], scenes, cfg, rounds)
+    env = report.run_facts()
+    env["background_cores"] = meter.background_cores()
+    return {"runs": {f"wgsl:{base}": runs[0], f"wgsl:{candidate}": runs[1]},
+            "base": f"wgsl:{base}", "candidate": f"wgsl:{candidate}", "environment": env}
+
+
 def run_ab(base: str, cfg: Config, progress: bool = True,
            candidate: str = WORK) -> dict:
     """Measure ``base`` (A) and ``candidate`` (B) alternately, ``cfg.rounds`` processes each."""
@@ -198,6 +268,8 @@ def run_ab(base: str, cfg: Config, progress: bool = True,
 def _revision(variant: str) -> str:
     if variant in (WORK, "A", "B"):
         return "the working tree"
+    if variant.startswith("wgsl:"):
+        return f"the shaders in `{variant[5:]}`, this checkout's Python"
     if Path(variant).is_dir():
         return f"the tree in `{variant}`"
     found = subprocess.run(["git", "rev-parse", "--short", variant], cwd=report.REPO_ROOT,
@@ -238,7 +310,7 @@ def render_section(results: dict, cfg: Config, command: str) -> str:
         f"- Scenes: {', '.join(f'`{s}`' for s in SCENES)} (the module docstring describes "
         f"them), {cfg.size} x {cfg.size}, RGB, `max_bounces = 8`; a process per variant and "
         f"round, {cfg.rounds} rounds, the order reversed each round; in each, an untimed pass "
-        f"of {cfg.pass_spp} spp, then the median of {cfg.passes} timed passes of "
+        f"of {cfg.pass_spp} spp, then the least of {cfg.passes} timed passes of "
         f"{cfg.pass_spp} spp.",
         "",
     ]
@@ -273,6 +345,8 @@ def parse_args(argv: Sequence[str] | None):
     parser.add_argument("--candidate", default=WORK,
                         help="git revision or source folder of B (default: the working tree)")
     parser.add_argument("--rounds", type=int, default=None, help="processes per variant")
+    parser.add_argument("--shaders", nargs=2, type=Path, metavar=("A", "B"), default=None,
+                        help="instead: two wgsl/ folders timed in one process, pass by pass")
     return parser.parse_args(argv)
 
 
@@ -285,6 +359,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         cfg = QUICK if quick else FULL
         if args.rounds:
             cfg = dataclasses.replace(cfg, rounds=args.rounds)
+        if args.shaders:
+            rounds = args.rounds or 4 * cfg.rounds
+            results = run_shaders_ab(*args.shaders, cfg, rounds)
+            return render_section(results, dataclasses.replace(cfg, rounds=rounds), command)
         base = args.base or (WORK if quick else "HEAD")
         return render_section(run_ab(base, cfg, progress, args.candidate), cfg, command)
 

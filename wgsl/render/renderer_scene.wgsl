@@ -29,6 +29,9 @@
 // Traversal stack slots: bvh.BVH.depth + 1 slots suffice; render.py refuses deeper trees. A
 // binned-SAH tree of 1.3 million triangles is 21 deep; every slot costs its zeroing per trace.
 const STACK_SIZE: u32 = 32u;
+// Entries of bvh_trace_registers' stack (at most its eight registers); a pipeline constant so
+// that tests can make the deep traversal run.
+override REGISTER_STACK: u32 = 8u;
 // A leaf stores its first face where an inner node stores its left child.
 // BvhNode.count of an interior node: this bit, the axis along which its right child's centre
 // lies farthest from its left child's (bits 1-2), and whether the right child lies on the
@@ -208,6 +211,140 @@ fn box_span(origin: vec3<f32>, inverse: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>)
     return vec2<f32>(max(max(near.x, near.y), near.z), min(min(far.x, far.y), far.z));
 }
 
+// Faces first .. first + count - 1 against `best`; true when `any_hit` and one was hit.
+fn leaf_hits(origin: vec3<f32>, direction: vec3<f32>, first: u32, count: u32,
+             best: ptr<function, Hit>, any_hit: bool) -> bool {
+    for (var k = 0u; k < count; k++) {
+        let face = first + k;
+        let h = triangle_hit(origin, direction, face);
+        if (h.x > 0.0 && h.x < (*best).t) {
+            *best = Hit(h.x, i32(face), h.y, h.z);
+            if (any_hit) {
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
+// What opening an interior node did (bvh_open).
+const OPEN_POP: u32 = 0u;       // neither child is left to visit: take the next from the stack
+const OPEN_NEAR: u32 = 1u;      // visit `near`
+const OPEN_BOTH: u32 = 2u;      // visit `near`, then `far` (push it)
+const OPEN_DONE: u32 = 3u;      // an any-hit query found its hit
+
+struct Opened {
+    kind: u32,
+    near: u32,     // the left child of the interior child to visit next
+    far: u32,      // that of the one to visit after it
+}
+
+// Opens the interior node whose children are `pair` and `pair + 1`: both children's boxes are
+// tested here, at the parent, a hit leaf's faces at once (both leaves' in one loop, the nearer
+// first), and of two hit interior children the nearer by entry distance is visited first.
+fn bvh_open(origin: vec3<f32>, direction: vec3<f32>, inverse: vec3<f32>, pair: u32,
+            best: ptr<function, Hit>, any_hit: bool) -> Opened {
+    let a = bvh_node(pair);
+    let b = bvh_node(pair + 1u);
+    let span_a = box_span(origin, inverse, a.lo, a.hi);
+    let span_b = box_span(origin, inverse, b.lo, b.hi);
+    var hit_a = span_a.x <= span_a.y && span_a.y >= 0.0 && span_a.x < (*best).t;
+    var hit_b = span_b.x <= span_b.y && span_b.y >= 0.0 && span_b.x < (*best).t;
+    let leaf_a = hit_a && a.count < INTERIOR;
+    let leaf_b = hit_b && b.count < INTERIOR;
+    if (leaf_a || leaf_b) {
+        let a_first = !leaf_b || (leaf_a && span_a.x <= span_b.x);
+        let first = select(b.left_or_first, a.left_or_first, a_first);
+        let first_count = select(b.count, a.count, a_first);
+        let second = select(a.left_or_first, b.left_or_first, a_first);
+        let second_count = select(0u, select(a.count, b.count, a_first), leaf_a && leaf_b);
+        let total = first_count + second_count;
+        for (var k = 0u; k < total; k++) {
+            let face = select(second + k - first_count, first + k, k < first_count);
+            let h = triangle_hit(origin, direction, face);
+            if (h.x > 0.0 && h.x < (*best).t) {
+                *best = Hit(h.x, i32(face), h.y, h.z);
+                if (any_hit) {
+                    return Opened(OPEN_DONE, 0u, 0u);
+                }
+            }
+        }
+        hit_a = hit_a && !leaf_a && span_a.x < (*best).t;
+        hit_b = hit_b && !leaf_b && span_b.x < (*best).t;
+    }
+    let a_near = !hit_b || (hit_a && span_a.x <= span_b.x);
+    let near = select(b.left_or_first, a.left_or_first, a_near);
+    let far = select(a.left_or_first, b.left_or_first, a_near);
+    let kind = select(select(OPEN_POP, OPEN_NEAR, hit_a || hit_b), OPEN_BOTH, hit_a && hit_b);
+    return Opened(kind, near, far);
+}
+
+// The traversal with its stack in eight registers (s0 the top): llvmpipe keeps a dynamically
+// indexed array per lane in memory, and such an array alone cost about 10 % of a frame
+// (docs/performance.md, "Traversal"). False if the stack would overflow: `best` then holds
+// what was found so far, and bvh_trace_deep finishes the query.
+fn bvh_trace_registers(origin: vec3<f32>, direction: vec3<f32>, inverse: vec3<f32>,
+                       root_pair: u32, best: ptr<function, Hit>, any_hit: bool) -> bool {
+    var s0 = 0u; var s1 = 0u; var s2 = 0u; var s3 = 0u;
+    var s4 = 0u; var s5 = 0u; var s6 = 0u; var s7 = 0u;
+    var top = 0u;
+    var pair = root_pair;
+    loop {
+        let opened = bvh_open(origin, direction, inverse, pair, best, any_hit);
+        if (opened.kind == OPEN_DONE) {
+            return true;
+        }
+        if (opened.kind == OPEN_BOTH) {
+            if (top == REGISTER_STACK) {
+                return false;
+            }
+            s7 = s6; s6 = s5; s5 = s4; s4 = s3; s3 = s2; s2 = s1; s1 = s0;
+            s0 = opened.far;
+            top += 1u;
+        }
+        if (opened.kind != OPEN_POP) {
+            pair = opened.near;
+            continue;
+        }
+        if (top == 0u) {
+            return true;
+        }
+        pair = s0;
+        s0 = s1; s1 = s2; s2 = s3; s3 = s4; s4 = s5; s5 = s6; s6 = s7;
+        top -= 1u;
+    }
+    return true;
+}
+
+// The same traversal with a stack in memory, as deep as any tree render.py accepts: for the
+// rare query that overflows bvh_trace_registers' eight entries, from the root again with the
+// hits found so far pruning it.
+fn bvh_trace_deep(origin: vec3<f32>, direction: vec3<f32>, inverse: vec3<f32>,
+                  root_pair: u32, best: ptr<function, Hit>, any_hit: bool) {
+    var stack: array<u32, STACK_SIZE>;
+    var top = 0u;
+    var pair = root_pair;
+    loop {
+        let opened = bvh_open(origin, direction, inverse, pair, best, any_hit);
+        if (opened.kind == OPEN_DONE) {
+            return;
+        }
+        if (opened.kind == OPEN_BOTH) {
+            stack[top] = opened.far;
+            top += 1u;
+        }
+        if (opened.kind != OPEN_POP) {
+            pair = opened.near;
+            continue;
+        }
+        if (top == 0u) {
+            return;
+        }
+        top -= 1u;
+        pair = stack[top];
+    }
+}
+
 // Closest hit with 0 < t < t_max; with `any_hit` the first hit found (shadow rays). Spheres,
 // planes and area lights first, each a few loads, so that their hits prune the BVH.
 fn trace(origin: vec3<f32>, direction: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
@@ -255,72 +392,11 @@ fn trace(origin: vec3<f32>, direction: vec3<f32>, t_max: f32, any_hit: bool) -> 
     }
     if (root.count < INTERIOR) {
         // A tree of one leaf.
-        for (var k = 0u; k < root.count; k++) {
-            let face = root.left_or_first + k;
-            let h = triangle_hit(origin, direction, face);
-            if (h.x > 0.0 && h.x < best.t) {
-                best = Hit(h.x, i32(face), h.y, h.z);
-                if (any_hit) {
-                    return best;
-                }
-            }
-        }
+        leaf_hits(origin, direction, root.left_or_first, root.count, &best, any_hit);
         return best;
     }
-    // `pair`: the left child of the interior node being opened (its right child follows).
-    // Both children's boxes are tested here, at the parent; a hit leaf is tested at once, and
-    // of two hit interior children the nearer (by entry distance) is opened next and the
-    // other pushed, so the stack holds only boxes known to be hit.
-    var stack: array<u32, STACK_SIZE>;
-    var top = 0u;
-    var pair = root.left_or_first;
-    loop {
-        let a = bvh_node(pair);
-        let b = bvh_node(pair + 1u);
-        let span_a = box_span(origin, inverse, a.lo, a.hi);
-        let span_b = box_span(origin, inverse, b.lo, b.hi);
-        var hit_a = span_a.x <= span_a.y && span_a.y >= 0.0 && span_a.x < best.t;
-        var hit_b = span_b.x <= span_b.y && span_b.y >= 0.0 && span_b.x < best.t;
-        let leaf_a = hit_a && a.count < INTERIOR;
-        let leaf_b = hit_b && b.count < INTERIOR;
-        if (leaf_a || leaf_b) {
-            // Both leaves' faces in one loop: the nearer leaf's first.
-            let a_first = !leaf_b || (leaf_a && span_a.x <= span_b.x);
-            let first = select(b.left_or_first, a.left_or_first, a_first);
-            let first_count = select(0u, select(b.count, a.count, a_first),
-                                     select(leaf_b, leaf_a, a_first));
-            let second = select(a.left_or_first, b.left_or_first, a_first);
-            let second_count = select(0u, select(a.count, b.count, a_first),
-                                      leaf_a && leaf_b);
-            for (var k = 0u; k < first_count + second_count; k++) {
-                let face = select(second + k - first_count, first + k, k < first_count);
-                let h = triangle_hit(origin, direction, face);
-                if (h.x > 0.0 && h.x < best.t) {
-                    best = Hit(h.x, i32(face), h.y, h.z);
-                    if (any_hit) {
-                        return best;
-                    }
-                }
-            }
-            hit_a = hit_a && !leaf_a && span_a.x < best.t;
-            hit_b = hit_b && !leaf_b && span_b.x < best.t;
-        }
-        if (hit_a && hit_b) {
-            let a_near = span_a.x <= span_b.x;
-            stack[top] = select(a.left_or_first, b.left_or_first, a_near);
-            top += 1u;
-            pair = select(b.left_or_first, a.left_or_first, a_near);
-        } else if (hit_a) {
-            pair = a.left_or_first;
-        } else if (hit_b) {
-            pair = b.left_or_first;
-        } else {
-            if (top == 0u) {
-                break;
-            }
-            top -= 1u;
-            pair = stack[top];
-        }
+    if (!bvh_trace_registers(origin, direction, inverse, root.left_or_first, &best, any_hit)) {
+        bvh_trace_deep(origin, direction, inverse, root.left_or_first, &best, any_hit);
     }
     return best;
 }
