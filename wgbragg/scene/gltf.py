@@ -330,7 +330,9 @@ class _Importer:
         attributes = {"POSITION": builder.accessor(vertices),
                       "NORMAL": builder.accessor(normals),
                       "TEXCOORD_0": builder.accessor(uv)}
-        mesh = builder.mesh(attributes, builder.accessor(faces, indices=True))
+        # trimesh reads TEXCOORD_0 only for primitives with a material.
+        builder.document.materials.append(builder.pygltflib.Material(name="uv"))
+        mesh = builder.mesh(attributes, builder.accessor(faces, indices=True), material=0)
         builder.document.nodes.append(builder.pygltflib.Node(mesh=mesh))
         builder.document.scenes.append(builder.pygltflib.Scene(nodes=[0]))
         data = builder.to_bytes(binary=True)
