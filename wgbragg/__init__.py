@@ -70,13 +70,14 @@ if TYPE_CHECKING:  # what type checkers and editors see; at run time __getattr__
     from wgbragg.lighting import ibl
     from wgbragg.lighting.environment_map import EnvironmentMap
     from wgbragg.lighting.environment_prefilter import prefilter_environment
-    from wgbragg.render import Renderer, save_png
+    from wgbragg.render import Rasterizer, Renderer, save_png
     from wgbragg.scene import load_preset, load_scene
 
 __all__ = [
     "BraggMirror",
     "EnvironmentMap",
     "LayeredBragg",
+    "Rasterizer",
     "Renderer",
     "RoughBraggLayer",
     "RoughThinFilm",
@@ -102,6 +103,7 @@ _HOMES = {
     "BraggMirror": "wgbragg.bsdf.materials",
     "EnvironmentMap": "wgbragg.lighting.environment_map",
     "LayeredBragg": "wgbragg.bsdf.layered.model",
+    "Rasterizer": "wgbragg.render",
     "Renderer": "wgbragg.render",
     "RoughBraggLayer": "wgbragg.bsdf.rough_layer",
     "RoughThinFilm": "wgbragg.bsdf.rough_thin_film",
