@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from wgbragg import Rasterizer, Renderer, smape
+from wgbragg.render.display import display_transform
 from wgbragg.render.rasterizer import TEMPORAL_FRAMES
 from wgbragg.scene import load_preset, load_scene
 from wgbragg.scene.model import PointLight
@@ -220,3 +221,20 @@ def test_bad_input_is_refused_with_the_parameter_named(device, sphere_scene):
         Rasterizer(sphere_scene, size=(0, 8))
     with pytest.raises(ValueError, match="smooth coating"):
         Rasterizer(load_preset("fig11"), size=(8, 8))
+
+
+def test_display_pixels_are_the_numpy_display_transform(device, sphere_scene):
+    """render/display.wgsl against wgbragg.render.display: one 8-bit step at most (float32
+    against float64 at the rounding boundaries), at several exposures; a bad exposure is
+    refused."""
+    raster = Rasterizer(load_preset("teapot"), size=(64, 48), temporal_frames=1)
+    linear = raster.frame()
+    for exposure in (0.0, 2.0, -1.5):
+        pixels = raster.frame_srgb(exposure)
+        expected = display_transform(linear, exposure)
+        difference = np.abs(pixels.astype(int) - expected.astype(int))
+        assert difference.max() <= 1
+        assert (difference > 0).mean() < 0.01
+    assert raster.converged
+    with pytest.raises(ValueError, match="exposure must be"):
+        raster.frame_srgb(100.0)

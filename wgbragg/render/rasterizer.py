@@ -25,6 +25,8 @@ layered Bragg materials in air (a smooth coating needs the path tracer).
 
 from __future__ import annotations
 
+import numbers
+
 import numpy as np
 import wgpu
 
@@ -33,7 +35,7 @@ from wgbragg.gpu.render_pipelines import render_pipeline
 from wgbragg.render.packing import scene_params
 from wgbragg.render.renderer import check_size
 from wgbragg.render.scene_resources import SceneResources
-from wgbragg.scene.model import AreaLight, Scene
+from wgbragg.scene.model import MAX_EXPOSURE, AreaLight, Scene
 
 __all__ = ["RASTER_IBL", "RASTER_MODES", "TEMPORAL_FRAMES", "Rasterizer"]
 
@@ -45,7 +47,9 @@ TEMPORAL_FRAMES = 16
 """Default :class:`Rasterizer` ``temporal_frames``: jittered frames averaged while the view
 rests."""
 SHADER = "render/rasterizer.wgsl"
-_COLOUR = "rgba16float"
+RESOLVE_SHADER = "render/rasterizer_resolve.wgsl"
+_COLOUR = "rgba32float"
+_DISPLAY = "rgba8unorm"
 _VISIBILITY = "rgba32float"
 _DEPTH = "depth32float"
 _FAR = 3.4e38
@@ -94,7 +98,7 @@ class Rasterizer:
     def __init__(self, scene: Scene, size: tuple[int, int] | None = None, mode: str = "rgb",
                  ibl: str = "split-sum", colour_method: str = "averaged",
                  shadow_size: int = 512, resources: SceneResources | None = None,
-                 samples: int = 1, temporal_frames: int = TEMPORAL_FRAMES):
+                 temporal_frames: int = TEMPORAL_FRAMES):
         self.width, self.height = check_size(scene.settings.size if size is None else size)
         if mode not in RASTER_MODES:
             raise ValueError(f"mode must be one of {RASTER_MODES} (the rasterizer shades by "
@@ -107,13 +111,11 @@ class Rasterizer:
                              f"{shadow_size!r}")
         self.mode, self.ibl, self.colour_method = mode, ibl, colour_method
         self.shadow_size = shadow_size
-        if samples not in (1, 4):
-            raise ValueError(f"samples must be 1 or 4, got {samples!r}")
         if isinstance(temporal_frames, bool) or not isinstance(temporal_frames, int) or not (
                 1 <= temporal_frames <= 256):
             raise ValueError(f"temporal_frames must be an integer in [1, 256], got "
                              f"{temporal_frames!r}")
-        self.samples, self.temporal_frames = samples, temporal_frames
+        self.temporal_frames = temporal_frames
         self._resources = SceneResources() if resources is None else resources
         self._device = gpu.get_device()
         self._targets = self._make_targets()
@@ -121,6 +123,17 @@ class Rasterizer:
             compare=wgpu.CompareFunction.greater_equal, mag_filter="linear",
             min_filter="linear")
         self._no_shadows = self._shadow_texture(1)
+        # The running mean of the frames is in history[_current]; the resolve pass reads it
+        # and writes the other.
+        self._current = 0
+        self._resolve = render_pipeline(RESOLVE_SHADER, "resolve_vertex", "resolve_fragment",
+                                        targets=(_COLOUR, _DISPLAY), depth_format=None)
+        self._resolve_buffer = self._uniform(np.zeros(4, np.float32))
+        history = self._targets["history"]
+        self._resolve_groups = [
+            self._resolve.bind_group(0, [self._targets["colour"].create_view(),
+                                         history[k].create_view(), self._resolve_buffer])
+            for k in (0, 1)]
         self._shadow_key = None
         self.update(scene)
 
@@ -130,16 +143,16 @@ class Rasterizer:
         size = (self.width, self.height, 1)
         usage = wgpu.TextureUsage
 
-        def texture(fmt, samples=1, extra=0):
-            return self._device.create_texture(size=size, format=fmt, sample_count=samples,
+        def texture(fmt, extra=0):
+            return self._device.create_texture(size=size, format=fmt,
                                                usage=usage.RENDER_ATTACHMENT | extra)
 
-        msaa_usage = usage.COPY_SRC if self.samples == 1 else 0
-        return {"colour_msaa": texture(_COLOUR, self.samples, msaa_usage),
-                "depth_msaa": texture(_DEPTH, self.samples),
-                "colour": texture(_COLOUR, 1, usage.COPY_SRC),
-                "visibility": texture(_VISIBILITY, 1, usage.COPY_SRC),
-                "depth": texture(_DEPTH, 1)}
+        read = usage.TEXTURE_BINDING | usage.COPY_SRC
+        return {"colour": texture(_COLOUR, usage.TEXTURE_BINDING),
+                "history": [texture(_COLOUR, read), texture(_COLOUR, read)],
+                "display": texture(_DISPLAY, usage.COPY_SRC),
+                "visibility": texture(_VISIBILITY, usage.COPY_SRC),
+                "depth": texture(_DEPTH)}
 
     def _shadow_texture(self, layers: int):
         return self._device.create_texture(
@@ -184,8 +197,8 @@ class Rasterizer:
 
     def reset(self) -> None:
         """Forget the frames averaged so far (:meth:`update` does it)."""
-        self._history = None
         self.frames = 0
+        self._display_scale = None
 
     def _uniform(self, record: np.ndarray):
         return self._device.create_buffer_with_data(
@@ -210,8 +223,7 @@ class Rasterizer:
                                                       constants, **common),
                     "spheres": render_pipeline(SHADER, "sphere_vertex", "shadow_depth_fragment",
                                                constants, **common)}
-        common = {"targets": (_VISIBILITY,) if visibility else (_COLOUR,),
-                  "samples": 1 if visibility else self.samples}
+        common = {"targets": (_VISIBILITY,) if visibility else (_COLOUR,)}
         pipelines = {
             "triangles": render_pipeline(SHADER, "triangle_vertex", "surface_fragment",
                                          constants, **common),
@@ -287,71 +299,112 @@ class Rasterizer:
 
     # ---- frames
 
-    def _pass(self, visibility: bool, jitter=(0.0, 0.0)):
-        """Draw one frame whose samples are offset by ``jitter`` pixels from the pixel
-        centres (or the visibility buffer, at the centres) and return the texture to read."""
+    def _scene_pass(self, encoder, visibility: bool, jitter=(0.0, 0.0)) -> None:
+        """Encode the scene's pass: a frame whose samples are offset by ``jitter`` pixels from
+        the pixel centres into the colour target, or the visibility buffer (at the centres).
+        """
         self._main_view["jitter"] = jitter
         self._device.queue.write_buffer(self._view_buffer, 0, self._main_view.tobytes())
         targets = self._targets
-        pipelines = self._pipelines(visibility)
         if visibility:
             colour = {"view": targets["visibility"].create_view(),
                       "clear_value": (_FAR, -1.0, 0.0, 0.0)}
-            depth, read = targets["depth"], targets["visibility"]
         else:
-            colour = {"view": targets["colour_msaa"].create_view(),
+            colour = {"view": targets["colour"].create_view(),
                       "clear_value": (0.0, 0.0, 0.0, 0.0)}
-            read = targets["colour_msaa"]
-            if self.samples > 1:
-                colour["resolve_target"] = targets["colour"].create_view()
-                read = targets["colour"]
-            depth = targets["depth_msaa"]
-        encoder = self._device.create_command_encoder()
         render_pass = encoder.begin_render_pass(
             color_attachments=[colour | {"load_op": "clear", "store_op": "store"}],
-            depth_stencil_attachment={"view": depth.create_view(), "depth_clear_value": 0.0,
-                                      "depth_load_op": "clear", "depth_store_op": "discard"})
-        self._draw(render_pass, pipelines, *self._groups)
+            depth_stencil_attachment={"view": targets["depth"].create_view(),
+                                      "depth_clear_value": 0.0, "depth_load_op": "clear",
+                                      "depth_store_op": "discard"})
+        self._draw(render_pass, self._pipelines(visibility), *self._groups)
         render_pass.end()
-        self._device.queue.submit([encoder.finish()])
-        return read
 
-    def _read(self, texture, dtype, channels: int = 4) -> np.ndarray:
-        itemsize = np.dtype(dtype).itemsize * channels
+    def _resolve_pass(self, encoder, weight: float, scale: float) -> None:
+        """Encode the resolve: the colour target averaged into the running mean with
+        ``weight`` (0 keeps the mean), the mean's display pixels at ``scale`` = 2^exposure."""
+        self._device.queue.write_buffer(self._resolve_buffer, 0,
+                                        np.array([weight, scale, 0, 0], np.float32).tobytes())
+        history = self._targets["history"]
+        target = 1 - self._current
+        render_pass = encoder.begin_render_pass(color_attachments=[
+            {"view": history[target].create_view(), "load_op": "clear", "store_op": "store",
+             "clear_value": (0.0, 0.0, 0.0, 0.0)},
+            {"view": self._targets["display"].create_view(), "load_op": "clear",
+             "store_op": "store", "clear_value": (0.0, 0.0, 0.0, 1.0)}])
+        render_pass.set_pipeline(self._resolve.pipeline)
+        render_pass.set_bind_group(0, self._resolve_groups[self._current])
+        render_pass.draw(3, 1)
+        render_pass.end()
+        self._current = target
+
+    def _advance(self, scale: float) -> None:
+        """Draw and average the next frame unless ``temporal_frames`` are averaged; refresh
+        the display pixels if they were made at another exposure."""
+        encoder = self._device.create_command_encoder()
+        if self.frames < self.temporal_frames:
+            self._scene_pass(encoder, False, _halton_jitter(self.frames))
+            self.frames += 1
+            self._resolve_pass(encoder, 1.0 / self.frames, scale)
+        elif scale != self._display_scale:
+            self._resolve_pass(encoder, 0.0, scale)
+        else:
+            return
+        self._display_scale = scale
+        self._device.queue.submit([encoder.finish()])
+
+    def _read(self, texture, dtype) -> np.ndarray:
+        """The texture's (height, width, 4) texels."""
+        itemsize = np.dtype(dtype).itemsize * 4
         row = -(-self.width * itemsize // 256) * 256
         data = self._device.queue.read_texture(
             {"texture": texture, "origin": (0, 0, 0), "mip_level": 0},
             {"offset": 0, "bytes_per_row": row, "rows_per_image": self.height},
             (self.width, self.height, 1))
         rows = np.frombuffer(data, np.uint8).reshape(self.height, row)[:, :self.width * itemsize]
-        return rows.copy().view(dtype).reshape(self.height, self.width, channels)
+        return rows.view(dtype).reshape(self.height, self.width, 4)
 
     def frame(self) -> np.ndarray:
         """Draw the scene once more, antialiased over time.
 
         The first frame after :meth:`update` (or :meth:`reset`) samples the pixel centres;
         each later one samples other points of every pixel (a Halton (2, 3) sequence) and is
-        averaged with those before, up to ``temporal_frames``, after which the average is
-        returned without drawing. An interaction (one :meth:`update` a frame) thus shows
-        single-sample frames, and a resting view converges to a ``temporal_frames``-sample
-        antialiased image (box filter over the pixel).
+        averaged with those before on the device, up to ``temporal_frames``, after which the
+        average is returned without drawing. An interaction (one :meth:`update` a frame) thus
+        shows single-sample frames, and a resting view converges to a
+        ``temporal_frames``-sample antialiased image (box filter over the pixel).
 
         Returns
         -------
         numpy.ndarray, shape (height, width, 3), float32
             Linear sRGB radiance, as :meth:`wgbragg.render.renderer.Renderer.render` returns
-            it (each frame at half-float precision: 11 significant bits).
+            it.
         """
-        if self._history is not None and self.frames >= self.temporal_frames:
-            return self._history.copy()
-        jitter = _halton_jitter(self.frames)
-        image = self._read(self._pass(False, jitter), np.float16)[..., :3].astype(np.float32)
-        self.frames += 1
-        if self._history is None:
-            self._history = image
-        else:
-            self._history += (image - self._history) / self.frames
-        return self._history.copy()
+        self._advance(self._display_scale or 1.0)
+        texels = self._read(self._targets["history"][self._current], np.float32)
+        return np.ascontiguousarray(texels[..., :3])
+
+    def frame_srgb(self, exposure: float = 0.0) -> np.ndarray:
+        """:meth:`frame` through the display transform on the device: what
+        :func:`wgbragg.render.display.display_transform` makes of it (within one 8-bit step
+        of float32 rounding), at an eighth of the bytes to read back.
+
+        Parameters
+        ----------
+        exposure : float
+            EV stops, in [-64, 64].
+
+        Returns
+        -------
+        numpy.ndarray, shape (height, width, 3), uint8
+            sRGB-encoded pixels.
+        """
+        if isinstance(exposure, bool) or not isinstance(exposure, numbers.Real) or not (
+                -MAX_EXPOSURE <= exposure <= MAX_EXPOSURE):
+            raise ValueError(f"exposure must be a number of EV stops in [{-MAX_EXPOSURE:g}, "
+                             f"{MAX_EXPOSURE:g}], got {exposure!r}")
+        self._advance(float(2.0 ** exposure))
+        return np.ascontiguousarray(self._read(self._targets["display"], np.uint8)[..., :3])
 
     @property
     def converged(self) -> bool:
@@ -370,7 +423,10 @@ class Rasterizer:
             The primitive seen, numbered as ``primary_hits`` numbers them (the scene's
             triangle order, then spheres, planes, area lights); -1 where nothing is drawn.
         """
-        data = self._read(self._pass(True), np.float32)
+        encoder = self._device.create_command_encoder()
+        self._scene_pass(encoder, True)
+        self._device.queue.submit([encoder.finish()])
+        data = self._read(self._targets["visibility"], np.float32)
         primitive = np.rint(data[..., 1]).astype(np.int64)
         triangle = (primitive >= 0) & (primitive < self.triangles)
         if self.bvh is not None:
