@@ -599,62 +599,6 @@ def test_colour_method_selects_the_layer_colours(device):
         Renderer(scene, size=(4, 4), colour_method="fourier")
 
 
-def test_interior_nodes_carry_the_axis_that_orders_their_children():
-    from wgbragg.render.bvh import build_bvh
-    from wgbragg.scene.meshes import sphere_mesh
-
-    mesh = sphere_mesh(2)
-    bvh = build_bvh(mesh.vertices, mesh.faces)
-    counts = packing_module._node_counts(bvh)
-    interior = bvh.node_count == 0
-    np.testing.assert_array_equal(counts[~interior], bvh.node_count[~interior])
-    assert np.all(counts[interior] & packing_module._INTERIOR)
-    left = bvh.node_left[interior]
-    centre = bvh.node_min + bvh.node_max
-    delta = centre[left + 1] - centre[left]
-    axis = (counts[interior] >> 1) & 3
-    np.testing.assert_array_equal(axis, np.argmax(np.abs(delta), axis=1))
-    np.testing.assert_array_equal(counts[interior] & 1,
-                                  delta[np.arange(len(delta)), axis] < 0.0)
-
-
-def test_node_texels_hold_each_node_exactly():
-    """The texels bvh_node (render/renderer_scene.wgsl) decodes give back every node's box,
-    child or first face, and count code, bit for bit."""
-    from wgbragg.render.bvh import build_bvh
-    from wgbragg.scene.meshes import sphere_mesh
-
-    mesh = sphere_mesh(4)
-    bvh = build_bvh(mesh.vertices, mesh.faces)
-    width = packing_module.NODE_TEXTURE_WIDTH
-    texels = packing_module._node_texels(bvh, 8192)
-    rows = -(-2 * bvh.node_total // width)
-    assert texels.dtype == np.float32 and texels.shape == (rows, width, 4)
-    assert not texels.reshape(-1, 4)[2 * bvh.node_total:].any()   # zero padding
-    flat = texels.reshape(-1, 2, 4)[: bvh.node_total]
-    np.testing.assert_array_equal(flat[:, 0, :3], bvh.node_min.astype(np.float32))
-    np.testing.assert_array_equal(flat[:, 1, :3], bvh.node_max.astype(np.float32))
-    np.testing.assert_array_equal(flat[:, 0, 3], np.where(bvh.node_count > 0, bvh.node_first,
-                                                          bvh.node_left))
-    stored = flat[:, 1, 3]
-    decoded = np.where(stored < 0, packing_module._INTERIOR | (-stored - 1).astype(np.int64),
-                       stored.astype(np.int64))
-    np.testing.assert_array_equal(decoded, packing_module._node_counts(bvh))
-
-
-def test_a_bvh_too_large_for_the_node_texture_is_refused():
-    from wgbragg.render.bvh import build_bvh
-    from wgbragg.scene.meshes import sphere_mesh
-
-    mesh = sphere_mesh(4)
-    bvh = build_bvh(mesh.vertices, mesh.faces)
-    rows = -(-2 * bvh.node_total // packing_module.NODE_TEXTURE_WIDTH)
-    assert rows > 1
-    assert packing_module._node_texels(bvh, rows).shape[0] == rows
-    with pytest.raises(ValueError, match=f"{bvh.node_total:,} nodes"):
-        packing_module._node_texels(bvh, rows - 1)
-
-
 @pytest.mark.parametrize("name", ["fig7", "furnace"])
 def test_a_convex_object_alone_needs_no_secondary_rays(device, monkeypatch, name):
     # The specialisation skips shadow and bounce traces that could only miss: same image.

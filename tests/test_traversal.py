@@ -94,3 +94,56 @@ def test_soup_hits_match_numpy_bvh(soup):
     both = hit & hit_ref
     np.testing.assert_allclose(t[both], t_ref[both], rtol=1e-4)
     assert (face[both] == face_ref[both]).mean() > 0.98
+
+
+# ---------------------------------------------------------------------------- node texels
+
+
+def _decoded(texels: np.ndarray, total: int):
+    """What bvh_root and bvh_node (render/renderer_scene.wgsl) read: the centre, the root's
+    reference, and nodes 1 .. total - 1's boxes (relative to the centre) and references."""
+    words = texels.reshape(-1, 4).view(np.uint32)
+    halves = words[1:total + 1, :3].copy().view(np.uint16).reshape(-1, 6)
+    boxes = halves.view(np.float16).astype(np.float64)
+    return words[0, :3].view(np.float32), words[0, 3], boxes[1:, :3], boxes[1:, 3:], words[
+        2:total + 1, 3]
+
+
+def test_node_texels_hold_boxes_outward_and_references_exactly():
+    from wgbragg.render import packing
+    from wgbragg.render.bvh import build_bvh
+    from wgbragg.scene.meshes import sphere_mesh
+
+    mesh = sphere_mesh(4)
+    bvh = build_bvh(mesh.vertices * 3.0 + [100.0, -2.0, 0.5], mesh.faces)
+    texels = packing._node_texels(bvh, 8192)
+    total, width = bvh.node_total, packing.NODE_TEXTURE_WIDTH
+    assert texels.dtype == np.float32 and texels.shape == (-(-(total + 1) // width), width, 4)
+    assert not texels.reshape(-1, 4)[total + 1:].view(np.uint32).any()   # zero padding
+    centre, root, lo, hi, refs = _decoded(texels, total)
+    np.testing.assert_allclose(centre, (bvh.node_min[0] + bvh.node_max[0]) / 2, rtol=1e-7)
+    # Every box contains the tree's own (float32) box, and not by much.
+    world_lo, world_hi = lo + centre, hi + centre
+    assert np.all(world_lo <= bvh.node_min[1:]) and np.all(world_hi >= bvh.node_max[1:])
+    assert np.max(bvh.node_min[1:] - world_lo) < 0.01
+    assert np.max(world_hi - bvh.node_max[1:]) < 0.01
+    # References: the children's pair of an interior node, first << 7 | count of a leaf.
+    expected = np.where(bvh.node_count == 0,
+                        0x80000000 | (bvh.node_left.astype(np.int64) + 1) // 2,
+                        bvh.node_first.astype(np.int64) << 7 | bvh.node_count)
+    assert root == expected[0]
+    np.testing.assert_array_equal(refs, expected[1:])
+
+
+def test_a_bvh_too_large_for_the_node_texture_is_refused():
+    from wgbragg.render import packing
+    from wgbragg.render.bvh import build_bvh
+    from wgbragg.scene.meshes import sphere_mesh
+
+    mesh = sphere_mesh(5)
+    bvh = build_bvh(mesh.vertices, mesh.faces)
+    rows = -(-(bvh.node_total + 1) // packing.NODE_TEXTURE_WIDTH)
+    assert rows > 1
+    assert packing._node_texels(bvh, rows).shape[0] == rows
+    with pytest.raises(ValueError, match=f"{bvh.node_total:,} nodes"):
+        packing._node_texels(bvh, rows - 1)

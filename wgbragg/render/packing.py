@@ -98,14 +98,14 @@ SHARED_LAYERS = 32
 keeps (about 1 MB): an edit re-bakes only the layer it changed, once for all renderers."""
 _shared_layers: collections.OrderedDict = collections.OrderedDict()
 _STACK_SIZE = 32  # STACK_SIZE of render/renderer_scene.wgsl
-_INTERIOR = 0x40000000  # INTERIOR of render/renderer_scene.wgsl
+_NODE_INTERIOR = 0x80000000  # NODE_INTERIOR of render/renderer_scene.wgsl
 NODE_TEXTURE_WIDTH = 4096
-"""Texels a row of the BVH node texture (NODE_TEXTURE_WIDTH of render/renderer_scene.wgsl): two
-a node, so 2,048 nodes a row. WebGPU guarantees textures 8,192 wide, so the width always fits."""
+"""Texels a row of the BVH node texture (NODE_TEXTURE_WIDTH of render/renderer_scene.wgsl): one
+a node. WebGPU guarantees textures 8,192 wide, so the width always fits."""
 SHAPE_TEXTURE_WIDTH = 4096
 """Texels a row of the textures of exact spheres and planes (four a shape) and of triangle
 corners (three a face): SHAPE_TEXTURE_WIDTH of render/renderer_scene.wgsl."""
-_NODE_EXACT = 1 << 24  # indices and counts stored as float32 stay exact below this
+_NODE_EXACT = 1 << 24  # faces below this: a leaf reference holds first << 7 in 31 bits
 _IBL_ALBEDO_NODES = 64  # IBL_ALBEDO_NODES of render/renderer.wgsl
 
 _CAMERA_FIELDS = [
@@ -280,48 +280,66 @@ def _sphere_bounds(to_world: np.ndarray) -> np.ndarray:
     return np.concatenate([to_world[:, :, 3] - half, to_world[:, :, 3] + half])
 
 
-def _node_counts(bvh) -> np.ndarray:
-    """``BvhNode.count`` of render/renderer_scene.wgsl: a leaf's face count, or for an interior node
-    INTERIOR with the axis and side that order its children for a ray."""
+def _node_refs(bvh) -> np.ndarray:
+    """Each node's reference word, as ``bvh_open`` of render/renderer_scene.wgsl reads it: an
+    interior node's is ``NODE_INTERIOR | k`` for its children, nodes ``2 k - 1`` and ``2 k``
+    (pair k); a leaf's is ``first << 7 | count`` (``count`` <= 64)."""
     interior = bvh.node_count == 0
-    left = np.where(interior, bvh.node_left, 0)
-    centre = bvh.node_min + bvh.node_max
-    delta = centre[np.minimum(left + 1, len(centre) - 1)] - centre[left]
-    axis = np.argmax(np.abs(delta), axis=1)
-    negative = delta[np.arange(len(delta)), axis] < 0.0
-    code = _INTERIOR | (axis.astype(np.uint32) << 1) | negative.astype(np.uint32)
-    return np.where(interior, code, bvh.node_count).astype(np.uint32)
+    pair = (bvh.node_left.astype(np.int64) + 1) // 2
+    leaf = (bvh.node_first.astype(np.int64) << 7) | bvh.node_count.astype(np.int64)
+    return np.where(interior, _NODE_INTERIOR | pair, leaf).astype(np.uint32)
+
+
+def _half_outward(values: np.ndarray, down: bool) -> np.ndarray:
+    """float64 ``values`` as float16 rounded towards -inf (``down``) or +inf; beyond float16's
+    range the largest finite value on the safe side or an infinity."""
+    with np.errstate(over="ignore"):
+        half = values.astype(np.float16)
+    if down:
+        return np.where(half > values, np.nextafter(half, np.float16(-np.inf)), half)
+    return np.where(half < values, np.nextafter(half, np.float16(np.inf)), half)
 
 
 def _node_texels(bvh, largest: int) -> np.ndarray:
-    """The BVH nodes as the ``(rows, NODE_TEXTURE_WIDTH, 4)`` float32 texels of an
-    ``rgba32float`` texture that ``bvh_node`` of render/renderer_scene.wgsl decodes: node i at
-    texels 2 i (lo, left_or_first) and 2 i + 1 (hi, count), row-major, the last row zero-padded.
-    An interior node's count is stored as ``-(code & 7) - 1`` of its code (INTERIOR | axis and
-    side, :func:`_node_counts`), a leaf's as its face count; both integers are exact in float32.
+    """The BVH as the ``(rows, NODE_TEXTURE_WIDTH, 4)`` texels of an ``rgba32float`` texture
+    holding 32-bit words (render/renderer_scene.wgsl reads them with ``bitcast``), row-major:
+
+    - texel 0: the root box's centre c (3 float32) and the root's reference
+      (:func:`_node_refs`);
+    - texel i + 1, node i >= 1: its box relative to c as six float16 rounded outward (after a
+      margin of 2**-20 of the root box's largest side, for the float32 rounding of the ray's
+      origin relative to c), packed as WGSL's ``pack2x16float`` (lo.x lo.y, lo.z hi.x,
+      hi.y hi.z), then its reference. So a box costs one texel and a sibling pair two
+      adjacent texels (2 k, 2 k + 1), never split across rows; texel 1 is unused.
 
     Raises
     ------
     ValueError
         If the tree needs more than ``largest`` rows (the device's max-texture-dimension-2d) or
-        has 2**24 nodes or more (its indices would not be exact in float32).
+        has 2**24 faces or more (its leaves' first face would not fit their reference).
     """
     total = bvh.node_total
-    per_row = NODE_TEXTURE_WIDTH // 2
-    capacity = min(largest * per_row, _NODE_EXACT - 1)
-    if total > capacity:
+    capacity = largest * NODE_TEXTURE_WIDTH - 1
+    faces = len(bvh.triangle_order)
+    if total > capacity or faces >= _NODE_EXACT:
         raise ValueError(
-            f"scene: its BVH has {total:,} nodes ({len(bvh.triangle_order):,} triangles); the "
-            f"GPU node texture holds at most {capacity:,} on this device ({largest:,} rows of "
-            f"{per_row:,} nodes, and fewer than 2**24): use fewer triangles")
-    counts = _node_counts(bvh)
-    interior = counts >= _INTERIOR
-    code = np.where(interior, -(counts.astype(np.int64) & 7) - 1, counts)
-    texels = np.zeros((-(-total // per_row) * per_row, 2, 4), np.float32)
-    texels[:total, 0, :3], texels[:total, 1, :3] = bvh.node_min, bvh.node_max
-    texels[:total, 0, 3] = np.where(bvh.node_count > 0, bvh.node_first, bvh.node_left)
-    texels[:total, 1, 3] = code
-    return texels.reshape(-1, NODE_TEXTURE_WIDTH, 4)
+            f"scene: its BVH has {total:,} nodes ({faces:,} triangles); the GPU node texture "
+            f"holds at most {capacity:,} on this device ({largest:,} rows of "
+            f"{NODE_TEXTURE_WIDTH:,} nodes, and fewer than 2**24 triangles): use fewer "
+            "triangles")
+    lo64, hi64 = bvh.node_min.astype(np.float64), bvh.node_max.astype(np.float64)
+    centre = (0.5 * (lo64[0] + hi64[0])).astype(np.float32)
+    margin = 2.0**-20 * float(np.max(hi64[0] - lo64[0]))
+    lo = _half_outward(lo64 - centre - margin, down=True).view(np.uint16).astype(np.uint32)
+    hi = _half_outward(hi64 - centre + margin, down=False).view(np.uint16).astype(np.uint32)
+    words = np.zeros((-(-(total + 1) // NODE_TEXTURE_WIDTH) * NODE_TEXTURE_WIDTH, 4), np.uint32)
+    words[0, :3] = centre.view(np.uint32)
+    refs = _node_refs(bvh)
+    words[0, 3] = refs[0]
+    words[2:total + 1] = np.column_stack([
+        lo[1:, 0] | lo[1:, 1] << 16, lo[1:, 2] | hi[1:, 0] << 16, hi[1:, 1] | hi[1:, 2] << 16,
+        refs[1:]])
+    return words.view(np.float32).reshape(-1, NODE_TEXTURE_WIDTH, 4)
 
 
 def _max_texture_dimension() -> int:

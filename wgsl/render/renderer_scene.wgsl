@@ -9,7 +9,8 @@
 //   normals:  array<vec4<f32>>   world-space unit shading normals per vertex (xyz)
 //   faces:    array<vec4<u32>>   vertex indices (xyz) and material index (w), in the BVH's
 //                                triangle order, so that a leaf's faces are contiguous
-//   node_texels: texture_2d<f32> bvh.BVH, depth-first with sibling pairs, as bvh_node reads it
+//   node_texels: texture_2d<f32> bvh.BVH's nodes, a texel each holding 32-bit words (float16
+//                                boxes, references), as bvh_node and bvh_root read them
 //   triangle_texels: texture_2d<f32> the corners of face i (in BVH order) at texels 3 i .. 3 i + 2,
 //                                rows of SHAPE_TEXTURE_WIDTH texels, read by triangle_corner
 //   shape_texels: texture_2d<f32> rows of SHAPE_TEXTURE_WIDTH texels, read by shape_row: 4 a
@@ -26,20 +27,20 @@
 // Primitives are numbered as Renderer.primary_hits reports them: the triangles (in BVH order
 // here), then the spheres, then the planes (parallelograms), then the area lights.
 
-// Traversal stack slots: bvh.BVH.depth + 1 slots suffice; render.py refuses deeper trees. A
-// binned-SAH tree of 1.3 million triangles is 21 deep; every slot costs its zeroing per trace.
+// Slots of bvh_trace_deep's stack: bvh.BVH.depth + 1 suffice; packing.py refuses deeper trees.
+// A binned-SAH tree of 1.3 million triangles is 21 deep.
 const STACK_SIZE: u32 = 32u;
 // Entries of bvh_trace_registers' stack (at most its eight registers); a pipeline constant so
 // that tests can make the deep traversal run.
 override REGISTER_STACK: u32 = 8u;
-// A leaf stores its first face where an inner node stores its left child.
-// BvhNode.count of an interior node: this bit, the axis along which its right child's centre
-// lies farthest from its left child's (bits 1-2), and whether the right child lies on the
-// negative side (bit 0). A leaf's count is its number of faces.
-const INTERIOR: u32 = 0x40000000u;
-// Texels a row of node_texels (wgbragg/render/packing.py _node_texels): node i at texels 2i and
-// 2i + 1, row-major. On lavapipe textureLoad costs less than storage loads: the path tracer
-// ran 1.5x faster, with identical images (docs/performance.md).
+// A node's reference word (wgbragg/render/packing.py _node_refs): for an interior node this
+// bit and k, its children being the pair k (nodes 2 k - 1 and 2 k); for a leaf its first face
+// << 7 | its number of faces.
+const NODE_INTERIOR: u32 = 0x80000000u;
+// Texels a row of node_texels (packing._node_texels), row-major: texel 0 the root box's centre
+// and the root's reference, texel i + 1 node i: its box relative to that centre as six float16
+// (rounded outward) and its reference, 32-bit words read with bitcast. A box in one texel, a
+// sibling pair in two adjacent ones (docs/performance.md, "Traversal").
 const NODE_TEXTURE_WIDTH: u32 = 4096u;
 
 // Texels a row of shape_texels (wgbragg/render/packing.py SHAPE_TEXTURE_WIDTH), row-major.
@@ -52,22 +53,28 @@ fn shape_row(i: u32) -> vec4<f32> {
 }
 
 struct BvhNode {
-    lo: vec3<f32>,
-    left_or_first: u32,
+    lo: vec3<f32>,        // relative to bvh_centre()
     hi: vec3<f32>,
-    count: u32,           // faces of a leaf, INTERIOR | axis and side of an inner node
+    reference: u32,       // NODE_INTERIOR | children's pair, or first face << 7 | faces
 }
 
-// Node i of node_texels: (lo, left_or_first) and (hi, count), both integers stored as exact
-// float32, an interior node's count code c as -(c & 7) - 1. The row width is even, so both
-// texels share a row.
+fn node_word(i: u32) -> vec4<u32> {
+    return bitcast<vec4<u32>>(textureLoad(node_texels, vec2<u32>(i % NODE_TEXTURE_WIDTH,
+                                                                   i / NODE_TEXTURE_WIDTH), 0));
+}
+
+// Node i >= 1 (bvh.BVH's numbering); the root is known by its reference alone (bvh_root).
 fn bvh_node(i: u32) -> BvhNode {
-    let at = 2u * i;
-    let texel = vec2<u32>(at % NODE_TEXTURE_WIDTH, at / NODE_TEXTURE_WIDTH);
-    let a = textureLoad(node_texels, texel, 0);
-    let b = textureLoad(node_texels, texel + vec2<u32>(1u, 0u), 0);
-    let count = select(u32(b.w), INTERIOR | u32(-b.w - 1.0), b.w < 0.0);
-    return BvhNode(a.xyz, u32(a.w), b.xyz, count);
+    let w = node_word(i + 1u);
+    let xy = unpack2x16float(w.x);
+    let zx = unpack2x16float(w.y);
+    let yz = unpack2x16float(w.z);
+    return BvhNode(vec3<f32>(xy, zx.x), vec3<f32>(zx.y, yz), w.w);
+}
+
+// The root box's centre (boxes are stored relative to it) in xyz, the root's reference in w.
+fn bvh_root() -> vec4<u32> {
+    return node_word(0u);
 }
 
 struct Camera {
@@ -235,29 +242,32 @@ const OPEN_DONE: u32 = 3u;      // an any-hit query found its hit
 
 struct Opened {
     kind: u32,
-    near: u32,     // the left child of the interior child to visit next
+    near: u32,     // the children's pair of the interior child to visit next
     far: u32,      // that of the one to visit after it
 }
 
-// Opens the interior node whose children are `pair` and `pair + 1`: both children's boxes are
+// Opens the interior node whose children are the pair `pair`: both children's boxes are
 // tested here, at the parent, a hit leaf's faces at once (both leaves' in one loop, the nearer
 // first), and of two hit interior children the nearer by entry distance is visited first.
-fn bvh_open(origin: vec3<f32>, direction: vec3<f32>, inverse: vec3<f32>, pair: u32,
-            best: ptr<function, Hit>, any_hit: bool) -> Opened {
-    let a = bvh_node(pair);
-    let b = bvh_node(pair + 1u);
-    let span_a = box_span(origin, inverse, a.lo, a.hi);
-    let span_b = box_span(origin, inverse, b.lo, b.hi);
+// `local` is the ray's origin relative to bvh_centre (boxes), `origin` its own (faces).
+fn bvh_open(origin: vec3<f32>, direction: vec3<f32>, local: vec3<f32>, inverse: vec3<f32>,
+            pair: u32, best: ptr<function, Hit>, any_hit: bool) -> Opened {
+    let a = bvh_node(2u * pair - 1u);
+    let b = bvh_node(2u * pair);
+    let span_a = box_span(local, inverse, a.lo, a.hi);
+    let span_b = box_span(local, inverse, b.lo, b.hi);
     var hit_a = span_a.x <= span_a.y && span_a.y >= 0.0 && span_a.x < (*best).t;
     var hit_b = span_b.x <= span_b.y && span_b.y >= 0.0 && span_b.x < (*best).t;
-    let leaf_a = hit_a && a.count < INTERIOR;
-    let leaf_b = hit_b && b.count < INTERIOR;
+    let leaf_a = hit_a && a.reference < NODE_INTERIOR;
+    let leaf_b = hit_b && b.reference < NODE_INTERIOR;
     if (leaf_a || leaf_b) {
         let a_first = !leaf_b || (leaf_a && span_a.x <= span_b.x);
-        let first = select(b.left_or_first, a.left_or_first, a_first);
-        let first_count = select(b.count, a.count, a_first);
-        let second = select(a.left_or_first, b.left_or_first, a_first);
-        let second_count = select(0u, select(a.count, b.count, a_first), leaf_a && leaf_b);
+        let first_ref = select(b.reference, a.reference, a_first);
+        let second_ref = select(a.reference, b.reference, a_first);
+        let first = first_ref >> 7u;
+        let first_count = first_ref & 127u;
+        let second = second_ref >> 7u;
+        let second_count = select(0u, second_ref & 127u, leaf_a && leaf_b);
         let total = first_count + second_count;
         for (var k = 0u; k < total; k++) {
             let face = select(second + k - first_count, first + k, k < first_count);
@@ -273,8 +283,8 @@ fn bvh_open(origin: vec3<f32>, direction: vec3<f32>, inverse: vec3<f32>, pair: u
         hit_b = hit_b && !leaf_b && span_b.x < (*best).t;
     }
     let a_near = !hit_b || (hit_a && span_a.x <= span_b.x);
-    let near = select(b.left_or_first, a.left_or_first, a_near);
-    let far = select(a.left_or_first, b.left_or_first, a_near);
+    let near = select(b.reference, a.reference, a_near) & ~NODE_INTERIOR;
+    let far = select(a.reference, b.reference, a_near) & ~NODE_INTERIOR;
     let kind = select(select(OPEN_POP, OPEN_NEAR, hit_a || hit_b), OPEN_BOTH, hit_a && hit_b);
     return Opened(kind, near, far);
 }
@@ -283,14 +293,15 @@ fn bvh_open(origin: vec3<f32>, direction: vec3<f32>, inverse: vec3<f32>, pair: u
 // indexed array per lane in memory, and such an array alone cost about 10 % of a frame
 // (docs/performance.md, "Traversal"). False if the stack would overflow: `best` then holds
 // what was found so far, and bvh_trace_deep finishes the query.
-fn bvh_trace_registers(origin: vec3<f32>, direction: vec3<f32>, inverse: vec3<f32>,
-                       root_pair: u32, best: ptr<function, Hit>, any_hit: bool) -> bool {
+fn bvh_trace_registers(origin: vec3<f32>, direction: vec3<f32>, local: vec3<f32>,
+                       inverse: vec3<f32>, root_pair: u32, best: ptr<function, Hit>,
+                       any_hit: bool) -> bool {
     var s0 = 0u; var s1 = 0u; var s2 = 0u; var s3 = 0u;
     var s4 = 0u; var s5 = 0u; var s6 = 0u; var s7 = 0u;
     var top = 0u;
     var pair = root_pair;
     loop {
-        let opened = bvh_open(origin, direction, inverse, pair, best, any_hit);
+        let opened = bvh_open(origin, direction, local, inverse, pair, best, any_hit);
         if (opened.kind == OPEN_DONE) {
             return true;
         }
@@ -319,13 +330,14 @@ fn bvh_trace_registers(origin: vec3<f32>, direction: vec3<f32>, inverse: vec3<f3
 // The same traversal with a stack in memory, as deep as any tree render.py accepts: for the
 // rare query that overflows bvh_trace_registers' eight entries, from the root again with the
 // hits found so far pruning it.
-fn bvh_trace_deep(origin: vec3<f32>, direction: vec3<f32>, inverse: vec3<f32>,
-                  root_pair: u32, best: ptr<function, Hit>, any_hit: bool) {
+fn bvh_trace_deep(origin: vec3<f32>, direction: vec3<f32>, local: vec3<f32>,
+                  inverse: vec3<f32>, root_pair: u32, best: ptr<function, Hit>,
+                  any_hit: bool) {
     var stack: array<u32, STACK_SIZE>;
     var top = 0u;
     var pair = root_pair;
     loop {
-        let opened = bvh_open(origin, direction, inverse, pair, best, any_hit);
+        let opened = bvh_open(origin, direction, local, inverse, pair, best, any_hit);
         if (opened.kind == OPEN_DONE) {
             return;
         }
@@ -385,18 +397,16 @@ fn trace(origin: vec3<f32>, direction: vec3<f32>, t_max: f32, any_hit: bool) -> 
         return best;
     }
     let inverse = 1.0 / direction;
-    let root = bvh_node(0u);
-    let root_span = box_span(origin, inverse, root.lo, root.hi);
-    if (root_span.x > root_span.y || root_span.y < 0.0 || root_span.x >= best.t) {
-        return best;
-    }
-    if (root.count < INTERIOR) {
+    let root = bvh_root();
+    let local = origin - bitcast<vec3<f32>>(root.xyz);
+    if (root.w < NODE_INTERIOR) {
         // A tree of one leaf.
-        leaf_hits(origin, direction, root.left_or_first, root.count, &best, any_hit);
+        leaf_hits(origin, direction, root.w >> 7u, root.w & 127u, &best, any_hit);
         return best;
     }
-    if (!bvh_trace_registers(origin, direction, inverse, root.left_or_first, &best, any_hit)) {
-        bvh_trace_deep(origin, direction, inverse, root.left_or_first, &best, any_hit);
+    let pair = root.w & ~NODE_INTERIOR;
+    if (!bvh_trace_registers(origin, direction, local, inverse, pair, &best, any_hit)) {
+        bvh_trace_deep(origin, direction, local, inverse, pair, &best, any_hit);
     }
     return best;
 }
