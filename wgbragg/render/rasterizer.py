@@ -189,7 +189,7 @@ class Rasterizer:
             self._shadow_key = shadow_key
         self._main_view = self._view(params, self._near, self._shadow_lights)
         # One bind group per group for every pipeline: equal layouts are interchangeable.
-        kernel = self._pipelines(False)["triangles"]
+        kernel = self._pipelines("depth")["surfaces"]
         self._view_buffer = self._uniform(self._main_view)
         self._groups = (self._scene_group(kernel),
                         self._view_group(kernel, self._view_buffer, self._shadows))
@@ -213,28 +213,28 @@ class Rasterizer:
         view["shadow_size"], view["shadow_near"] = self.shadow_size, self._shadow_near
         return view
 
-    def _pipelines(self, visibility: bool, shadow: bool = False) -> dict:
-        constants = {**self._constants, "VISIBILITY": visibility}
-        if shadow:
-            common = {"targets": (), "samples": 1}
-            return {"triangles": render_pipeline(SHADER, "triangle_vertex", None, constants,
-                                                 **common),
-                    "parallelograms": render_pipeline(SHADER, "parallelogram_vertex", None,
-                                                      constants, **common),
-                    "spheres": render_pipeline(SHADER, "sphere_vertex", "shadow_depth_fragment",
-                                               constants, **common)}
-        common = {"targets": (_VISIBILITY,) if visibility else (_COLOUR,)}
-        pipelines = {
-            "triangles": render_pipeline(SHADER, "triangle_vertex", "surface_fragment",
-                                         constants, **common),
-            "parallelograms": render_pipeline(SHADER, "parallelogram_vertex", "surface_fragment",
-                                              constants, **common),
-            "spheres": render_pipeline(SHADER, "sphere_vertex", "sphere_fragment", constants,
-                                       **common)}
-        if not visibility:
+    def _pipelines(self, kind: str) -> dict:
+        """The pipelines of a pass: ``"depth"`` (the depth prepass and the shadow maps: depth
+        only), ``"shade"`` (radiance at the depths the prepass left, and the sky behind) or
+        ``"visibility"`` (hits at the nearest depth); spheres only where the scene has some."""
+        constants = {**self._constants, "VISIBILITY": kind == "visibility"}
+        if kind == "depth":
+            options, fragments = {"targets": ()}, (None, "shadow_depth_fragment")
+        elif kind == "shade":
+            options = {"targets": (_COLOUR,), "depth_compare": "equal", "depth_write": False}
+            fragments = ("surface_fragment", "sphere_fragment")
+
+        else:
+            options, fragments = {"targets": (_VISIBILITY,)}, ("surface_fragment",
+                                                                "sphere_fragment")
+        pipelines = {"surfaces": render_pipeline(SHADER, "surface_vertex", fragments[0],
+                                                 constants, **options)}
+        if self._counts[1]:
+            pipelines["spheres"] = render_pipeline(SHADER, "sphere_vertex", fragments[1],
+                                                   constants, **options)
+        if kind == "shade":
             pipelines["background"] = render_pipeline(
-                SHADER, "background_vertex", "background_fragment", constants,
-                depth_compare="equal", depth_write=False, **common)
+                SHADER, "background_vertex", "background_fragment", constants, **options)
         return pipelines
 
     def _scene_group(self, kernel):
@@ -245,22 +245,17 @@ class Rasterizer:
         return kernel.bind_group(1, [view, layers, self._sampler])
 
     def _draw(self, encoder_pass, pipelines: dict, group0, group1,
-              planes_only: bool = False) -> None:
-        """Draw every primitive kind (``planes_only``: the planes but not the area lights)."""
+              lights_drawn: bool = True) -> None:
+        """Draw every primitive (``lights_drawn`` False: all but the area lights)."""
         triangles, spheres, planes, areas = self._counts
-        draws = [("triangles", 3 * triangles, 1), ("spheres", 36, spheres),
-                 ("parallelograms", 6, planes + (0 if planes_only else areas))]
-        for name, vertices, instances in draws:
-            if vertices and instances:
+        surfaces = 3 * triangles + 6 * (planes + (areas if lights_drawn else 0))
+        for name, vertices, instances in (("surfaces", surfaces, 1), ("spheres", 36, spheres),
+                                          ("background", 3, 1)):
+            if name in pipelines and vertices and instances:
                 encoder_pass.set_pipeline(pipelines[name].pipeline)
                 encoder_pass.set_bind_group(0, group0)
                 encoder_pass.set_bind_group(1, group1)
                 encoder_pass.draw(vertices, instances)
-        if "background" in pipelines:
-            encoder_pass.set_pipeline(pipelines["background"].pipeline)
-            encoder_pass.set_bind_group(0, group0)
-            encoder_pass.set_bind_group(1, group1)
-            encoder_pass.draw(3, 1)
 
     def _draw_shadows(self, scene: Scene, params: np.ndarray, extent: float) -> None:
         """Render every point and area light's six shadow faces (the area lights' from their
@@ -274,8 +269,8 @@ class Rasterizer:
             self._shadows = self._no_shadows
             return
         shadows = self._shadow_texture(6 * lights)
-        pipelines = self._pipelines(False, shadow=True)
-        group0 = self._scene_group(pipelines["triangles"])
+        pipelines = self._pipelines("depth")
+        group0 = self._scene_group(pipelines["surfaces"])
         encoder = self._device.create_command_encoder()
         for k in range(lights):
             for f, (forward, right, up) in enumerate(_FACES):
@@ -284,7 +279,7 @@ class Rasterizer:
                 camera["right"], camera["up"] = right, up
                 camera["width_f"] = camera["height_f"] = self.shadow_size
                 view = self._view(camera, self._shadow_near, 0)
-                group1 = self._view_group(pipelines["triangles"], self._uniform(view),
+                group1 = self._view_group(pipelines["surfaces"], self._uniform(view),
                                           self._no_shadows)
                 target = shadows.create_view(dimension="2d", base_array_layer=6 * k + f,
                                              array_layer_count=1)
@@ -292,7 +287,7 @@ class Rasterizer:
                     color_attachments=[], depth_stencil_attachment={
                         "view": target, "depth_clear_value": 0.0, "depth_load_op": "clear",
                         "depth_store_op": "store"})
-                self._draw(render_pass, pipelines, group0, group1, planes_only=True)
+                self._draw(render_pass, pipelines, group0, group1, lights_drawn=False)
                 render_pass.end()
         self._device.queue.submit([encoder.finish()])
         self._shadows = shadows
@@ -300,24 +295,30 @@ class Rasterizer:
     # ---- frames
 
     def _scene_pass(self, encoder, visibility: bool, jitter=(0.0, 0.0)) -> None:
-        """Encode the scene's pass: a frame whose samples are offset by ``jitter`` pixels from
-        the pixel centres into the colour target, or the visibility buffer (at the centres).
-        """
+        """Encode the scene's passes: a frame whose samples are offset by ``jitter`` pixels
+        from the pixel centres into the colour target (a depth prepass, then each pixel
+        shaded once, at the depth it left), or the visibility buffer (at the centres)."""
         self._main_view["jitter"] = jitter
         self._device.queue.write_buffer(self._view_buffer, 0, self._main_view.tobytes())
         targets = self._targets
+        depth = {"view": targets["depth"].create_view(), "depth_clear_value": 0.0,
+                 "depth_load_op": "clear", "depth_store_op": "store"}
         if visibility:
             colour = {"view": targets["visibility"].create_view(),
                       "clear_value": (_FAR, -1.0, 0.0, 0.0)}
         else:
+            prepass = encoder.begin_render_pass(color_attachments=[],
+                                                depth_stencil_attachment=depth)
+            self._draw(prepass, self._pipelines("depth"), *self._groups)
+            prepass.end()
+            depth = depth | {"depth_load_op": "load", "depth_store_op": "discard"}
             colour = {"view": targets["colour"].create_view(),
                       "clear_value": (0.0, 0.0, 0.0, 0.0)}
         render_pass = encoder.begin_render_pass(
             color_attachments=[colour | {"load_op": "clear", "store_op": "store"}],
-            depth_stencil_attachment={"view": targets["depth"].create_view(),
-                                      "depth_clear_value": 0.0, "depth_load_op": "clear",
-                                      "depth_store_op": "discard"})
-        self._draw(render_pass, self._pipelines(visibility), *self._groups)
+            depth_stencil_attachment=depth)
+        kind = "visibility" if visibility else "shade"
+        self._draw(render_pass, self._pipelines(kind), *self._groups)
         render_pass.end()
 
     def _resolve_pass(self, encoder, weight: float, scale: float) -> None:

@@ -3,8 +3,8 @@
 // their vertices from the same buffers, and shades each pixel's visible point with the path
 // tracer's own functions (render/renderer_shading.wgsl): bsdf_eval for point and area lights,
 // ibl_radiance for the prefiltered environment, sky_radiance behind everything.
-//   triangle_vertex:      3 vertices per triangle (BVH order), barycentrics interpolated
-//   parallelogram_vertex: 6 vertices per plane, then per area light, (u, v) interpolated
+//   surface_vertex:       3 vertices per triangle (BVH order), barycentrics interpolated, then
+//                         6 per plane and per area light, (u, v) interpolated
 //   sphere_vertex:        36 vertices per sphere: the cube around it, whose fragments intersect
 //                         the exact sphere (sphere_fragment writes their depth)
 //   background_vertex:    one triangle over the screen at the cleared depth (the sky)
@@ -59,7 +59,8 @@ struct View {
 @group(1) @binding(2) var shadow_sampler: sampler_comparison;
 
 struct Varyings {
-    @builtin(position) position: vec4<f32>,
+    // Invariant: the depth prepass and the shading pass compare equal depths.
+    @invariant @builtin(position) position: vec4<f32>,
     @location(0) @interpolate(flat) primitive: u32,
     // A triangle's barycentric weights of its second and third corners; a parallelogram's
     // (u, v) along its edges.
@@ -79,14 +80,6 @@ fn clip_position(p: vec3<f32>) -> vec4<f32> {
                      dot(relative, c.up) / dot(c.up, c.up) + shift.y * w, view.near, w);
 }
 
-@vertex
-fn triangle_vertex(@builtin(vertex_index) i: u32) -> Varyings {
-    let face = i / 3u;
-    let corner = i % 3u;
-    let weights = vec2<f32>(select(0.0, 1.0, corner == 1u), select(0.0, 1.0, corner == 2u));
-    return Varyings(clip_position(triangle_corner(face, corner)), face, weights);
-}
-
 // Corner k of parallelogram j: the planes, then the area lights.
 fn parallelogram_rows(j: u32) -> mat3x3<f32> {
     if (j < params.planes) {
@@ -97,11 +90,19 @@ fn parallelogram_rows(j: u32) -> mat3x3<f32> {
     return mat3x3<f32>(lights[base].xyz, lights[base + 1u].xyz, lights[base + 2u].xyz);
 }
 
+// The triangles (3 vertices each, BVH order), then the parallelograms (6 each: the planes,
+// then the area lights, as two triangles (0, 0) (1, 0) (1, 1) and (0, 0) (1, 1) (0, 1)).
 @vertex
-fn parallelogram_vertex(@builtin(vertex_index) i: u32,
-                        @builtin(instance_index) j: u32) -> Varyings {
-    // Two triangles: (0, 0) (1, 0) (1, 1) and (0, 0) (1, 1) (0, 1).
-    let k = i % 6u;
+fn surface_vertex(@builtin(vertex_index) i: u32) -> Varyings {
+    let triangle_vertices = 3u * params.triangles;
+    if (i < triangle_vertices) {
+        let face = i / 3u;
+        let corner = i % 3u;
+        let weights = vec2<f32>(select(0.0, 1.0, corner == 1u), select(0.0, 1.0, corner == 2u));
+        return Varyings(clip_position(triangle_corner(face, corner)), face, weights);
+    }
+    let j = (i - triangle_vertices) / 6u;
+    let k = (i - triangle_vertices) % 6u;
     let uv = vec2<f32>(select(0.0, 1.0, k == 1u || k == 2u || k == 4u),
                        select(0.0, 1.0, k == 2u || k == 4u || k == 5u));
     let rows = parallelogram_rows(j);
