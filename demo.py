@@ -1,20 +1,21 @@
-"""wgbragg demo: edit a teapot's Bragg layers or thin film live while it is path-traced on the GPU.
+"""wgbragg demo: edit a teapot's Bragg layers or thin film live, rasterized and path-traced.
 
 Run with ``make demo`` (which does all the set-up) or ``python demo.py``: a window shows the
-teapot preset (two rough Bragg layers over a dark diffuse base, under a sky) rendered
-progressively, and a side panel with sliders for each layer (Lambda, delta = d1 / Lambda, N,
-n2, alpha), the structure (layer count, n1, the base's albedo rho_d), the colour method, RGB or
-spectral transport and the environment; the selected layer's reflectance at normal incidence
-with its landmarks and its colour against the angle; and the interactive budgets as measured.
-The material can be switched to a rough thin film (thickness, or a noise map's range; n_film;
-a dielectric or metal base; alpha), which ``--scene thin_film`` opens on. Drag the picture to
-orbit, scroll to zoom; every edit restarts the accumulation.
+teapot preset (two rough Bragg layers over a dark diffuse base, under a sky), rasterized in
+real time while you drag or edit and path-traced progressively when the view rests, and a side
+panel with sliders for each layer (Lambda, delta = d1 / Lambda, N, n2, alpha), the structure
+(layer count, n1, the base's albedo rho_d), the colour method, RGB or spectral transport and
+the environment; the selected layer's reflectance at normal incidence with its landmarks and
+its colour against the angle; and the interactive budgets as measured. The material can be
+switched to a rough thin film (thickness, or a noise map's range; n_film; a dielectric or
+metal base; alpha), which ``--scene thin_film`` opens on. Drag the picture to orbit, scroll to
+zoom; every edit restarts the accumulation.
 
-``python demo.py --offscreen --spp 64 -o demo.png`` renders the same window without a display
-and prints the image's path (also what happens when no display is found); with ``--denoise`` it
-also writes the window with the picture denoised (the panel's toggle, same samples) beside it,
-as ``demo.denoised.png``. The window denoises full-size frames of more than 4 spp by default
-(``--no-denoise`` starts with the toggle off).
+``python demo.py --offscreen --spp 64 -o demo.png`` renders the same window without a display,
+the picture path-traced, and prints the image's path (also what happens when no display is
+found); with ``--denoise`` it also writes the window with the picture denoised (the panel's
+toggle, same samples) beside it, as ``demo.denoised.png``. The window denoises full-size
+frames of more than 4 spp by default (``--no-denoise`` starts with the toggle off).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from pathlib import Path
 
 from PIL import Image
 
-from wgbragg.app.viewer import DENOISE_AFTER_SPP, Viewer
+from wgbragg.app.viewer import DENOISE_AFTER_SPP, HANDOVER_SPP, Viewer
 from wgbragg.common.atomic import atomic_path, check_output_path
 from wgbragg.scene import MODES, PRESETS, load_preset, load_scene
 
@@ -85,8 +86,10 @@ def main(argv: list[str] | None = None) -> int:
         scene = (load_preset(args.scene) if args.scene in PRESETS
                  else load_scene(args.scene, allow_outside=args.allow_outside_paths))
         # Offscreen, the first picture is the raw one; the denoised one follows.
+        # Offscreen, the picture is the path tracer's from its first sample.
         viewer = Viewer(scene, size=args.size, mode=args.mode,
-                        denoise=not offscreen and args.denoise is not False)
+                        denoise=not offscreen and args.denoise is not False,
+                        handover_spp=1 if offscreen else HANDOVER_SPP)
     except (ValueError, OSError) as error:
         parser.error(str(error))
     # Imported here: the window needs imgui and rendercanvas, the checks above do not.
@@ -114,7 +117,8 @@ def main(argv: list[str] | None = None) -> int:
     width, height = viewer.size
     denoised = (f", denoised in {viewer.budgets.denoise_ms / 1e3:.2f} s"
                 if denoised_output is not None else "")
-    print(f"demo.py: {width}x{height}, {viewer.passes} spp in {seconds:.1f} s{denoised}",
+    print(f"demo.py: {width}x{height}, {viewer.passes} spp {viewer.source} in {seconds:.1f} s"
+          f"{denoised}",
           file=sys.stderr)
     for path, _ in frames:
         print(path)

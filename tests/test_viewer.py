@@ -1,6 +1,7 @@
-"""The demo: the viewer's edits, frames and budgets (``wgbragg.app.viewer``), its window in a real
-glfw window under Xvfb (``wgbragg.app.viewer_window``) compared with reference screenshots, and
-``demo.py``'s headless mode.
+"""The demo: the viewer's edits, frames and budgets (``wgbragg.app.viewer``), which renderer
+draws each frame (``wgbragg.app.viewer_frames``: rasterized while interacting, path-traced at
+rest), its window in a real glfw window under Xvfb (``wgbragg.app.viewer_window``) compared with
+reference screenshots, and ``demo.py``'s headless mode.
 
 Reference screenshots are ``tests/screenshots/*.png``; ``pytest --regenerate-screenshots``
 rewrites them. A mismatch writes the frame and its difference under pytest's tmp folder and
@@ -24,8 +25,9 @@ import pytest
 from conftest import EXPECT_LAVAPIPE
 from PIL import Image
 
-from wgbragg.app.viewer import DEFAULT_FILM, Viewer
+from wgbragg.app.viewer import DEFAULT_FILM, HANDOVER_SPP, PREVIEW_SCALES, Viewer
 from wgbragg.render import Renderer, display_transform
+from wgbragg.render.rasterizer import Rasterizer
 from wgbragg.scene.model import LayeredBraggMaterial, ThinFilmMaterial
 
 pytestmark = pytest.mark.gpu
@@ -37,6 +39,11 @@ SIZE = (128, 128)
 # render is seeded (the same paths on every run), so this only absorbs another CPU's rounding
 # in lavapipe (a path that turns elsewhere moves one pixel, not the mean) and font rasterisation.
 SCREENSHOT_TOLERANCE = 2.0
+# A rasterized frame against the path tracer's at HANDOVER_SPP raw samples, the teapot at 128 x
+# 128, in 8-bit levels: the mean |difference| (8.0 measured: mostly the 4-spp noise) and the
+# difference of the channel means (<= 1.8 measured; filtered lighting has no interreflection).
+RASTER_PATH_MEAN_ABS = 12.0
+RASTER_PATH_CHANNEL_MEANS = 4.0
 
 
 def saturation(pixels: np.ndarray) -> np.ndarray:
@@ -167,65 +174,68 @@ def test_camera_edits_keep_the_material_tables(viewer, monkeypatch):
     assert len(built) == 1
 
 
-def test_preview_frames_render_smaller_and_keep_the_full_accumulation(viewer):
-    full = viewer.frame()
+def test_interaction_is_rasterized_at_full_size_and_the_path_tracer_takes_over_at_rest():
+    """While interacting every frame is the rasterizer's at full size, an edit showing in the
+    next one; at rest the path tracer adds a sample a frame behind the rasterized picture and
+    replaces it from HANDOVER_SPP samples."""
+    size = (40, 32)
+    viewer = Viewer("teapot", size=size, seed=3, denoise=False)
     viewer.interacting = True
-    preview = viewer.frame()
-    assert preview.shape == full.shape
-    blocks = preview.reshape(32, 2, 32, 2, 3)
-    assert (blocks == blocks[:, :1, :, :1]).all()  # each pixel of the preview shown 2 x 2
-    assert viewer.budgets.preview_scale == 2 and viewer.budgets.preview_fps > 0
-    viewer.set_layer(0, N=5)  # updates the preview now, the full image when it is shown
-    assert viewer.passes == 0
-    viewer.frame()
+    first = viewer.frame()
+    assert viewer.source == "rasterized" and viewer.raster_refusal is None
+    reference = Rasterizer(viewer.scene, size=size)
+    np.testing.assert_array_equal(first, reference.frame_srgb(viewer.exposure))
+    assert viewer.passes == 0 and viewer.budgets.raster_fps > 0 and viewer.budgets.fps is None
+    viewer.set_layer(0, period_nm=300.0)  # a layer edit shows in the next frame
+    edited = viewer.frame()
+    reference.update(viewer.scene)
+    np.testing.assert_array_equal(edited, reference.frame_srgb(viewer.exposure))
+    assert differs(edited, first) > 1.0
     viewer.interacting = False
-    viewer.frame()
-    assert viewer.passes == 1  # the full image restarted for the edit made meanwhile
-    viewer.frame()
-    assert viewer.passes == 2
+    for k in range(1, HANDOVER_SPP):
+        pixels = viewer.frame()
+        assert (viewer.source, viewer.passes) == ("rasterized", k)
+        # Drawn on, jittered, while the path tracer gathers samples.
+        np.testing.assert_array_equal(pixels, reference.frame_srgb(viewer.exposure))
+    traced = viewer.frame()
+    assert (viewer.source, viewer.passes) == ("path-traced", HANDOVER_SPP)
+    path = Renderer(viewer.scene, size=size, seed=3, mode="rgb", colour_method="averaged",
+                    ibl="monte-carlo")
+    np.testing.assert_array_equal(traced, display_transform(path.render(HANDOVER_SPP),
+                                                            viewer.exposure))
+    assert viewer.budgets.fps > 0
+    # refine() shows the path tracer's picture whatever its samples.
+    viewer.set_layer(0, N=5)
+    viewer.refine(1)
+    assert (viewer.source, viewer.passes) == ("path-traced", 1)
 
 
-def test_the_preview_lights_with_filtered_ibl_where_the_scene_allows_it():
-    """Camera rays only (split-sum IBL) keep the preview at full resolution: its frame is the
-    filtered renderer's; a coated structure, or preview_ibl=False, previews with paths."""
-    viewer = Viewer("teapot", size=(32, 32), seed=3)
-    viewer.frame()
-    viewer.interacting = True
-    assert viewer.preview_lighting == "split-sum"
-    preview = viewer.frame()
-    assert viewer.budgets.preview_scale == 1
-    expected = Renderer(viewer.scene, size=(32, 32), seed=3, mode="rgb", ibl="split-sum")
-    np.testing.assert_array_equal(preview, display_transform(expected.render(1),
-                                                             viewer.exposure))
-    viewer.interacting = False
-    assert viewer.frame().shape == preview.shape and viewer.passes == 2
-    coated = Viewer("fig11", size=(16, 16))
+def test_scenes_the_rasterizer_cannot_shade_are_previewed_by_paths():
+    """A smooth coating or spectral mode: interaction falls back to the path-traced preview at
+    a reduced resolution, and at rest the path tracer shows from its first sample."""
+    coated = Viewer("fig11", size=(16, 16), mode="rgb", preview_scale=2)
+    assert "coating" in coated.raster_refusal
     coated.interacting = True
-    assert coated.preview_lighting == "monte-carlo"
-    plain = Viewer("teapot", size=(16, 16), preview_ibl=False)
-    plain.interacting = True
-    assert plain.preview_lighting == "monte-carlo"
-
-
-def test_the_first_preview_scale_is_guessed_from_the_paths_shown_before_it():
-    """Before any preview frame, a filtered-lighting pixel is taken to cost 0.3 of the paths'
-    measured cost (it was full size, 9-12 frames/s at 256 x 256 on lavapipe); a frame that
-    compiled pipelines does not hold the estimate up once a normal one is measured."""
-    from wgbragg.app import viewer as viewer_module
-
-    viewer = Viewer("teapot", size=(256, 256))
-    budget = viewer_module._PREVIEW_HEADROOM / viewer_module.PREVIEW_BUDGET_FPS
-    share = viewer_module._FILTERED_PIXEL_COST_SHARE
-    assert viewer.preview_scale("split-sum") == 1  # nothing measured: full size
-    viewer._measure(False, 1, "monte-carlo", 3.0, 256 * 256)  # a first frame, compiling
-    viewer._measure(False, 1, "monte-carlo", 0.4, 256 * 256)
-    per_pixel = 0.4 / (256 * 256)
-    assert viewer._pixel_seconds["monte-carlo"] == per_pixel
-    expected = next(k for k in viewer_module.PREVIEW_SCALES
-                    if share * per_pixel * (256 // k) ** 2 <= budget)
-    assert viewer.preview_scale("split-sum") == expected == 2
-    viewer._measure(True, 2, "split-sum", 0.001, 128 * 128)  # measured: the guess is gone
-    assert viewer.preview_scale("split-sum") == 1
+    preview = coated.frame()
+    assert coated.source == "preview" and preview.shape == (16, 16, 3)
+    blocks = preview.reshape(8, 2, 8, 2, 3)
+    assert (blocks == blocks[:, :1, :, :1]).all()  # each pixel of the preview shown 2 x 2
+    assert coated.budgets.preview_scale == 2 and coated.budgets.preview_fps > 0
+    coated.interacting = False
+    coated.frame()
+    assert (coated.source, coated.passes) == ("path-traced", 1)
+    viewer = Viewer("teapot", size=(16, 16))
+    assert viewer.raster_refusal is None and viewer.preview_scale() == 2  # not measured yet
+    viewer.edit(mode="spectral")
+    assert viewer.raster_refusal.startswith("spectral mode")
+    viewer.interacting = True
+    viewer.frame()
+    assert viewer.source == "preview" and viewer.budgets.preview_scale == 2
+    assert viewer.preview_scale() in PREVIEW_SCALES  # from the cost just measured
+    viewer.edit(mode="rgb")
+    assert viewer.raster_refusal is None
+    viewer.frame()
+    assert viewer.source == "rasterized"
 
 
 def test_side_panel_data(viewer):
@@ -376,6 +386,7 @@ def panel_region(window, frame: np.ndarray) -> np.ndarray:
 def test_window_shows_the_render_and_the_panel(window):
     frames = [window.capture() for _ in range(4)]
     frame = frames[-1]
+    assert window.viewer.source == "path-traced"
     assert frame.shape == (760, 1040, 3)
     picture = window.picture(frame)
     assert picture.shape == (*SIZE[::-1], 3)
@@ -388,6 +399,30 @@ def test_window_shows_the_render_and_the_panel(window):
     assert (saturation(strip) > 0.5).mean() > 0.2, "no saturated hues in the colour strip"
     assert panel_region(window, frame).std() > 20
     assert differs(frames[0], frames[-1]) > 0  # progressive: the picture refines
+
+
+def test_the_window_shows_a_rasterized_frame_then_a_path_traced_one(window):
+    """The first frame is rasterized, at full size; once the view has rested for HANDOVER_SPP
+    frames the path tracer's replaces it, showing the same picture within the noise."""
+    viewer = window.viewer
+    raster = window.picture(window.capture())
+    assert viewer.source == "rasterized" and raster.shape == (*SIZE[::-1], 3)
+    assert np.abs(raster.astype(int) - viewer.last_frame).max() <= 1
+    blocks = raster.reshape(SIZE[1] // 2, 2, SIZE[0] // 2, 2, 3)
+    assert not (blocks == blocks[:, :1, :, :1]).all(), "not at full resolution"
+    assert raster.std() > 10 and (saturation(raster) > 0.5).mean() > 0.01
+    for _ in range(HANDOVER_SPP - 2):
+        window.draw()
+        assert viewer.source == "rasterized"
+    traced = window.picture(window.capture())
+    assert viewer.source == "path-traced" and viewer.passes == HANDOVER_SPP
+    mean_abs = differs(traced, raster)
+    channels = np.abs(traced.reshape(-1, 3).mean(0) - raster.reshape(-1, 3).mean(0))
+    print(f"rasterized vs path-traced: mean |difference| {mean_abs:.2f}, channel means "
+          f"{np.round(channels, 2)} (8-bit levels)")
+    assert 0.0 < mean_abs <= RASTER_PATH_MEAN_ABS
+    assert channels.max() <= RASTER_PATH_CHANNEL_MEANS
+    assert window.raster_fps > 0 and window.fps is None  # one path-traced frame so far
 
 
 def test_frames_change_after_edits(window):
@@ -467,12 +502,21 @@ def test_the_noise_toggle_changes_the_frame(window):
     viewer.set_film(noise=True, noise_range_nm=(250.0, 750.0))
     assert viewer.passes == 0
     noisy = window.capture()
-    assert differs(window.picture(noisy), window.picture(uniform)) > 2.0
+    assert viewer.source == "rasterized"
     viewer.set_film(noise_range_nm=(300.0, 400.0))
-    assert differs(window.picture(window.capture()), window.picture(noisy)) > 1.0
+    narrow = window.picture(window.capture())
+    # Rasterized frames have no noise: the pixels that change are the film's (the teapot,
+    # about a quarter of the picture), and each frame is compared there.
+    for before, after in ((window.picture(uniform), window.picture(noisy)),
+                          (window.picture(noisy), narrow)):
+        changed = (before != after).any(axis=-1)
+        print(f"noise toggle: {changed.mean():.0%} of the picture changed, by "
+              f"{differs(before[changed], after[changed]):.1f} levels")
+        assert changed.mean() > 0.08  # measured 18 % and 13 %, by 9.0 and 15.5 levels
+        assert differs(before[changed], after[changed]) > 4.0
 
 
-def test_dragging_the_picture_orbits_with_a_preview(window):
+def test_dragging_the_picture_orbits_with_rasterized_frames(window):
     window.draw()  # lays the picture out
     x, y, width, height = window.image_rect
     yaw = window.viewer.yaw_deg
@@ -482,9 +526,11 @@ def test_dragging_the_picture_orbits_with_a_preview(window):
                        "y": y + height / 2})
     frame = window.capture()
     assert window.viewer.yaw_deg == pytest.approx(yaw - 20.0)
-    assert window.viewer.budgets.preview_scale == 2
+    assert window.viewer.source == "rasterized" and window.viewer.passes == 0
     blocks = window.picture(frame).reshape(64, 2, 64, 2, 3)
-    assert (blocks == blocks[:, :1, :, :1]).all()
+    assert not (blocks == blocks[:, :1, :, :1]).all()  # full resolution
+    window.capture()
+    assert window.raster_fps > 0
     window.on_pointer({"event_type": "pointer_up", "x": x, "y": y, "button": 1})
     window.on_wheel({"event_type": "wheel", "dx": 0.0, "dy": 400.0})
     assert window.viewer.distance == pytest.approx(2.0 * np.hypot(2.0, 0.6))
@@ -530,7 +576,7 @@ def test_demo_renders_offscreen_without_a_display(tmp_path):
                              "--size", "32x32", "-o", str(target)], env=environment,
                             capture_output=True, text=True, check=True)
     assert result.stdout.strip().splitlines()[-1] == str(target)
-    assert "32x32, 2 spp" in result.stderr
+    assert "32x32, 2 spp path-traced" in result.stderr
     pixels = np.asarray(Image.open(target).convert("RGB"))
     assert pixels.shape == (760, 1040, 3) and pixels.std() > 20
     assert [p.name for p in tmp_path.iterdir()] == ["demo.png"]  # no temporary file left

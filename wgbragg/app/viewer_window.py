@@ -1,6 +1,7 @@
 """The demo window: a :class:`wgbragg.app.viewer.Viewer` with its controls, on screen or offscreen.
 
-The picture is the viewer's progressive render (``wgsl/app/viewer_window.wgsl``) beside a Dear
+The picture is the viewer's frame, rasterized while the user interacts and path-traced at rest
+(``wgsl/app/viewer_window.wgsl`` draws it), beside a Dear
 ImGui side panel of budgets, rendering controls, the material's parameters, and the selected
 layer's or film's spectrum and colour strip. ``offscreen=True`` renders the same window
 without a display. GUI packages are imported when a window is made. Layout and controls:
@@ -22,6 +23,7 @@ from wgbragg.app.viewer import (
     LAYER_FIELDS,
     MAX_LAYERS,
     PREVIEW_BUDGET_FPS,
+    RASTER_BUDGET_FPS,
     TABLE_BUDGET_MS,
     Viewer,
 )
@@ -94,9 +96,10 @@ class ViewerWindow:
         The glfw window or the offscreen canvas.
     selected_layer : int
         The layer whose spectrum and colour strip the panel shows.
-    fps, preview_fps : float or None
-        Window frames per second at full resolution and while previewing: running averages
-        of the time between frames (render, display, panel and presentation).
+    fps, raster_fps, preview_fps : float or None
+        Window frames per second of path-traced, rasterized and path-traced preview frames
+        (:attr:`Viewer.source`): running averages of the time between frames (render,
+        display, panel and presentation).
     image_rect : tuple of 4 ints
         Where the last frame drew the picture: x, y, width, height in canvas pixels.
     image_scale : float
@@ -150,9 +153,9 @@ class ViewerWindow:
         self._gui_active = False
         self._tab_shown = 0
         self._last_draw: float | None = None
-        self._last_interacting = False
-        # Running mean time between frames, previews (True) and full-resolution ones (False).
-        self._frame_seconds: dict[bool, float] = {}
+        self._last_source: str | None = None
+        # Running mean time between frames, per source of the frame (Viewer.source).
+        self._frame_seconds: dict[str, float] = {}
         self._capture = False
         self._add_sample = True
         self._captured: np.ndarray | None = None
@@ -164,17 +167,24 @@ class ViewerWindow:
 
     # ------------------------------------------------------------------ public
 
-    @property
-    def fps(self) -> float | None:
-        """Full-resolution window frames per second (None before two such frames)."""
-        seconds = self._frame_seconds.get(False)
+    def _fps(self, source: str) -> float | None:
+        seconds = self._frame_seconds.get(source)
         return None if seconds is None else 1.0 / seconds
 
     @property
+    def fps(self) -> float | None:
+        """Path-traced full-size window frames per second (None before two such frames)."""
+        return self._fps("path-traced")
+
+    @property
+    def raster_fps(self) -> float | None:
+        """Rasterized window frames per second (None before two such frames)."""
+        return self._fps("rasterized")
+
+    @property
     def preview_fps(self) -> float | None:
-        """Preview window frames per second (None before two such frames)."""
-        seconds = self._frame_seconds.get(True)
-        return None if seconds is None else 1.0 / seconds
+        """Path-traced preview window frames per second (None before two such frames)."""
+        return self._fps("preview")
 
     def draw(self) -> None:
         """Draw and present one frame now (one more sample per pixel).
@@ -301,17 +311,19 @@ class ViewerWindow:
     def _draw_frame(self) -> None:
         now = time.perf_counter()
         if self._last_draw is not None:
+            # The time since the last frame, counted to that frame's source.
             seconds = now - self._last_draw
-            average = self._frame_seconds.get(self._last_interacting)
-            self._frame_seconds[self._last_interacting] = seconds if average is None else (
+            average = self._frame_seconds.get(self._last_source)
+            self._frame_seconds[self._last_source] = seconds if average is None else (
                 (1.0 - _SMOOTHING) * average + _SMOOTHING * seconds)
         viewer = self.viewer
         viewer.interacting = (self._dragging or self._gui_active
                               or now - self._wheel_time < _WHEEL_SECONDS)
-        self._last_draw, self._last_interacting = now, viewer.interacting
+        self._last_draw = now
         pixels = viewer.display() if not self._add_sample else None
         if pixels is None:
             pixels = viewer.frame()
+        self._last_source = viewer.source
         self._upload(pixels)
         texture = self._context.get_current_texture()
         canvas_width, canvas_height = texture.size[:2]
@@ -418,20 +430,29 @@ class ViewerWindow:
         width, height = viewer.size
         denoised = (f", denoised ({budgets.denoise_ms:.0f} ms)"
                     if viewer.denoised and budgets.denoise_ms is not None else "")
-        imgui.text(f"{width} x {height}, {viewer.passes} spp, {viewer.mode.upper()} mode"
-                   f"{denoised}")
+        imgui.text(f"{width} x {height}, {viewer.mode.upper()} mode, path tracer "
+                   f"{viewer.passes} spp")
+        imgui.text(f"showing: {viewer.source}{denoised}")
         imgui.separator_text("budgets (wall clock, green: met)")
-        if self.fps is not None:
-            self._budget_line(f"full size: {self.fps:.1f} frames/s (render "
-                              f"{budgets.fps:.1f})", None)
-        if self.preview_fps is None:
-            self._budget_line(f"preview: drag the picture (>= {PREVIEW_BUDGET_FPS:g} "
+        refusal = viewer.raster_refusal
+        if refusal is not None:
+            imgui.text_wrapped(f"not rasterized: {refusal}; interaction is previewed by paths")
+            if self.preview_fps is None:
+                self._budget_line(f"preview: drag the picture (>= {PREVIEW_BUDGET_FPS:g} "
+                                  "frames/s)", None)
+            else:
+                self._budget_line(f"preview: {self.preview_fps:.1f} frames/s (render "
+                                  f"{budgets.preview_fps:.1f} at 1/{budgets.preview_scale} "
+                                  "size)", self.preview_fps >= PREVIEW_BUDGET_FPS)
+        elif self.raster_fps is None:
+            self._budget_line(f"rasterized: drag the picture (>= {RASTER_BUDGET_FPS:g} "
                               "frames/s)", None)
         else:
-            self._budget_line(f"preview: {self.preview_fps:.1f} frames/s (render "
-                              f"{budgets.preview_fps:.1f} at 1/{budgets.preview_scale} size, "
-                              f"{self.viewer.preview_lighting})",
-                              self.preview_fps >= PREVIEW_BUDGET_FPS)
+            self._budget_line(f"rasterized: {self.raster_fps:.1f} frames/s (render "
+                              f"{budgets.raster_fps:.1f})", self.raster_fps >= RASTER_BUDGET_FPS)
+        if self.fps is not None:
+            self._budget_line(f"path-traced: {self.fps:.1f} frames/s (render "
+                              f"{budgets.fps:.1f})", None)
         if budgets.table_ms is None:
             self._budget_line(f"tables: edit a layer (<= {TABLE_BUDGET_MS:g} ms)", None)
         else:
