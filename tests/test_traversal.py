@@ -99,50 +99,66 @@ def test_soup_hits_match_numpy_bvh(soup):
 # ---------------------------------------------------------------------------- node texels
 
 
-def _decoded(texels: np.ndarray, total: int):
-    """What bvh_root and bvh_node (render/renderer_scene.wgsl) read: the centre, the root's
-    reference, and nodes 1 .. total - 1's boxes (relative to the centre) and references."""
-    words = texels.reshape(-1, 4).view(np.uint32)
-    halves = words[1:total + 1, :3].copy().view(np.uint16).reshape(-1, 6)
-    boxes = halves.view(np.float16).astype(np.float64)
-    return words[0, :3].view(np.float32), words[0, 3], boxes[1:, :3], boxes[1:, 3:], words[
-        2:total + 1, 3]
-
-
 def test_node_texels_hold_boxes_outward_and_references_exactly():
+    """What bvh_root and bvh_node (render/renderer_scene.wgsl) read: the centre, the root's
+    reference, and each wide node's four slots: boxes around the binary tree's (relative to
+    the centre) and references to wide nodes or leaves' faces."""
     from wgbragg.render import packing
-    from wgbragg.render.bvh import build_bvh
+    from wgbragg.render.bvh import build_bvh, collapse_wide
     from wgbragg.scene.meshes import sphere_mesh
 
     mesh = sphere_mesh(4)
     bvh = build_bvh(mesh.vertices * 3.0 + [100.0, -2.0, 0.5], mesh.faces)
+    children, wide_index, _ = collapse_wide(bvh)
     texels = packing._node_texels(bvh, 8192)
-    total, width = bvh.node_total, packing.NODE_TEXTURE_WIDTH
-    assert texels.dtype == np.float32 and texels.shape == (-(-(total + 1) // width), width, 4)
-    assert not texels.reshape(-1, 4)[total + 1:].view(np.uint32).any()   # zero padding
-    centre, root, lo, hi, refs = _decoded(texels, total)
+    width, used = packing.NODE_TEXTURE_WIDTH, 4 * len(children) + 4
+    assert texels.dtype == np.float32 and texels.shape == (-(-used // width), width, 4)
+    words = texels.reshape(-1, 4).view(np.uint32)
+    assert not words[used:].any() and not words[1:4].any()   # padding
+    centre = words[0, :3].view(np.float32)
     np.testing.assert_allclose(centre, (bvh.node_min[0] + bvh.node_max[0]) / 2, rtol=1e-7)
-    # Every box contains the tree's own (float32) box, and not by much.
-    world_lo, world_hi = lo + centre, hi + centre
-    assert np.all(world_lo <= bvh.node_min[1:]) and np.all(world_hi >= bvh.node_max[1:])
-    assert np.max(bvh.node_min[1:] - world_lo) < 0.01
-    assert np.max(world_hi - bvh.node_max[1:]) < 0.01
-    # References: the children's pair of an interior node, first << 7 | count of a leaf.
-    expected = np.where(bvh.node_count == 0,
-                        0x80000000 | (bvh.node_left.astype(np.int64) + 1) // 2,
-                        bvh.node_first.astype(np.int64) << 7 | bvh.node_count)
-    assert root == expected[0]
-    np.testing.assert_array_equal(refs, expected[1:])
+    assert words[0, 3] == 0x80000000   # the root is wide node 0
+    slots = words[4:used].reshape(-1, 4)
+    node = children.ravel()
+    empty = node < 0
+    assert not slots[empty].any()   # a leaf of no faces
+    slots, node = slots[~empty], node[~empty]
+    halves = slots[:, :3].copy().view(np.uint16).view(np.float16).astype(np.float64)
+    world_lo, world_hi = halves[:, :3] + centre, halves[:, 3:] + centre
+    # Every box contains the binary tree's own (float32) box, and not by much.
+    assert np.all(world_lo <= bvh.node_min[node]) and np.all(world_hi >= bvh.node_max[node])
+    assert np.max(bvh.node_min[node] - world_lo) < 0.01
+    assert np.max(world_hi - bvh.node_max[node]) < 0.01
+    expected = np.where(bvh.node_count[node] == 0, 0x80000000 | wide_index[node],
+                        bvh.node_first[node].astype(np.int64) << 7 | bvh.node_count[node])
+    np.testing.assert_array_equal(slots[:, 3], expected)
+
+
+def test_wide_nodes_reach_every_leaf_once():
+    from wgbragg.render.bvh import build_bvh, collapse_wide
+    from wgbragg.scene.meshes import sphere_mesh
+
+    mesh = sphere_mesh(4)
+    bvh = build_bvh(mesh.vertices, mesh.faces)
+    children, wide_index, levels = collapse_wide(bvh)
+    node = children[children >= 0]
+    leaves = node[bvh.node_count[node] > 0]
+    assert sorted(leaves) == list(np.flatnonzero(bvh.node_count > 0))
+    inner = node[bvh.node_count[node] == 0]
+    # Each interior child is a wide node of its own, numbered breadth-first after its parent.
+    assert sorted(wide_index[inner]) == list(range(1, len(children)))
+    assert (children >= 0).sum(axis=1).min() >= 2 and children.shape[1] == 4
+    assert (bvh.depth + 1) // 2 <= levels <= bvh.depth
 
 
 def test_a_bvh_too_large_for_the_node_texture_is_refused():
     from wgbragg.render import packing
-    from wgbragg.render.bvh import build_bvh
+    from wgbragg.render.bvh import build_bvh, collapse_wide
     from wgbragg.scene.meshes import sphere_mesh
 
     mesh = sphere_mesh(5)
     bvh = build_bvh(mesh.vertices, mesh.faces)
-    rows = -(-(bvh.node_total + 1) // packing.NODE_TEXTURE_WIDTH)
+    rows = -(-(4 * len(collapse_wide(bvh)[0]) + 4) // packing.NODE_TEXTURE_WIDTH)
     assert rows > 1
     assert packing._node_texels(bvh, rows).shape[0] == rows
     with pytest.raises(ValueError, match=f"{bvh.node_total:,} nodes"):

@@ -570,3 +570,50 @@ def _depth_first_positions(levels: list[np.ndarray], child: np.ndarray) -> np.nd
         block[left] = block[inner] + 2
         block[left + 1] = block[inner] + 2 + below[left]
     return position
+
+
+def collapse_wide(bvh: BVH, width: int = 4) -> tuple[np.ndarray, np.ndarray, int]:
+    """The tree with up to ``width`` children a node, made from ``bvh``'s binary nodes.
+
+    Each wide node stands for an interior binary node: its children start as that node's
+    two, and the interior child of largest surface area is replaced by its own two while
+    there are fewer than ``width``. Every interior child is a wide node in turn; leaves stay
+    the binary tree's (and so does ``triangle_order``). Built level by level with array
+    operations.
+
+    Returns
+    -------
+    children : ndarray, shape (W, width), int64
+        Wide node k's children as binary-node indices, -1 in unused slots. Wide node 0 is
+        the root's; nodes are numbered breadth-first.
+    wide_index : ndarray, shape (N,), int64
+        For each binary node that is a wide node, its number; -1 for the others.
+    levels : int
+        Wide nodes on the longest root-to-leaf path (0 when the root is a leaf).
+    """
+    interior = bvh.node_count == 0
+    size = bvh.node_max.astype(np.float64) - bvh.node_min.astype(np.float64)
+    area = size[:, 0] * size[:, 1] + size[:, 1] * size[:, 2] + size[:, 2] * size[:, 0]
+    left = bvh.node_left.astype(np.int64)
+    wide_index = np.full(bvh.node_total, -1, dtype=np.int64)
+    blocks, frontier, total, levels = [], np.array([0] if interior[0] else [], np.int64), 0, 0
+    while frontier.size:
+        wide_index[frontier] = total + np.arange(frontier.size)
+        total += frontier.size
+        levels += 1
+        members = np.full((frontier.size, width), -1, dtype=np.int64)
+        members[:, 0], members[:, 1] = left[frontier], left[frontier] + 1
+        rows = np.arange(frontier.size)
+        for filled in range(2, width):
+            safe = np.maximum(members, 0)
+            score = np.where((members >= 0) & interior[safe], area[safe], -np.inf)
+            pick = np.argmax(score, axis=1)
+            grow = np.isfinite(score[rows, pick])
+            r, node = rows[grow], members[rows[grow], pick[grow]]
+            members[r, pick[grow]] = left[node]
+            members[r, filled] = left[node] + 1
+        blocks.append(members)
+        inner = members[(members >= 0) & interior[np.maximum(members, 0)]]
+        frontier = inner
+    children = np.concatenate(blocks) if blocks else np.zeros((0, width), np.int64)
+    return children, wide_index, levels

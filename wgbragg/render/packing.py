@@ -56,7 +56,7 @@ from wgbragg.lighting.environment_map import LUMINANCE_WEIGHTS, EnvironmentMap
 from wgbragg.lighting.environment_prefilter import prefilter_environment
 from wgbragg.lighting.ibl import microfacet_albedo_table
 from wgbragg.lighting.procedural_environment import ProceduralEnvironment
-from wgbragg.render.bvh import BVH, build_bvh
+from wgbragg.render.bvh import BVH, build_bvh, collapse_wide
 from wgbragg.scene.meshes import load_mesh, utah_teapot
 from wgbragg.scene.model import (
     MAX_RADIANCE,
@@ -97,7 +97,7 @@ SHARED_LAYERS = 32
 """Rough Bragg layers the renderers of a process share by their spec, each with the tables it
 keeps (about 1 MB): an edit re-bakes only the layer it changed, once for all renderers."""
 _shared_layers: collections.OrderedDict = collections.OrderedDict()
-_STACK_SIZE = 32  # STACK_SIZE of render/renderer_scene.wgsl
+_STACK_SIZE = 48  # STACK_SIZE of render/renderer_scene.wgsl
 _NODE_INTERIOR = 0x80000000  # NODE_INTERIOR of render/renderer_scene.wgsl
 NODE_TEXTURE_WIDTH = 4096
 """Texels a row of the BVH node texture (NODE_TEXTURE_WIDTH of render/renderer_scene.wgsl): one
@@ -280,16 +280,6 @@ def _sphere_bounds(to_world: np.ndarray) -> np.ndarray:
     return np.concatenate([to_world[:, :, 3] - half, to_world[:, :, 3] + half])
 
 
-def _node_refs(bvh) -> np.ndarray:
-    """Each node's reference word, as ``bvh_open`` of render/renderer_scene.wgsl reads it: an
-    interior node's is ``NODE_INTERIOR | k`` for its children, nodes ``2 k - 1`` and ``2 k``
-    (pair k); a leaf's is ``first << 7 | count`` (``count`` <= 64)."""
-    interior = bvh.node_count == 0
-    pair = (bvh.node_left.astype(np.int64) + 1) // 2
-    leaf = (bvh.node_first.astype(np.int64) << 7) | bvh.node_count.astype(np.int64)
-    return np.where(interior, _NODE_INTERIOR | pair, leaf).astype(np.uint32)
-
-
 def _half_outward(values: np.ndarray, down: bool) -> np.ndarray:
     """float64 ``values`` as float16 rounded towards -inf (``down``) or +inf; beyond float16's
     range the largest finite value on the safe side or an infinity."""
@@ -300,17 +290,21 @@ def _half_outward(values: np.ndarray, down: bool) -> np.ndarray:
     return np.where(half < values, np.nextafter(half, np.float16(np.inf)), half)
 
 
-def _node_texels(bvh, largest: int) -> np.ndarray:
+def _node_texels(bvh, largest: int, wide=None) -> np.ndarray:
     """The BVH as the ``(rows, NODE_TEXTURE_WIDTH, 4)`` texels of an ``rgba32float`` texture
-    holding 32-bit words (render/renderer_scene.wgsl reads them with ``bitcast``), row-major:
+    holding 32-bit words (render/renderer_scene.wgsl reads them with ``bitcast``), row-major,
+    its binary nodes collapsed into nodes of four children (:func:`bvh.collapse_wide`):
 
-    - texel 0: the root box's centre c (3 float32) and the root's reference
-      (:func:`_node_refs`);
-    - texel i + 1, node i >= 1: its box relative to c as six float16 rounded outward (after a
-      margin of 2**-20 of the root box's largest side, for the float32 rounding of the ray's
-      origin relative to c), packed as WGSL's ``pack2x16float`` (lo.x lo.y, lo.z hi.x,
-      hi.y hi.z), then its reference. So a box costs one texel and a sibling pair two
-      adjacent texels (2 k, 2 k + 1), never split across rows; texel 1 is unused.
+    - texel 0: the root box's centre c (3 float32) and the root's reference;
+    - texels 4 k + 4 .. 4 k + 7: wide node k's four child slots, each the child's box relative
+      to c as six float16 rounded outward (after a margin of 2**-20 of the root box's
+      largest side, for the float32 rounding of the ray's origin relative to c), packed as
+      WGSL's ``pack2x16float`` (lo.x lo.y, lo.z hi.x, hi.y hi.z), then its reference:
+      ``NODE_INTERIOR | k'`` for an interior child (wide node k'), ``first << 7 | count``
+      for a leaf (its faces in ``triangle_order``); an unused slot is a leaf of no faces.
+      A box costs one texel; a node's four never straddle a row.
+
+    ``wide`` is ``collapse_wide(bvh)`` where the caller has it.
 
     Raises
     ------
@@ -318,27 +312,32 @@ def _node_texels(bvh, largest: int) -> np.ndarray:
         If the tree needs more than ``largest`` rows (the device's max-texture-dimension-2d) or
         has 2**24 faces or more (its leaves' first face would not fit their reference).
     """
-    total = bvh.node_total
-    capacity = largest * NODE_TEXTURE_WIDTH - 1
+    children, wide_index, _ = collapse_wide(bvh) if wide is None else wide
+    texels_needed = 4 * len(children) + 4
+    capacity = largest * NODE_TEXTURE_WIDTH
     faces = len(bvh.triangle_order)
-    if total > capacity or faces >= _NODE_EXACT:
+    if texels_needed > capacity or faces >= _NODE_EXACT:
         raise ValueError(
-            f"scene: its BVH has {total:,} nodes ({faces:,} triangles); the GPU node texture "
-            f"holds at most {capacity:,} on this device ({largest:,} rows of "
-            f"{NODE_TEXTURE_WIDTH:,} nodes, and fewer than 2**24 triangles): use fewer "
+            f"scene: its BVH has {bvh.node_total:,} nodes ({faces:,} triangles); the GPU node "
+            f"texture holds at most {capacity // 4 * 2:,} on this device ({largest:,} rows "
+            f"of {NODE_TEXTURE_WIDTH:,} texels, and fewer than 2**24 triangles): use fewer "
             "triangles")
     lo64, hi64 = bvh.node_min.astype(np.float64), bvh.node_max.astype(np.float64)
     centre = (0.5 * (lo64[0] + hi64[0])).astype(np.float32)
     margin = 2.0**-20 * float(np.max(hi64[0] - lo64[0]))
     lo = _half_outward(lo64 - centre - margin, down=True).view(np.uint16).astype(np.uint32)
     hi = _half_outward(hi64 - centre + margin, down=False).view(np.uint16).astype(np.uint32)
-    words = np.zeros((-(-(total + 1) // NODE_TEXTURE_WIDTH) * NODE_TEXTURE_WIDTH, 4), np.uint32)
+    leaf = (bvh.node_first.astype(np.int64) << 7) | bvh.node_count.astype(np.int64)
+    refs = np.where(bvh.node_count == 0, _NODE_INTERIOR | wide_index, leaf).astype(np.uint32)
+    node = np.column_stack([lo[:, 0] | lo[:, 1] << 16, lo[:, 2] | hi[:, 0] << 16,
+                            hi[:, 1] | hi[:, 2] << 16, refs])
+    rows = -(-texels_needed // NODE_TEXTURE_WIDTH)
+    words = np.zeros((rows * NODE_TEXTURE_WIDTH, 4), np.uint32)
     words[0, :3] = centre.view(np.uint32)
-    refs = _node_refs(bvh)
     words[0, 3] = refs[0]
-    words[2:total + 1] = np.column_stack([
-        lo[1:, 0] | lo[1:, 1] << 16, lo[1:, 2] | hi[1:, 0] << 16, hi[1:, 1] | hi[1:, 2] << 16,
-        refs[1:]])
+    slots = children.ravel()
+    used = slots >= 0
+    words[4:texels_needed][used] = node[slots[used]]
     return words.view(np.float32).reshape(-1, NODE_TEXTURE_WIDTH, 4)
 
 
@@ -431,10 +430,12 @@ def pack_geometry(scene: Scene) -> PackedGeometry:
             nodes=np.zeros((1, NODE_TEXTURE_WIDTH, 4), np.float32),
             corners=np.zeros((1, SHAPE_TEXTURE_WIDTH, 4), np.float32), **common)
     bvh = build_bvh(vertices, faces[:, :3])
-    if bvh.depth + 1 > _STACK_SIZE:
+    wide = collapse_wide(bvh)
+    # bvh_trace_deep's stack holds at most three entries a level of wide nodes.
+    if 3 * wide[2] + 1 > _STACK_SIZE:
         raise ValueError(f"scene: its BVH is {bvh.depth} levels deep; the GPU traversal "
-                         f"handles at most {_STACK_SIZE - 1}")
-    nodes = _node_texels(bvh, _max_texture_dimension())
+                         f"handles at most {(_STACK_SIZE - 1) // 3} levels of 4-wide nodes")
+    nodes = _node_texels(bvh, _max_texture_dimension(), wide)
     ordered = np.ascontiguousarray(faces[bvh.triangle_order], np.uint32)
     vertices32 = vertices.astype(np.float32)
     return PackedGeometry(

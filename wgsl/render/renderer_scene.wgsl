@@ -29,18 +29,18 @@
 
 // Slots of bvh_trace_deep's stack: bvh.BVH.depth + 1 suffice; packing.py refuses deeper trees.
 // A binned-SAH tree of 1.3 million triangles is 21 deep.
-const STACK_SIZE: u32 = 32u;
+const STACK_SIZE: u32 = 48u;
 // Entries of bvh_trace_registers' stack (at most its eight registers); a pipeline constant so
 // that tests can make the deep traversal run.
 override REGISTER_STACK: u32 = 8u;
-// A node's reference word (wgbragg/render/packing.py _node_refs): for an interior node this
-// bit and k, its children being the pair k (nodes 2 k - 1 and 2 k); for a leaf its first face
-// << 7 | its number of faces.
+// A node's reference word (wgbragg/render/packing.py _node_texels): for an interior node this
+// bit and its number as a wide node (of four children, bvh.collapse_wide); for a leaf its
+// first face << 7 | its number of faces.
 const NODE_INTERIOR: u32 = 0x80000000u;
 // Texels a row of node_texels (packing._node_texels), row-major: texel 0 the root box's centre
-// and the root's reference, texel i + 1 node i: its box relative to that centre as six float16
-// (rounded outward) and its reference, 32-bit words read with bitcast. A box in one texel, a
-// sibling pair in two adjacent ones (docs/performance.md, "Traversal").
+// and the root's reference, texels 4 k + 4 .. 4 k + 7 wide node k's four children, each its
+// box relative to that centre as six float16 (rounded outward) and its reference, 32-bit
+// words read with bitcast: a box in one texel (docs/performance.md, "Traversal").
 const NODE_TEXTURE_WIDTH: u32 = 4096u;
 
 // Texels a row of shape_texels (wgbragg/render/packing.py SHAPE_TEXTURE_WIDTH), row-major.
@@ -55,7 +55,7 @@ fn shape_row(i: u32) -> vec4<f32> {
 struct BvhNode {
     lo: vec3<f32>,        // relative to bvh_centre()
     hi: vec3<f32>,
-    reference: u32,       // NODE_INTERIOR | children's pair, or first face << 7 | faces
+    reference: u32,       // NODE_INTERIOR | its wide node, or first face << 7 | faces
 }
 
 fn node_word(i: u32) -> vec4<u32> {
@@ -63,9 +63,10 @@ fn node_word(i: u32) -> vec4<u32> {
                                                                    i / NODE_TEXTURE_WIDTH), 0));
 }
 
-// Node i >= 1 (bvh.BVH's numbering); the root is known by its reference alone (bvh_root).
+// Texel i >= 4: child i % 4 of wide node i / 4 - 1. The root is known by its reference
+// alone (bvh_root).
 fn bvh_node(i: u32) -> BvhNode {
-    let w = node_word(i + 1u);
+    let w = node_word(i);
     let xy = unpack2x16float(w.x);
     let zx = unpack2x16float(w.y);
     let yz = unpack2x16float(w.z);
@@ -234,126 +235,150 @@ fn leaf_hits(origin: vec3<f32>, direction: vec3<f32>, first: u32, count: u32,
     return false;
 }
 
-// What opening an interior node did (bvh_open).
-const OPEN_POP: u32 = 0u;       // neither child is left to visit: take the next from the stack
-const OPEN_NEAR: u32 = 1u;      // visit `near`
-const OPEN_BOTH: u32 = 2u;      // visit `near`, then `far` (push it)
-const OPEN_DONE: u32 = 3u;      // an any-hit query found its hit
-
+// What opening a wide node did (bvh_open).
 struct Opened {
-    kind: u32,
-    near: u32,     // the children's pair of the interior child to visit next
-    far: u32,      // that of the one to visit after it
+    count: u32,    // interior children to visit (0 to 4); OPEN_DONE: the any-hit query is done
+    c0: u32,       // their wide nodes, nearest first
+    c1: u32,
+    c2: u32,
+    c3: u32,
+}
+const OPEN_DONE: u32 = 5u;
+
+// Entry distance of a slot's box, or -1 for a miss (also a leaf's, once tested).
+fn slot_entry(local: vec3<f32>, inverse: vec3<f32>, node: BvhNode, t_best: f32) -> f32 {
+    let span = box_span(local, inverse, node.lo, node.hi);
+    return select(-1.0, span.x, span.x <= span.y && span.y >= 0.0 && span.x < t_best);
 }
 
-// Opens the interior node whose children are the pair `pair`: both children's boxes are
-// tested here, at the parent, a hit leaf's faces at once (both leaves' in one loop, the nearer
-// first), and of two hit interior children the nearer by entry distance is visited first.
-// `local` is the ray's origin relative to bvh_centre (boxes), `origin` its own (faces).
+// Opens wide node k: its four children's boxes are tested here, a hit leaf's faces at once,
+// and the hit interior children sorted by entry distance. `local` is the ray's origin
+// relative to bvh_centre (boxes), `origin` its own (faces).
 fn bvh_open(origin: vec3<f32>, direction: vec3<f32>, local: vec3<f32>, inverse: vec3<f32>,
-            pair: u32, best: ptr<function, Hit>, any_hit: bool) -> Opened {
-    let a = bvh_node(2u * pair - 1u);
-    let b = bvh_node(2u * pair);
-    let span_a = box_span(local, inverse, a.lo, a.hi);
-    let span_b = box_span(local, inverse, b.lo, b.hi);
-    var hit_a = span_a.x <= span_a.y && span_a.y >= 0.0 && span_a.x < (*best).t;
-    var hit_b = span_b.x <= span_b.y && span_b.y >= 0.0 && span_b.x < (*best).t;
-    let leaf_a = hit_a && a.reference < NODE_INTERIOR;
-    let leaf_b = hit_b && b.reference < NODE_INTERIOR;
-    if (leaf_a || leaf_b) {
-        let a_first = !leaf_b || (leaf_a && span_a.x <= span_b.x);
-        let first_ref = select(b.reference, a.reference, a_first);
-        let second_ref = select(a.reference, b.reference, a_first);
-        let first = first_ref >> 7u;
-        let first_count = first_ref & 127u;
-        let second = second_ref >> 7u;
-        let second_count = select(0u, second_ref & 127u, leaf_a && leaf_b);
-        let total = first_count + second_count;
-        for (var k = 0u; k < total; k++) {
-            let face = select(second + k - first_count, first + k, k < first_count);
-            let h = triangle_hit(origin, direction, face);
-            if (h.x > 0.0 && h.x < (*best).t) {
-                *best = Hit(h.x, i32(face), h.y, h.z);
-                if (any_hit) {
-                    return Opened(OPEN_DONE, 0u, 0u);
+            k: u32, best: ptr<function, Hit>, any_hit: bool) -> Opened {
+    let n0 = bvh_node(4u * k + 4u);
+    let n1 = bvh_node(4u * k + 5u);
+    let n2 = bvh_node(4u * k + 6u);
+    let n3 = bvh_node(4u * k + 7u);
+    var e = vec4<f32>(slot_entry(local, inverse, n0, (*best).t),
+                      slot_entry(local, inverse, n1, (*best).t),
+                      slot_entry(local, inverse, n2, (*best).t),
+                      slot_entry(local, inverse, n3, (*best).t));
+    var r = vec4<u32>(n0.reference, n1.reference, n2.reference, n3.reference);
+    let leaf = (e >= vec4<f32>(0.0)) & (r < vec4<u32>(NODE_INTERIOR));
+    if (any(leaf)) {
+        for (var j = 0u; j < 4u; j++) {
+            if (leaf[j]) {
+                if (leaf_hits(origin, direction, r[j] >> 7u, r[j] & 127u, best, any_hit)) {
+                    return Opened(OPEN_DONE, 0u, 0u, 0u, 0u);
                 }
             }
         }
-        hit_a = hit_a && !leaf_a && span_a.x < (*best).t;
-        hit_b = hit_b && !leaf_b && span_b.x < (*best).t;
     }
-    let a_near = !hit_b || (hit_a && span_a.x <= span_b.x);
-    let near = select(b.reference, a.reference, a_near) & ~NODE_INTERIOR;
-    let far = select(a.reference, b.reference, a_near) & ~NODE_INTERIOR;
-    let kind = select(select(OPEN_POP, OPEN_NEAR, hit_a || hit_b), OPEN_BOTH, hit_a && hit_b);
-    return Opened(kind, near, far);
+    // Misses, leaves and boxes beyond the nearest hit found sort last (as +inf).
+    let keep = (e >= vec4<f32>(0.0)) & !leaf & (e < vec4<f32>((*best).t));
+    e = select(vec4<f32>(3.0e38), e, keep);
+    // A sorting network of five compare-exchanges.
+    var lo = select(e.yx, e.xy, e.x <= e.y);
+    var rlo = select(r.yx, r.xy, e.x <= e.y);
+    var hi = select(e.wz, e.zw, e.z <= e.w);
+    var rhi = select(r.wz, r.zw, e.z <= e.w);
+    let a0 = select(hi.x, lo.x, lo.x <= hi.x);
+    let ra0 = select(rhi.x, rlo.x, lo.x <= hi.x);
+    let b0 = select(lo.x, hi.x, lo.x <= hi.x);
+    let rb0 = select(rlo.x, rhi.x, lo.x <= hi.x);
+    let a1 = select(hi.y, lo.y, lo.y <= hi.y);
+    let ra1 = select(rhi.y, rlo.y, lo.y <= hi.y);
+    let b1 = select(lo.y, hi.y, lo.y <= hi.y);
+    let rb1 = select(rlo.y, rhi.y, lo.y <= hi.y);
+    // a0 is the least, b1 the greatest; b0 and a1 in between.
+    let m0 = select(a1, b0, b0 <= a1);
+    let rm0 = select(ra1, rb0, b0 <= a1);
+    let m1 = select(b0, a1, b0 <= a1);
+    let rm1 = select(rb0, ra1, b0 <= a1);
+    let count = u32(keep.x) + u32(keep.y) + u32(keep.z) + u32(keep.w);
+    let mask = ~NODE_INTERIOR;
+    return Opened(count, ra0 & mask, rm0 & mask, rm1 & mask, rb1 & mask);
 }
 
 // The traversal with its stack in eight registers (s0 the top): llvmpipe keeps a dynamically
-// indexed array per lane in memory, and such an array alone cost about 10 % of a frame
+// indexed array per lane in memory, and such an array alone cost several % of a frame
 // (docs/performance.md, "Traversal"). False if the stack would overflow: `best` then holds
 // what was found so far, and bvh_trace_deep finishes the query.
 fn bvh_trace_registers(origin: vec3<f32>, direction: vec3<f32>, local: vec3<f32>,
-                       inverse: vec3<f32>, root_pair: u32, best: ptr<function, Hit>,
+                       inverse: vec3<f32>, root: u32, best: ptr<function, Hit>,
                        any_hit: bool) -> bool {
     var s0 = 0u; var s1 = 0u; var s2 = 0u; var s3 = 0u;
     var s4 = 0u; var s5 = 0u; var s6 = 0u; var s7 = 0u;
     var top = 0u;
-    var pair = root_pair;
+    var node = root;
     loop {
-        let opened = bvh_open(origin, direction, local, inverse, pair, best, any_hit);
-        if (opened.kind == OPEN_DONE) {
+        let o = bvh_open(origin, direction, local, inverse, node, best, any_hit);
+        if (o.count == OPEN_DONE) {
             return true;
         }
-        if (opened.kind == OPEN_BOTH) {
-            if (top == REGISTER_STACK) {
+        if (o.count > 0u) {
+            if (top + o.count - 1u > REGISTER_STACK) {
                 return false;
             }
-            s7 = s6; s6 = s5; s5 = s4; s4 = s3; s3 = s2; s2 = s1; s1 = s0;
-            s0 = opened.far;
-            top += 1u;
-        }
-        if (opened.kind != OPEN_POP) {
-            pair = opened.near;
+            // The farther ones pushed, the farthest first.
+            if (o.count == 4u) {
+                s7 = s6; s6 = s5; s5 = s4; s4 = s3; s3 = s2; s2 = s1; s1 = s0; s0 = o.c3;
+            }
+            if (o.count >= 3u) {
+                s7 = s6; s6 = s5; s5 = s4; s4 = s3; s3 = s2; s2 = s1; s1 = s0; s0 = o.c2;
+            }
+            if (o.count >= 2u) {
+                s7 = s6; s6 = s5; s5 = s4; s4 = s3; s3 = s2; s2 = s1; s1 = s0; s0 = o.c1;
+            }
+            top += o.count - 1u;
+            node = o.c0;
             continue;
         }
         if (top == 0u) {
             return true;
         }
-        pair = s0;
+        node = s0;
         s0 = s1; s1 = s2; s2 = s3; s3 = s4; s4 = s5; s5 = s6; s6 = s7;
         top -= 1u;
     }
     return true;
 }
 
-// The same traversal with a stack in memory, as deep as any tree render.py accepts: for the
+// The same traversal with a stack in memory, as deep as any tree packing.py accepts: for the
 // rare query that overflows bvh_trace_registers' eight entries, from the root again with the
 // hits found so far pruning it.
 fn bvh_trace_deep(origin: vec3<f32>, direction: vec3<f32>, local: vec3<f32>,
-                  inverse: vec3<f32>, root_pair: u32, best: ptr<function, Hit>,
-                  any_hit: bool) {
+                  inverse: vec3<f32>, root: u32, best: ptr<function, Hit>, any_hit: bool) {
     var stack: array<u32, STACK_SIZE>;
     var top = 0u;
-    var pair = root_pair;
+    var node = root;
     loop {
-        let opened = bvh_open(origin, direction, local, inverse, pair, best, any_hit);
-        if (opened.kind == OPEN_DONE) {
+        let o = bvh_open(origin, direction, local, inverse, node, best, any_hit);
+        if (o.count == OPEN_DONE) {
             return;
         }
-        if (opened.kind == OPEN_BOTH) {
-            stack[top] = opened.far;
-            top += 1u;
-        }
-        if (opened.kind != OPEN_POP) {
-            pair = opened.near;
+        if (o.count > 0u) {
+            if (o.count == 4u) {
+                stack[top] = o.c3;
+                top += 1u;
+            }
+            if (o.count >= 3u) {
+                stack[top] = o.c2;
+                top += 1u;
+            }
+            if (o.count >= 2u) {
+                stack[top] = o.c1;
+                top += 1u;
+            }
+            node = o.c0;
             continue;
         }
         if (top == 0u) {
             return;
         }
         top -= 1u;
-        pair = stack[top];
+        node = stack[top];
     }
 }
 
@@ -404,9 +429,9 @@ fn trace(origin: vec3<f32>, direction: vec3<f32>, t_max: f32, any_hit: bool) -> 
         leaf_hits(origin, direction, root.w >> 7u, root.w & 127u, &best, any_hit);
         return best;
     }
-    let pair = root.w & ~NODE_INTERIOR;
-    if (!bvh_trace_registers(origin, direction, local, inverse, pair, &best, any_hit)) {
-        bvh_trace_deep(origin, direction, local, inverse, pair, &best, any_hit);
+    let wide = root.w & ~NODE_INTERIOR;
+    if (!bvh_trace_registers(origin, direction, local, inverse, wide, &best, any_hit)) {
+        bvh_trace_deep(origin, direction, local, inverse, wide, &best, any_hit);
     }
     return best;
 }
