@@ -1,0 +1,29 @@
+"""benchmarks.rasterizer: its quick mode measures every preset and both tables."""
+
+from __future__ import annotations
+
+import pytest
+
+from benchmarks import rasterizer
+
+pytestmark = pytest.mark.gpu
+
+
+def test_quick_mode_measures_every_preset_and_the_frame_rates():
+    results = rasterizer.run_benchmarks(rasterizer.QUICK, progress=False)
+    assert set(results["accuracy"]) == set(rasterizer.PRESETS)
+    assert "smooth coating" in results["accuracy"]["fig11"]["refused"]
+    for name, found in results["accuracy"].items():
+        if name == "fig11":
+            continue
+        assert found["visible"] >= 0.99
+        # The rasterizer shades as the filtered path trace does: closer to it than either
+        # is to the Monte Carlo reference, give or take the quick mode's noise.
+        assert 0.0 <= found["filtered"][0] < 0.2
+        assert found["reference"][1] >= 0.0
+    for rates in results["rates"].values():
+        assert all(rate > 0 for rate in rates.values())
+    section = rasterizer.render_section(results, rasterizer.QUICK, "python -m x --quick")
+    assert section.startswith(rasterizer.BEGIN_MARKER)
+    assert section.endswith(rasterizer.END_MARKER)
+    assert "**Quick mode" in section and "| fig11 | not rasterized" in section
