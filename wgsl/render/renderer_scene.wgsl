@@ -267,9 +267,20 @@ fn bvh_open(origin: vec3<f32>, direction: vec3<f32>, local: vec3<f32>, inverse: 
     var r = vec4<u32>(n0.reference, n1.reference, n2.reference, n3.reference);
     let leaf = (e >= vec4<f32>(0.0)) & (r < vec4<u32>(NODE_INTERIOR));
     if (any(leaf)) {
-        for (var j = 0u; j < 4u; j++) {
-            if (leaf[j]) {
-                if (leaf_hits(origin, direction, r[j] >> 7u, r[j] & 127u, best, any_hit)) {
+        // The hit leaves' faces in one loop: face k of the leaf whose range holds it.
+        let counts = select(vec4<u32>(0u), r & vec4<u32>(127u), leaf);
+        let end0 = counts.x;
+        let end1 = end0 + counts.y;
+        let end2 = end1 + counts.z;
+        let total = end2 + counts.w;
+        let first = r >> vec4<u32>(7u);
+        for (var k = 0u; k < total; k++) {
+            let face = select(select(select(first.w + k - end2, first.z + k - end1, k < end2),
+                                     first.y + k - end0, k < end1), first.x + k, k < end0);
+            let h = triangle_hit(origin, direction, face);
+            if (h.x > 0.0 && h.x < (*best).t) {
+                *best = Hit(h.x, i32(face), h.y, h.z);
+                if (any_hit) {
                     return Opened(OPEN_DONE, 0u, 0u, 0u, 0u);
                 }
             }
