@@ -914,20 +914,13 @@ def ibl_levels(scene: Scene, ibl: str, mode: str) -> tuple[list, list]:
         raise ValueError(f"ibl={ibl!r} shades in linear sRGB: use mode='rgb' (the spectral "
                          "transport is for ibl='monte-carlo')")
     levels, of_material = [], []
-    for name, material in scene.materials.items():
+    for material in scene.materials.values():
         layers = 0
         if isinstance(material, LambertianMaterial):
             own = ("cosine",)
         elif isinstance(material, ThinFilmMaterial):
             own = (material.alpha,)
         else:
-            coated = [spec for spec in material.layers
-                      if spec.n1 != 1.0 or spec.host not in (None, 1.0)]
-            if coated:
-                raise ValueError(
-                    f"materials.{name}: ibl={ibl!r} shades layers in air (n1 = 1): a smooth "
-                    f"coating (n1 = {coated[0].n1}, host = {coated[0].host}) needs "
-                    "ibl='monte-carlo'")
             layers = len(material.layers)
             own = tuple(spec.alpha for spec in material.layers)
             if material.base_albedo is not None:

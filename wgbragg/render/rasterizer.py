@@ -19,8 +19,7 @@ rasterizer"):
   highlight is the size of a point's);
 - the environment lights without visibility or interreflection (as every filtered mode).
 
-RGB mode only, and materials filtered lighting can shade: thin films, Lambertian materials and
-layered Bragg materials in air (a smooth coating needs the path tracer).
+RGB mode only (the filtered lighting has no spectral form).
 """
 
 from __future__ import annotations
@@ -91,8 +90,8 @@ class Rasterizer:
     Raises
     ------
     ValueError
-        For a size, mode, ibl or shadow_size out of range, or a scene filtered lighting
-        cannot shade (a smooth coating), naming the parameter.
+        For a size, mode, ibl, shadow_size or temporal_frames out of range, naming the
+        parameter.
     """
 
     def __init__(self, scene: Scene, size: tuple[int, int] | None = None, mode: str = "rgb",

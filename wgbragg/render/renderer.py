@@ -57,8 +57,9 @@ microfacet incidence angles. Layered Bragg materials are shaded layer by layer, 
 the environment prefiltered for its roughness, through the layers above at the viewing angle
 both ways, and a Lambertian base from the cosine-prefiltered environment. These modes trace
 no shadow or bounce rays (as real-time IBL does) and take thin films, layered Bragg materials
-in air (no smooth coating) and Lambertian materials; point and area lights still add their
-direct light.
+(under a smooth coating: its mirror image of the environment, plus the layers seen through it
+at the refracted viewing angle) and Lambertian materials; point and area lights still add
+their direct light.
 
 Period and delta maps (``period_map``, ``delta_map``, :mod:`wgbragg.scene.parameter_maps`) vary a
 layer's mirror per shading point. The scene's pipeline then computes mirror reflectances in
@@ -346,8 +347,7 @@ class Renderer:
         only be the environment).
     ibl : {"monte-carlo", "split-sum", "kneiphof"}, optional
         How the environment lights surfaces (see the module docstring); the scene's
-        ``settings.ibl`` by default. The filtered modes need ``mode="rgb"`` and no smooth
-        coating.
+        ``settings.ibl`` by default. The filtered modes need ``mode="rgb"``.
     light_sampling : {"all", "power"}
         Next-event estimation at each vertex: of every light (the environment under Monte
         Carlo lighting, each point and area light), or of one light chosen by its power
@@ -360,8 +360,7 @@ class Renderer:
         For a size, seed or mode out of range, an unreadable EXR environment or map texture,
         maps on a material that is not a single layer over an absorbing base, a scene
         whose BVH is too deep for the GPU traversal stack, more lights than
-        :func:`max_lights` allows, or a filtered ``ibl`` mode with spectral transport or a
-        smooth coating.
+        :func:`max_lights` allows, or a filtered ``ibl`` mode with spectral transport.
 
     Attributes
     ----------

@@ -72,14 +72,28 @@ const DIFFUSE_MEAN_COS: f32 = 0.6666667;
 // environment prefiltered for its roughness (its levels follow the material's first), its
 // colour at the ideal reflection (or filtered, IBL_KNEIPHOF), through the layers above at
 // theta_v both ways; a Lambertian base by the cosine level (the material's last), through the
-// layers at theta_v and at the diffuse mean angle.
+// layers at theta_v and at the diffuse mean angle. With a coating, theta_v is the view's
+// angle inside it and everything is dimmed by its transmittance both ways; the lobes keep
+// the prefiltered width of their own roughness (refraction widens them outside: an
+// approximation, docs/physics.md section 13).
 fn layered_ibl(s: LayeredStructure, ibl_level: u32, ibl_layers: u32, n: vec3<f32>,
                v: vec3<f32>, cos_v: f32) -> vec3<f32> {
-    let theta_v = acos(cos_v);
     let r = 2.0 * cos_v * n - v;
+    // Under a smooth coating of index n1 the layers see the view refracted, and the light
+    // around the mirror direction crosses the coating at the same angle both ways: eq 34's
+    // T_c(l) T_c(v) / n1^2 with Snell's change of solid angle (n1^2 cos' / cos) cancelling
+    // the 1 / n1^2. The coating's own mirror reflection is the includer's (ibl_radiance).
+    var cos_inside = cos_v;
+    var coated = 1.0;
+    if (COATING) {
+        let transmitted = 1.0 - coating_reflectance(cos_v, s.host);
+        coated = transmitted * transmitted;
+        cos_inside = sqrt(max(0.0, 1.0 - (1.0 - cos_v * cos_v) / (s.host * s.host)));
+    }
+    let theta_v = acos(cos_inside);
     var total = vec3<f32>(0.0);
-    var through = vec3<f32>(1.0);
-    var through_diffuse = vec3<f32>(1.0);
+    var through = vec3<f32>(coated);
+    var through_diffuse = vec3<f32>(coated);
     for (var l = 0u; l < ibl_layers; l++) {
         let layer = layers[s.first_layer + l];
         let level = ibl_level + l;
@@ -89,7 +103,7 @@ fn layered_ibl(s: LayeredStructure, ibl_level: u32, ibl_layers: u32, n: vec3<f32
         //! else
         let colour = layer_colour(s, layer, theta_v);
         //! endif
-        total += p.radiance * microfacet_albedo(level, cos_v) * colour * through;
+        total += p.radiance * microfacet_albedo(level, cos_inside) * colour * through;
         let t = table_lerp_rgb(layer.transmissivity_rgb, filter_row(layer, theta_v));
         through *= t * t;
         through_diffuse *= t * table_lerp_rgb(layer.transmissivity_rgb,

@@ -221,8 +221,14 @@ fn ibl_radiance(m: Material, n: vec3<f32>, v: vec3<f32>) -> vec4<f32> {
     let cos_v = clamp(dot(n, v), 0.0, 1.0);
     //! if LAYERED
     if (m.kind == MATERIAL_LAYERED) {
-        return vec4<f32>(layered_ibl(structures[m.structure], m.ibl_level, m.ibl_layers, n,
-                                     v, cos_v), 0.0);
+        let s = structures[m.structure];
+        var layered = layered_ibl(s, m.ibl_level, m.ibl_layers, n, v, cos_v);
+        if (COATING) {
+            // The smooth coating mirrors the environment itself.
+            layered += coating_reflectance(cos_v, s.host)
+                * sky_radiance(params.environment, 2.0 * cos_v * n - v);
+        }
+        return vec4<f32>(layered, 0.0);
     }
     //! endif
     var reflectance = vec4<f32>(0.0);
