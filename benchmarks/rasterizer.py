@@ -51,10 +51,11 @@ TARGETS = {256: 60.0, 512: 30.0}
 
 @dataclasses.dataclass(frozen=True)
 class Config:
-    """Sizes of one run: the accuracy images, the reference's and the filtered path trace's
-    spp, the sides timed and the frames timed at each."""
+    """Sizes of one run: the presets, the accuracy images, the reference's and the filtered
+    path trace's spp, the sides timed and the frames timed at each."""
 
     name: str
+    presets: tuple[str, ...]
     size: tuple[int, int]
     reference_spp: int
     filtered_spp: int
@@ -62,8 +63,8 @@ class Config:
     frames: int
 
 
-FULL = Config("full", (192, 144), 1024, 64, (256, 512), 40)
-QUICK = Config("quick", (48, 36), 8, 4, (64,), 3)
+FULL = Config("full", PRESETS, (192, 144), 1024, 64, (256, 512), 40)
+QUICK = Config("quick", ("teapot", "fig11"), (48, 36), 8, 4, (64,), 2)
 
 
 def _displayed_linear(image: np.ndarray, exposure: float) -> np.ndarray:
@@ -141,13 +142,14 @@ def _frame_rates(side: int, frames: int) -> dict:
 def run_benchmarks(cfg: Config, progress: bool = True) -> dict:
     meter = report.LoadMeter()
     results = {"accuracy": {}, "rates": {}}
-    bar = progress_bar(total=len(PRESETS) + len(cfg.sides), show=progress, desc="rasterizer")
+    bar = progress_bar(total=len(cfg.presets) + len(cfg.sides), show=progress,
+                       desc="rasterizer")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
         for side in cfg.sides:
             results["rates"][side] = _frame_rates(side, cfg.frames)
             bar.update()
-        for name in PRESETS:
+        for name in cfg.presets:
             results["accuracy"][name] = _accuracy(name, cfg)
             bar.update()
     bar.close()
