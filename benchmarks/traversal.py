@@ -16,7 +16,8 @@ Python's), and the camera rays' closest hits
 Scenes: ``teapot`` (:mod:`benchmarks.mitsuba_peer`'s: 4,034 triangles on an exact plane, a
 point light, an area light and a dim sky) and ``icosphere`` (a 20,480-triangle sphere mesh
 on the same scene's plane under a uniform sky: camera rays, bounces and sky shadow rays
-through a deeper tree).
+through a deeper tree) and ``sphere`` (:mod:`benchmarks.mitsuba_peer`'s: an exact sphere on
+an exact plane, no BVH, for what a path costs besides traversal).
 
 Usage::
 
@@ -48,7 +49,7 @@ __all__ = ["BEGIN_MARKER", "END_MARKER", "FULL", "QUICK", "SCENES", "Config", "m
 
 MODULE = "benchmarks.traversal"
 BEGIN_MARKER, END_MARKER = report.markers("bench_traversal")
-SCENES = ("teapot", "icosphere")
+SCENES = ("teapot", "icosphere", "sphere")
 WORK = "work"
 """The variant that is this checkout's working tree."""
 WORKER_TIMEOUT_S = 1800.0
@@ -179,7 +180,8 @@ def write_scenes(folder: Path) -> dict[str, Path]:
     vertices = mesh.vertices[:, [0, 2, 1]] * [1.0, 1.0, -1.0]
     trimesh.Trimesh(vertices, mesh.faces, process=False).export(folder / "icosphere.ply")
     (folder / "icosphere.toml").write_text(_ICOSPHERE, encoding="utf-8")
-    return {"teapot": scene_file("teapot", folder), "icosphere": folder / "icosphere.toml"}
+    return {"teapot": scene_file("teapot", folder), "icosphere": folder / "icosphere.toml",
+            "sphere": scene_file("sphere", folder)}
 
 
 def _tree(variant: str, folder: Path) -> Path:
@@ -312,6 +314,8 @@ def render_section(results: dict, cfg: Config, command: str) -> str:
         f"round, {cfg.rounds} rounds, the order reversed each round; in each, an untimed pass "
         f"of {cfg.pass_spp} spp, then the least of {cfg.passes} timed passes of "
         f"{cfg.pass_spp} spp.",
+        "",
+        "### Time per sample",
         "",
     ]
     rows = []
