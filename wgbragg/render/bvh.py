@@ -7,8 +7,8 @@ at ``node_left[i]`` and ``node_left[i] + 1``, and the subtree of the left child 
 pair before the subtree of the right child. The root is node 0. A leaf has
 ``node_count[i] > 0`` and ``node_left[i] == -1``; its triangles are
 ``triangle_order[node_first[i] : node_first[i] + node_count[i]]``. An inner node has
-``node_count[i] == 0`` and ``node_first[i] == 0``. A GPU traversal therefore needs one stack
-of node indices and reads both child boxes of a pair from adjacent memory.
+``node_count[i] == 0`` and ``node_first[i] == 0``. The renderer traverses it as nodes of
+four children (:func:`collapse_wide`), whose leaves and face order are this tree's.
 
 Bounds are float32 (what the GPU stores) and are rounded outward, so every box contains its
 triangles exactly even though the vertices are float64. Distances are in scene units.
@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from tqdm import tqdm
 
-__all__ = ["BVH", "build_bvh"]
+__all__ = ["BVH", "build_bvh", "collapse_wide"]
 
 # Meshes at least this large show a progress bar unless the caller decides.
 _PROGRESS_THRESHOLD = 500_000
