@@ -144,15 +144,19 @@ def test_visibility_is_the_path_tracers_primary_hits(device, preset):
 
 
 # SMAPE of each preset's rasterized image (16 temporal frames) against the path tracer's
-# filtered-lighting image (64 spp), 96 x 72: the shadow-map and area-light approximations,
-# and antialiasing, measured with margin (docs/benchmarks.md, "Rasterizer accuracy").
-_SMAPE = {"teapot": 0.06, "fig7": 0.03, "fig10": 0.03, "fig11": 0.03, "fig12": 0.03,
-          "thin_film": 0.03, "furnace": 0.03}
+# filtered-lighting image (64 spp), 96 x 72: the shadow-map and area-light approximations and
+# antialiasing; and against its converged Monte Carlo image (128 spp, 64 x 48), where the
+# filtered lighting's own error dominates. Measured values with a margin (docs/benchmarks.md,
+# "Rasterizer: frame rates and accuracy", at a larger size).
+_SMAPE = {"teapot": (0.06, 0.08), "fig7": (0.03, 0.055), "fig10": (0.03, 0.08),
+          "fig11": (0.03, 0.06), "fig12": (0.03, 0.065), "thin_film": (0.03, 0.08),
+          "furnace": (0.03, 0.01)}
 
 
 @pytest.mark.parametrize("preset", sorted(_SMAPE))
 def test_preset_images_match_the_path_tracer(device, preset):
     scene = load_preset(preset)
+    filtered_bound, converged_bound = _SMAPE[preset]
     size = (96, 72)
     raster = Rasterizer(scene, size=size)
     for _ in range(TEMPORAL_FRAMES):
@@ -160,7 +164,13 @@ def test_preset_images_match_the_path_tracer(device, preset):
     assert raster.converged
     traced = Renderer(scene, size=size, ibl="split-sum", mode="rgb").render(spp=64)
     assert np.isfinite(image).all()
-    assert smape(image, traced) < _SMAPE[preset]
+    assert smape(image, traced) < filtered_bound
+    size = (64, 48)
+    small = Rasterizer(scene, size=size)
+    while not small.converged:
+        image = small.frame()
+    converged = Renderer(scene, size=size, mode="rgb").render(spp=128)
+    assert smape(image, converged) < converged_bound
 
 
 def test_temporal_frames_converge_and_reset_on_update(device, sphere_scene):
