@@ -72,6 +72,7 @@ bench: setup
 	$(PY) -m benchmarks.layered
 	$(PY) -m benchmarks.render
 	$(PY) -m benchmarks.ibl
+	$(PY) -m benchmarks.rasterizer
 	$(PY) -m benchmarks.viewer
 	$(PY) -m benchmarks.cli
 	$(PY) -m benchmarks.denoise
