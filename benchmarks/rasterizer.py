@@ -20,7 +20,7 @@ It prints a markdown section and writes it into ``docs/benchmarks.md`` between
 
 Usage::
 
-    python -m benchmarks.rasterizer            # full run (about 15 minutes on 2 cores)
+    python -m benchmarks.rasterizer            # full run (about 10 minutes on 2 cores)
     python -m benchmarks.rasterizer --quick    # tiny sizes (a minute), print only
 """
 
@@ -63,7 +63,7 @@ class Config:
     frames: int
 
 
-FULL = Config("full", PRESETS, (192, 144), 1024, 64, (256, 512), 40)
+FULL = Config("full", PRESETS, (128, 96), 512, 64, (256, 512), 40)
 QUICK = Config("quick", ("teapot", "fig11"), (48, 36), 8, 4, (64,), 2)
 
 
