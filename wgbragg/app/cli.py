@@ -41,7 +41,7 @@ DESCRIPTION = ("Structural-colour iridescence (Bragg mirrors, thin films) on any
 DEFAULT_ALPHAS = (0.05, 0.1, 0.2, 0.4)
 """GGX roughnesses whose transmission filters ``wgbragg bake`` bakes by default."""
 
-PRESET_NAMES = ("furnace", "teapot", "fig7", "fig10", "fig11", "fig12", "thin_film")
+PRESET_NAMES = ("furnace", "teapot", "fig1", "fig7", "fig10", "fig11", "fig12", "thin_film")
 """The built-in scenes, for the help text: :data:`wgbragg.scene.model.PRESETS` (a test keeps
 them equal), named here because importing the scene package loads colour-science."""
 

@@ -31,11 +31,14 @@ combine them unbiased.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from wgbragg.common.validation import as_float, as_float_array, check_directions
 
-__all__ = ["FLOOR_FRACTION", "LUMINANCE_WEIGHTS", "EnvironmentMap"]
+__all__ = ["FLOOR_FRACTION", "LUMINANCE_WEIGHTS", "PANORAMA_SUFFIXES", "EnvironmentMap",
+           "read_panorama", "rotate_panorama"]
 
 LUMINANCE_WEIGHTS = np.array([0.2126, 0.7152, 0.0722])
 """Luminance of linear sRGB (Rec. 709 primaries, D65)."""
@@ -46,6 +49,54 @@ the sphere."""
 # The kernel clamps u below 1 the same way, so that u = 1 (e.g. 1 - 1e-9 rounded to float32)
 # still falls inside the last CDF step.
 _BELOW_ONE = np.nextafter(1.0, 0.0)
+
+PANORAMA_SUFFIXES = (".exr", ".hdr")
+"""File types of an ``"exr"`` environment: OpenEXR, or Radiance RGBE."""
+
+
+def read_panorama(path, rotate_deg: float = 0.0) -> np.ndarray:
+    """The linear RGB image of an OpenEXR (``.exr``) or Radiance RGBE (``.hdr``) panorama,
+    turned by ``rotate_deg`` about +y (:func:`rotate_panorama`).
+
+    Raises
+    ------
+    ValueError
+        One line naming the file, for another suffix or a file that cannot be read.
+    """
+    suffix = Path(path).suffix.lower()
+    if suffix == ".exr":
+        from wgbragg.common.exr import read_exr
+        image = read_exr(path)
+    elif suffix == ".hdr":
+        from wgbragg.common.hdr import read_hdr
+        image = read_hdr(path)
+    else:
+        raise ValueError(f"{path}: an environment panorama must be one of {PANORAMA_SUFFIXES}")
+    return rotate_panorama(image, rotate_deg)
+
+
+def rotate_panorama(image, rotate_deg: float) -> np.ndarray:
+    """An equirectangular image turned by ``rotate_deg`` degrees about +y.
+
+    What was seen at azimuth ``phi`` (from +z towards +x) is seen at ``phi + rotate_deg``,
+    as a procedural environment's sun turns (:mod:`wgbragg.lighting.procedural_environment`):
+    column ``x`` takes the old image at ``u + rotate_deg / 360``, linearly interpolated
+    between column centres and wrapping across the seam. A whole number of columns
+    (``rotate_deg * W / 360`` an integer) is an exact shift.
+    """
+    image = np.asarray(image)
+    rotate_deg = float(rotate_deg)
+    if not np.isfinite(rotate_deg):
+        raise ValueError(f"rotate_deg must be finite, got {rotate_deg}")
+    width = image.shape[1]
+    shift = (rotate_deg / 360.0 * width) % width
+    whole = int(np.floor(shift))
+    fraction = shift - whole
+    if fraction < 1e-9 or fraction > 1.0 - 1e-9:
+        return np.roll(image, -round(shift) % width, axis=1)
+    first = np.roll(image, -whole, axis=1).astype(np.float64)
+    second = np.roll(image, -whole - 1, axis=1).astype(np.float64)
+    return ((1.0 - fraction) * first + fraction * second).astype(image.dtype)
 
 
 class EnvironmentMap:

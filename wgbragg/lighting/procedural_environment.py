@@ -86,7 +86,10 @@ class ProceduralEnvironment:
         zenith, horizon, ground, disc, radius_deg, elevation_deg, azimuth_deg = (
             PALETTES[environment.type])
         scale = float(environment.intensity)
-        elevation, azimuth = math.radians(elevation_deg), math.radians(azimuth_deg)
+        # rotate_deg turns the environment about +y; only the disc's azimuth moves, since the
+        # gradient and the ground depend on d_y alone.
+        elevation = math.radians(elevation_deg)
+        azimuth = math.radians(azimuth_deg + float(environment.rotate_deg))
         # Azimuth from +z towards +x, elevation from the horizon towards +y.
         direction = np.array([math.cos(elevation) * math.sin(azimuth), math.sin(elevation),
                               math.cos(elevation) * math.cos(azimuth)])

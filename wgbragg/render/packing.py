@@ -51,8 +51,7 @@ from wgbragg.colour.thin_film_gpu import (
     placeholder_texture,
     windows_buffer,
 )
-from wgbragg.common.exr import read_exr
-from wgbragg.lighting.environment_map import LUMINANCE_WEIGHTS, EnvironmentMap
+from wgbragg.lighting.environment_map import LUMINANCE_WEIGHTS, EnvironmentMap, read_panorama
 from wgbragg.lighting.environment_prefilter import prefilter_environment
 from wgbragg.lighting.ibl import microfacet_albedo_table
 from wgbragg.lighting.procedural_environment import ProceduralEnvironment
@@ -893,7 +892,8 @@ def exr_environment(environment) -> tuple[EnvironmentMap, np.ndarray]:
     pixels."""
     path = environment.path
     try:
-        environment_map = EnvironmentMap(read_exr(path), environment.intensity)
+        environment_map = EnvironmentMap(read_panorama(path, environment.rotate_deg),
+                                         environment.intensity)
         peak = environment.intensity * float(environment_map.radiance.max())
         if peak > MAX_RADIANCE:
             raise ValueError(f"its largest radiance times environment.intensity must be at "

@@ -53,7 +53,7 @@ __all__ = [
     "period_and_delta",
 ]
 
-PRESETS = ("furnace", "teapot", "fig7", "fig10", "fig11", "fig12", "thin_film")
+PRESETS = ("furnace", "teapot", "fig1", "fig7", "fig10", "fig11", "fig12", "thin_film")
 """Names of the built-in scenes (:func:`wgbragg.scene.reader.load_preset`)."""
 
 SHAPES = ("mesh", "sphere", "plane", "teapot")
@@ -434,13 +434,18 @@ class Environment:
     intensity : float
         Scale of a sky, studio or EXR environment (>= 0).
     path : pathlib.Path or None
-        The EXR file (absolute, existing) of an ``"exr"`` environment.
+        The panorama (``.exr`` or Radiance ``.hdr``; absolute, existing) of an ``"exr"``
+        environment.
+    rotate_deg : float
+        Turn about +y in degrees: what was seen at azimuth ``phi`` (from +z towards +x) is
+        seen at ``phi + rotate_deg``. A uniform environment is unchanged by it.
     """
 
     type: str
     radiance: tuple[float, float, float] = (1.0, 1.0, 1.0)
     intensity: float = 1.0
     path: Path | None = None
+    rotate_deg: float = 0.0
 
 
 @dataclasses.dataclass(frozen=True)

@@ -471,18 +471,24 @@ def _environment(ctx: _Context, value) -> Environment:
     table = _table(ctx, value, "environment")
     kind = _choice(ctx, table.get("type"), "environment.type", ENVIRONMENT_TYPES)
     if kind == "uniform":
-        _keys(ctx, table, "environment", ("type",), ("radiance",))
+        _keys(ctx, table, "environment", ("type",), ("radiance", "rotate_deg"))
         return Environment(kind, radiance=_radiometric(ctx, table.get("radiance", 1.0),
-                                                       "environment.radiance"))
+                                                       "environment.radiance"),
+                           rotate_deg=_rotation(ctx, table))
     required = ("type", "path") if kind == "exr" else ("type",)
-    _keys(ctx, table, "environment", required, ("intensity",))
+    _keys(ctx, table, "environment", required, ("intensity", "rotate_deg"))
     return Environment(
         kind,
         intensity=_real(ctx, table.get("intensity", 1.0), "environment.intensity", 0.0,
                         MAX_RADIANCE),
-        path=_file(ctx, table["path"], "environment.path", (".exr",)) if kind == "exr"
+        path=_file(ctx, table["path"], "environment.path", (".exr", ".hdr")) if kind == "exr"
         else None,
+        rotate_deg=_rotation(ctx, table),
     )
+
+
+def _rotation(ctx: _Context, table) -> float:
+    return _real(ctx, table.get("rotate_deg", 0.0), "environment.rotate_deg", -360.0, 360.0)
 
 
 def _settings(ctx: _Context, value) -> Settings:
