@@ -1,5 +1,6 @@
 """The GPU BVH traversal (``trace`` of wgsl/render/renderer_scene.wgsl) on a tangled triangle
-soup, whose rays hit many overlapping boxes: its register stack, and the memory-stack
+soup, whose rays hit many overlapping boxes, seen from inside (rays starting in boxes, as
+shadow rays and bounces do): its register stack, and the memory-stack
 traversal that takes over when that overflows (forced here by the ``REGISTER_STACK``
 pipeline constant), find the same hits as each other and as the numpy reference."""
 
@@ -16,9 +17,9 @@ pytestmark = pytest.mark.gpu
 
 _SOUP = """
 [camera]
-position = [0.0, 0.3, 3.0]
-look_at = [0.0, 0.0, 0.0]
-fov_deg = 40.0
+position = [0.1, 0.3, 0.8]
+look_at = [0.0, 0.0, -1.0]
+fov_deg = 60.0
 
 [environment]
 type = "uniform"

@@ -245,10 +245,10 @@ struct Opened {
 }
 const OPEN_DONE: u32 = 5u;
 
-// Entry distance of a slot's box, or -1 for a miss (also a leaf's, once tested).
+// Entry distance of a slot's box (0 from inside it), or -1 for a miss.
 fn slot_entry(local: vec3<f32>, inverse: vec3<f32>, node: BvhNode, t_best: f32) -> f32 {
     let span = box_span(local, inverse, node.lo, node.hi);
-    return select(-1.0, span.x, span.x <= span.y && span.y >= 0.0 && span.x < t_best);
+    return select(-1.0, max(span.x, 0.0), span.x <= span.y && span.y >= 0.0 && span.x < t_best);
 }
 
 // Opens wide node k: its four children's boxes are tested here, a hit leaf's faces at once,
