@@ -289,7 +289,10 @@ def render_section(results: dict, cfg: Config, command: str) -> str:
     lines += _table(["edit, and the frame after it", "time"], [
         [label, human_time(seconds)] for label, seconds in results["structural"]])
     lines += ["", "In this order on one viewer, before anything else in the run compiled a "
-              "pipeline. Each builds a render pipeline specialised to the new configuration.",
+              "pipeline. Each builds a render pipeline specialised to the new configuration; "
+              "while other processes load the cores, one of these compiles can take tens of "
+              "seconds (three runs at 1.0-1.4 busy cores each had one step of 16-120 s, never "
+              "the same one; the same steps alone take 0.3-1.5 s).",
               ""]
     rates = results["rates"]
     sides = list(rates)
