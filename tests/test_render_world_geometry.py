@@ -89,18 +89,19 @@ def test_teapot_preset_triangles_and_materials(teapot):
     assert not geometry.vertices.flags.writeable
     assert geometry.sphere_to_world.shape == (0, 3, 4)
 
-    # The floor, exact: the 2 x 2 plane scaled by 6 in y = 0, facing +y, u along +x and v
-    # along -z.
+    # The floor, exact: the 2 x 2 plane scaled by 2000 (to the horizon) in y = 0, facing +y,
+    # u along +x and v along -z.
     np.testing.assert_array_equal(geometry.parallelogram_material, [1])
     np.testing.assert_array_equal(geometry.parallelograms,
-                                  [[[-6.0, 0.0, 6.0], [12.0, 0.0, 0.0], [0.0, 0.0, -12.0]]])
+                                  [[[-2000.0, 0.0, 2000.0], [4000.0, 0.0, 0.0],
+                                    [0.0, 0.0, -4000.0]]])
     _, edge_u, edge_v = geometry.parallelograms[0]
     assert np.cross(edge_u, edge_v)[1] > 0.0
 
     # The teapot: 1 unit wide along x before its -30 degree turn, standing on y = 0 with its
     # height in Newell's proportion (3.15 of 6.43 wide).
     lo, hi = geometry.bounds
-    np.testing.assert_array_equal(lo, [-6.0, 0.0, -6.0])
+    np.testing.assert_array_equal(lo, [-2000.0, 0.0, -2000.0])
     pot_points = geometry.vertices[:pot].reshape(-1, 3)
     assert pot_points[:, 1].min() == pytest.approx(0.0, abs=1e-6)
     assert pot_points[:, 1].max() == pytest.approx(hi[1])

@@ -20,10 +20,18 @@ piecewise-constant spectrum of Fig. 3 is rebuilt here from the mirror's public l
 :func:`~wgbragg.colour.landmark_methods.angular_correction`,
 with the same boxes as :func:`wgbragg.colour.landmark_methods.approx_xyz` (basic variant).
 
+``gallery`` renders every scene preset instead (on the GPU, or lavapipe), one PNG each in
+``docs/images/`` by default, and prints each preset's look as measured at 256 x 256, 16 spp
+(:mod:`wgbragg.render.look`): the share of pixels with a saturation above 0.5 (all, and on the
+iridescent objects), the hue range over those objects, flat bands of 8 rows or more and the
+share of dark background pixels; ``docs/scenes.md`` quotes the table.
+
 Usage::
 
     python tools/figures.py                      # writes out/figures/*.png
     python tools/figures.py --out /tmp/figs --quick
+    python tools/figures.py gallery              # docs/images/<preset>.png and the look table
+    python tools/figures.py gallery --presets fig1 --width 512 --spp 256
 """
 
 from __future__ import annotations
@@ -52,15 +60,19 @@ __all__ = [
     "FIG4_PERIODS_NM",
     "FIG4_RATIOS",
     "FIG4_WAVELENGTHS_NM",
+    "GALLERY_OUT",
     "encode_srgb",
     "figure3",
     "figure4",
+    "gallery",
     "main",
     "piecewise_constant_spectrum",
+    "preset_look",
 ]
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_OUT = REPO_ROOT / "out" / "figures"
+GALLERY_OUT = REPO_ROOT / "docs" / "images"
 
 FIG3_MIRROR = BraggMirror(n1=1.0, n2=1.5, d1=315.0, d2=315.0, N=10)
 FIG3_POLARIZATION = "s"
@@ -311,8 +323,118 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     return parser.parse_args(argv)
 
 
+def preset_look(name: str, size: int = 256, spp: int = 16, seed: int = 0,
+                view: str = "standard") -> dict:
+    """Render preset ``name`` at ``size`` x ``size`` and ``spp`` and measure its look.
+
+    Returns
+    -------
+    dict
+        ``pixels`` (the 8-bit sRGB image), ``saturated`` (share of pixels with saturation
+        > 0.5), ``saturated_object`` (the same over the pixels whose first hit is not
+        Lambertian: the iridescent objects), ``hue_range`` (degrees, over those objects),
+        ``bands`` (flat bands of 8 rows or more), ``dark_background`` (share of pixels that
+        see no object and are darker than 2 % of the mean), ``histogram`` and
+        ``histogram_clip`` (saturation counts in 5 bins with the gamut map, and with each
+        channel clipped instead), ``out_of_gamut`` (share of pixels the gamut map moves).
+    """
+    from wgbragg.render import Renderer, display, look
+    from wgbragg.scene import load_preset
+    from wgbragg.scene.model import LambertianMaterial
+
+    scene = load_preset(name)
+    renderer = Renderer(scene, size=(size, size), seed=seed)
+    _, face = renderer.primary_hits()
+    geometry = renderer.world_geometry()
+    triangles, spheres = len(geometry.material), len(geometry.sphere_material)
+    per_primitive = np.concatenate([geometry.material, geometry.sphere_material,
+                                    geometry.parallelogram_material])
+    material = np.full(face.shape, -1)
+    hit = (face >= 0) & (face < triangles + spheres + len(geometry.parallelogram_material))
+    material[hit] = per_primitive[face[hit]]
+    iridescent = [k for k, m in enumerate(scene.materials.values())
+                  if not isinstance(m, LambertianMaterial)]
+    objects = np.isin(material, iridescent)
+    image = renderer.render(spp)
+    pixels = display.display_transform(image, scene.settings.exposure, view)
+    scaled = np.nan_to_num(image.astype(np.float64)) * 2.0**scene.settings.exposure
+    luminance = scaled @ display.LUMINANCE_WEIGHTS
+    tone_mapped = np.where((luminance > 0.0)[..., None], scaled, 0.0) / (
+        1.0 + np.maximum(luminance, 0.0))[..., None]
+    inside = ((tone_mapped >= 0.0) & (tone_mapped <= 1.0)).all(axis=-1)
+    clipped = np.round(display.encode_srgb(tone_mapped.clip(0.0, 1.0)) * 255.0).astype(np.uint8)
+    return {
+        "pixels": pixels,
+        "saturated": look.saturated_fraction(pixels),
+        "saturated_object": look.saturated_fraction(pixels, objects),
+        "hue_range": look.hue_range_deg(pixels, objects),
+        "bands": look.flat_bands(pixels),
+        "dark_background": look.dark_background(pixels, face < 0),
+        "histogram": look.saturation_histogram(pixels, 5),
+        "histogram_clip": look.saturation_histogram(clipped, 5),
+        "out_of_gamut": float(np.mean(~inside)),
+    }
+
+
+def gallery(argv: Sequence[str]) -> int:
+    """``python tools/figures.py gallery``: every preset as a PNG, and the look table."""
+    from PIL import Image
+
+    from wgbragg.render import Renderer, save_png
+    from wgbragg.scene import PRESETS, load_preset
+
+    parser = argparse.ArgumentParser(
+        prog="figures.py gallery",
+        description="Render every scene preset to OUT/<preset>.png and measure its look.")
+    parser.add_argument("--out", type=Path, default=GALLERY_OUT,
+                        help=f"output folder (default {GALLERY_OUT})")
+    parser.add_argument("--presets", default=",".join(PRESETS),
+                        help="comma-separated presets (default: all)")
+    parser.add_argument("--width", type=int, default=320,
+                        help="image width in pixels, the preset's aspect ratio kept "
+                             "(default 320)")
+    parser.add_argument("--spp", type=int, default=64, help="samples per pixel (default 64)")
+    parser.add_argument("--view", choices=("standard", "filmic"), default="standard")
+    parser.add_argument("--no-measure", dest="measure", action="store_false",
+                        help="skip the look measurements at 256 x 256, 16 spp")
+    args = parser.parse_args(argv)
+    names = [n for n in args.presets.split(",") if n]
+    for name in names:
+        if name not in PRESETS:
+            parser.error(f"--presets: unknown preset {name!r}; one of {', '.join(PRESETS)}")
+    if not 16 <= args.width <= 4096:
+        parser.error(f"--width must be in [16, 4096], got {args.width}")
+    if args.spp < 1:
+        parser.error(f"--spp must be >= 1, got {args.spp}")
+    rows = []
+    for name in names:
+        scene = load_preset(name)
+        width, height = scene.settings.size
+        size = (args.width, max(1, round(args.width * height / width)))
+        image = Renderer(scene, size=size).render(args.spp)
+        path = args.out / f"{name}.png"
+        save_png(image, path, scene.settings.exposure, view=args.view)
+        Image.open(path).verify()
+        print(path)
+        if args.measure:
+            m = preset_look(name, view=args.view)
+            rows.append(f"| `{name}` | {100 * m['saturated']:.1f} % | "
+                        f"{100 * m['saturated_object']:.1f} % | {m['hue_range']:.0f} deg | "
+                        f"{len(m['bands'])} | {100 * m['dark_background']:.2f} % | "
+                        f"{100 * m['out_of_gamut']:.2f} % | {m['histogram_clip'].tolist()} | "
+                        f"{m['histogram'].tolist()} |")
+    if rows:
+        print("| preset | saturation > 0.5 | on the objects | hue range | flat bands "
+              "| dark background | out of gamut | saturation histogram, clipped "
+              "| gamut-mapped |")
+        print("|---|---|---|---|---|---|---|---|---|")
+        print("\n".join(rows))
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Write both figures into ``--out`` and print each path.
+    """Write both figures into ``--out`` and print each path (``gallery``: see
+    :func:`gallery`).
 
     Parameters
     ----------
@@ -324,7 +446,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     int
         Exit status.
     """
-    args = parse_args(sys.argv[1:] if argv is None else argv)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:1] == ["gallery"]:
+        return gallery(argv[1:])
+    args = parse_args(argv)
     dpi = 60 if args.quick else 150
     written = [
         save_png(figure3(args.quick), args.out / "fig3_spectrum.png", dpi),

@@ -443,7 +443,7 @@ def _render(args) -> int:
                 "wgbragg:spp": str(header["spp"])}
         if "comments" in header:
             text["Comment"] = header["comments"]
-        return lambda path: save_png(pixels, path, scene.settings.exposure, text)
+        return lambda path: save_png(pixels, path, scene.settings.exposure, text, args.view)
 
     def exr(pixels, header):
         return lambda path: write_exr(
@@ -602,6 +602,10 @@ def _add_render_command(commands) -> None:
     render.add_argument("-o", "--output", default="out/render.png",
                         help="the PNG to write (exposure, tone map, sRGB; colours outside the "
                              "display's gamut are desaturated at constant luminance)")
+    render.add_argument("--view", choices=("standard", "filmic"), default="standard",
+                        help="the PNG's tone curve: standard (Reinhard's Y / (1 + Y), as the "
+                             "viewer shows) or filmic (ACES-like: deeper shadows, more contrast, "
+                             "bright saturated colours go towards white) (default: standard)")
     render.add_argument("--spp", type=int, default=None,
                         help="samples per pixel (default: the scene's settings.spp)")
     render.add_argument("--size", type=_size, default=None,

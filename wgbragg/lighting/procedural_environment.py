@@ -3,9 +3,11 @@
 included by ``wgsl/render/renderer.wgsl``), for references and tests.
 
 ``"uniform"``, ``"sky"`` and ``"studio"`` (:data:`PROCEDURAL_TYPES`): a constant, or a gradient
-from horizon to zenith over a ground colour with a disc source, in the scene's relative
-radiance units (+y up). The renderer uploads the same parameters
-(:meth:`ProceduralEnvironment.from_scene`). Details: ``docs/physics.md``, "Environment maps".
+from horizon to zenith over a ground colour with a disc source (the sun, a key light), and for
+the studio three softboxes of different sizes (:data:`STUDIO_SOFTBOXES`), in the scene's
+relative radiance units (+y up). ``rotate_deg`` turns the disc and the softboxes about +y.
+The renderer uploads the same parameters (:meth:`ProceduralEnvironment.from_scene`).
+Details: ``docs/physics.md``, "Environment maps".
 """
 
 from __future__ import annotations
@@ -15,7 +17,8 @@ import math
 
 import numpy as np
 
-__all__ = ["PALETTES", "PROCEDURAL_TYPES", "ProceduralEnvironment", "environment_radiance"]
+__all__ = ["PALETTES", "PROCEDURAL_TYPES", "SOFTBOX_EDGE", "STUDIO_SOFTBOXES",
+           "ProceduralEnvironment", "environment_radiance"]
 
 PALETTES = {
     "sky": ((0.25, 0.45, 0.9), (0.9, 0.95, 1.0), (0.1, 0.1, 0.1), 80.0, 2.5, 50.0, 30.0),
@@ -23,6 +26,20 @@ PALETTES = {
 }
 """Per type: zenith, horizon and ground colours, disc radiance, disc radius (deg), disc
 elevation (deg) and azimuth (deg, from +z towards +x)."""
+
+STUDIO_SOFTBOXES = (
+    (1.5, 35.0, 60.0, 150.0),
+    (4.0, 12.0, 15.0, 95.0),
+    (12.0, 4.0, 25.0, -140.0),
+)
+"""The studio's softboxes besides its key light, as in the WGSL file's ``STUDIO_SOFTBOXES``:
+per box its radiance (times ``intensity``), angular radius (deg), elevation and azimuth (deg,
+from +z towards +x, before ``rotate_deg``). A large overhead box behind the subject, a
+medium one low at the side and a small bright one: iridescent objects reflect three
+differently sized highlights, each at its own angle and so in its own colour."""
+SOFTBOX_EDGE = 0.2
+"""A softbox's edge falls off smoothly (``smoothstep`` of the cosine) over this fraction of
+its radius, inwards from the rim: no sharp edge to alias or to prefilter."""
 
 PROCEDURAL_TYPES = ("uniform", "sky", "studio")
 """``Environment.type`` values this module evaluates."""
@@ -45,6 +62,10 @@ class ProceduralEnvironment:
         since ``disc_direction`` is zero).
     disc_direction : numpy.ndarray, shape (3,)
         Unit direction towards the disc's centre, zeros without a disc.
+    softbox_scale : float
+        Scale of the :data:`STUDIO_SOFTBOXES` (the studio's ``intensity``; 0 elsewhere).
+    turn_cos, turn_sin : float
+        Cosine and sine of ``rotate_deg``, by which the softboxes turn about +y.
     """
 
     zenith: np.ndarray
@@ -53,6 +74,9 @@ class ProceduralEnvironment:
     disc_radiance: np.ndarray
     disc_cos: float
     disc_direction: np.ndarray
+    softbox_scale: float = 0.0
+    turn_cos: float = 1.0
+    turn_sin: float = 0.0
 
     @classmethod
     def from_scene(cls, environment) -> ProceduralEnvironment:
@@ -93,9 +117,12 @@ class ProceduralEnvironment:
         # Azimuth from +z towards +x, elevation from the horizon towards +y.
         direction = np.array([math.cos(elevation) * math.sin(azimuth), math.sin(elevation),
                               math.cos(elevation) * math.cos(azimuth)])
+        turn = math.radians(float(environment.rotate_deg))
         return cls(np.multiply(zenith, scale), np.multiply(horizon, scale),
                    np.multiply(ground, scale), np.full(3, disc * scale),
-                   math.cos(math.radians(radius_deg)), direction)
+                   math.cos(math.radians(radius_deg)), direction,
+                   scale if environment.type == "studio" else 0.0, math.cos(turn),
+                   math.sin(turn))
 
     @property
     def has_disc(self) -> bool:
@@ -132,10 +159,32 @@ class ProceduralEnvironment:
         sky = np.where(up >= 0.0,
                        self.horizon + np.sqrt(np.maximum(up, 0.0)) * (self.zenith - self.horizon),
                        self.ground)
+        if self.softbox_scale > 0.0:
+            sky = sky + self.softbox_scale * self.softboxes(d)[..., None]
         if disc and self.has_disc:
             inside = (d @ self.disc_direction >= self.disc_cos)[..., None]
             sky = sky + np.where(inside, self.disc_radiance, 0.0)
         return sky
+
+
+    def softboxes(self, directions) -> np.ndarray:
+        """The :data:`STUDIO_SOFTBOXES`' radiance (before ``softbox_scale``, grey) arriving
+        from unit ``directions`` (..., 3): each box's radiance times ``smoothstep(cos r,
+        cos((1 - SOFTBOX_EDGE) r), d . axis)``, the directions turned back by ``rotate_deg``
+        first, as the shader does."""
+        d = np.asarray(directions, np.float64)
+        # The turn takes azimuth phi to phi + rotate_deg: look up the unturned boxes at R^-1 d.
+        x = d[..., 0] * self.turn_cos - d[..., 2] * self.turn_sin
+        z = d[..., 0] * self.turn_sin + d[..., 2] * self.turn_cos
+        total = np.zeros(d.shape[:-1])
+        for radiance, radius, elevation, azimuth in STUDIO_SOFTBOXES:
+            r, e, a = math.radians(radius), math.radians(elevation), math.radians(azimuth)
+            towards = (x * math.cos(e) * math.sin(a) + d[..., 1] * math.sin(e)
+                       + z * math.cos(e) * math.cos(a))
+            low, high = math.cos(r), math.cos((1.0 - SOFTBOX_EDGE) * r)
+            t = np.clip((towards - low) / (high - low), 0.0, 1.0)
+            total = total + radiance * t * t * (3.0 - 2.0 * t)
+        return total
 
 
 def environment_radiance(environment, directions) -> np.ndarray:

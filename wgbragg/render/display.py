@@ -23,8 +23,13 @@ from PIL.PngImagePlugin import PngInfo
 from wgbragg.common.atomic import atomic_path, check_output_path
 from wgbragg.scene.model import MAX_EXPOSURE
 
-__all__ = ["LUMINANCE_WEIGHTS", "decode_srgb", "display_transform", "encode_srgb", "gamut_map",
-           "save_png"]
+__all__ = ["LUMINANCE_WEIGHTS", "VIEWS", "decode_srgb", "display_transform", "encode_srgb",
+           "filmic_curve", "gamut_map", "save_png"]
+
+VIEWS = ("standard", "filmic")
+"""Tone curves of :func:`display_transform`: ``"standard"`` (Reinhard's ``Y / (1 + Y)``; the
+rasterizer's resolve pass, ``wgsl/render/display.wgsl``, is its float32 twin) and
+``"filmic"`` (:func:`filmic_curve`, PNG files only)."""
 
 LUMINANCE_WEIGHTS = np.array([0.2126, 0.7152, 0.0722])
 """Rec. 709 luminance ``Y`` of linear sRGB (the middle row of its XYZ matrix, rounded)."""
@@ -76,7 +81,23 @@ def gamut_map(rgb: np.ndarray) -> np.ndarray:
     return np.where(inside, rgb, np.clip(luminance + t * chroma, 0.0, 1.0))
 
 
-def display_transform(image: np.ndarray, exposure: float = 0.0) -> np.ndarray:
+def filmic_curve(luminance) -> np.ndarray:
+    """The ``"filmic"`` view's tone curve of luminance: Narkowicz's fit of the ACES reference
+    rendering transform, ``Y (2.51 Y + 0.03) / (Y (2.43 Y + 0.59) + 0.14)`` applied to 0.6 Y
+    and clipped to [0, 1].
+
+    A toe that deepens shadows, more mid-tone contrast than Reinhard's curve, and a shoulder
+    that reaches white near ``Y = 10`` instead of never. Applied to luminance with the
+    chromaticity kept, bright saturated colours leave the gamut sooner and :func:`gamut_map`
+    desaturates them towards white (the path to white of film), while mid-tones keep their
+    saturation.
+    """
+    y = 0.6 * np.maximum(np.asarray(luminance, np.float64), 0.0)
+    return np.clip(y * (2.51 * y + 0.03) / (y * (2.43 * y + 0.59) + 0.14), 0.0, 1.0)
+
+
+def display_transform(image: np.ndarray, exposure: float = 0.0,
+                      view: str = "standard") -> np.ndarray:
     """Linear radiance to 8-bit sRGB.
 
     Scales by ``2**exposure``, tone maps the luminance Y (Rec. 709 weights) by Reinhard's
@@ -93,11 +114,16 @@ def display_transform(image: np.ndarray, exposure: float = 0.0) -> np.ndarray:
         allowed.
     exposure : float
         EV stops, in [-64, 64] (:data:`wgbragg.scene.model.MAX_EXPOSURE`).
+    view : {"standard", "filmic"}
+        The tone curve of the luminance (:data:`VIEWS`): Reinhard's, or :func:`filmic_curve`
+        (each channel times ``filmic_curve(Y) / Y``).
 
     Returns
     -------
     numpy.ndarray, shape (H, W, 3), uint8
     """
+    if view not in VIEWS:
+        raise ValueError(f"view must be one of {VIEWS}, got {view!r}")
     image = np.asarray(image)
     if image.dtype.kind not in "biuf":
         raise ValueError(f"image must hold real numbers, got dtype {image.dtype}")
@@ -113,14 +139,14 @@ def display_transform(image: np.ndarray, exposure: float = 0.0) -> np.ndarray:
     luminance = scaled @ LUMINANCE_WEIGHTS
     # Y <= 0 (noise, or a negative channel outweighing the others) displays black.
     lit = luminance > 0.0
-    mapped = np.where(lit[..., None], scaled, 0.0) / (1.0 + np.where(lit, luminance, 0.0))[
-        ..., None]
-    mapped = gamut_map(mapped)
+    safe = np.where(lit, luminance, 1.0)
+    gain = 1.0 / (1.0 + safe) if view == "standard" else filmic_curve(safe) / safe
+    mapped = gamut_map(np.where(lit[..., None], scaled * gain[..., None], 0.0))
     return np.round(encode_srgb(mapped) * 255.0).astype(np.uint8)
 
 
 def save_png(image: np.ndarray, path, exposure: float = 0.0,
-             text: Mapping[str, str] | None = None) -> None:
+             text: Mapping[str, str] | None = None, view: str = "standard") -> None:
     """Write ``image`` as an 8-bit sRGB PNG through :func:`display_transform`, atomically.
 
     Parameters
@@ -134,9 +160,11 @@ def save_png(image: np.ndarray, path, exposure: float = 0.0,
     text : mapping of str to str, optional
         PNG text chunks (``tEXt``), e.g. ``{"Software": "wgbragg 0.1.0"}``: what made the
         image, which :func:`PIL.Image.open` reads back as ``image.text``.
+    view : {"standard", "filmic"}
+        The tone curve (:func:`display_transform`).
     """
     path = check_output_path(path, "path", ".png")
-    pixels = display_transform(image, exposure)
+    pixels = display_transform(image, exposure, view)
     chunks = PngInfo()
     for key, value in (text or {}).items():
         chunks.add_text(str(key), str(value))

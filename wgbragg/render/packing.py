@@ -113,9 +113,9 @@ _CAMERA_FIELDS = [
 ]
 _ENVIRONMENT_FIELDS = [
     ("zenith", "vec3<f32>"), ("disc_cos", "f32"), ("horizon", "vec3<f32>"),
-    ("disc_probability", "f32"), ("ground", "vec3<f32>"), ("_e0", "f32"),
-    ("disc_radiance", "vec3<f32>"), ("_e1", "f32"), ("disc_direction", "vec3<f32>"),
-    ("_e2", "f32"),
+    ("disc_probability", "f32"), ("ground", "vec3<f32>"), ("softbox_scale", "f32"),
+    ("disc_radiance", "vec3<f32>"), ("turn_cos", "f32"), ("disc_direction", "vec3<f32>"),
+    ("turn_sin", "f32"),
 ]
 PARAMS_DTYPE = gpu.struct_dtype([
     *_CAMERA_FIELDS, *_ENVIRONMENT_FIELDS,
@@ -836,7 +836,8 @@ def _environment(env, params) -> None:
     if env.type == "exr":
         return
     twin = ProceduralEnvironment.from_scene(env)
-    for name in ("zenith", "horizon", "ground", "disc_radiance", "disc_direction", "disc_cos"):
+    for name in ("zenith", "horizon", "ground", "disc_radiance", "disc_direction", "disc_cos",
+                 "softbox_scale", "turn_cos", "turn_sin"):
         params[name] = getattr(twin, name)
     params["disc_probability"] = _DISC_PROBABILITY if twin.has_disc else 0.0
 

@@ -1,0 +1,219 @@
+"""Lighting for look development (issue 50): Radiance ``.hdr`` panoramas, ``rotate_deg`` for
+every environment, and the look metrics of :mod:`wgbragg.render.look`.
+
+The ``.hdr`` reader is checked against files written by another library (Mitsuba 3's
+``Bitmap``, flat and run-length scanlines) and by hand; renders of a scene lit by a ``.hdr``
+panorama match those of the same panorama as OpenEXR.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+
+import numpy as np
+import pytest
+
+from wgbragg.common.exr import write_exr
+from wgbragg.common.hdr import read_hdr
+from wgbragg.lighting.environment_map import EnvironmentMap, read_panorama, rotate_panorama
+from wgbragg.lighting.procedural_environment import ProceduralEnvironment, environment_radiance
+from wgbragg.render import look
+from wgbragg.scene import load_scene
+from wgbragg.scene.model import Environment
+
+
+def _mitsuba():
+    mi = pytest.importorskip("mitsuba")
+    mi.set_variant("scalar_rgb")
+    return mi
+
+
+@pytest.mark.parametrize("width", [6, 40])  # flat scanlines below 8 columns, run-length above
+def test_hdr_written_by_mitsuba_reads_back(tmp_path, width):
+    mi = _mitsuba()
+    rng = np.random.default_rng(width)
+    image = (rng.uniform(0.0, 1.0, (5, width, 3)) * rng.uniform(0.01, 50.0, (5, width, 1))
+             ).astype(np.float32)
+    image[0, 0] = 0.0
+    image[1, :] = (2.0, 0.5, 0.25)  # long runs
+    path = tmp_path / "m.hdr"
+    mi.Bitmap(image).write(str(path))
+    ours = read_hdr(path)
+    assert ours.shape == image.shape and ours.dtype == np.float32
+    # RGBE keeps 8 bits of mantissa relative to the pixel's largest channel.
+    bound = image.max(axis=-1, keepdims=True) / 128.0
+    assert (np.abs(ours - image) <= bound).all()
+    # Mitsuba decodes c 2**(e - 136); Radiance (and wgbragg) the texel's centre, c + 1/2.
+    theirs = np.asarray(mi.Bitmap(str(path)), np.float32)
+    assert (np.abs(ours - theirs) <= bound / 2.0).all()
+    np.testing.assert_array_equal(ours[0, 0], 0.0)
+
+
+def test_hdr_by_hand_and_refusals(tmp_path):
+    header = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n"
+    path = tmp_path / "a.hdr"
+    path.write_bytes(header + bytes([128, 64, 32, 129, 0, 0, 0, 0]))
+    np.testing.assert_array_equal(read_hdr(path),
+                                  [[[128.5 / 128, 64.5 / 128, 32.5 / 128], [0.0, 0.0, 0.0]]])
+    for data, message in ((b"P6\n", "not a Radiance RGBE file"),
+                          (header.replace(b"-Y", b"+Y"), "resolution line"),
+                          (header + bytes(3), "truncated"),
+                          (b"#?RGBE\nFORMAT=32-bit_rle_xyze\n\n-Y 1 +X 1\n" + bytes(4),
+                           "pixel format")):
+        path.write_bytes(data)
+        with pytest.raises(ValueError, match=message) as error:
+            read_hdr(path)
+        assert str(error.value).startswith(str(path)) and "\n" not in str(error.value)
+    with pytest.raises(ValueError, match="cannot read"):
+        read_hdr(tmp_path / "missing.hdr")
+
+
+def test_rotate_panorama_turns_what_is_seen_by_the_angle():
+    image = np.zeros((8, 36, 3), np.float32)
+    image[3:5, 9] = 1.0  # u = 0.264: about +x
+    environment = EnvironmentMap(image)
+    d = np.array([1.0, 0.0, 0.0])
+    azimuth = math.atan2(d[0], d[2])
+    for angle in (90.0, 25.0, -40.0):
+        turned = EnvironmentMap(rotate_panorama(image, angle))
+        phi = azimuth + math.radians(angle)
+        e = np.array([math.sin(phi), 0.0, math.cos(phi)])
+        np.testing.assert_allclose(turned.radiance_at(e), environment.radiance_at(d),
+                                   atol=1e-6)
+    np.testing.assert_array_equal(rotate_panorama(image, 360.0), image)
+    np.testing.assert_array_equal(rotate_panorama(image, 10.0), np.roll(image, -1, axis=1))
+
+
+def test_procedural_rotation_turns_the_sun_and_keeps_the_gradient():
+    plain = ProceduralEnvironment.from_scene(Environment("sky"))
+    turned = ProceduralEnvironment.from_scene(Environment("sky", rotate_deg=60.0))
+    a, b = plain.disc_direction, turned.disc_direction
+    assert a[1] == pytest.approx(b[1])
+    turn = math.degrees(math.atan2(b[0], b[2]) - math.atan2(a[0], a[2]))
+    assert turn == pytest.approx(60.0)
+    directions = np.array([[0.0, 1.0, 0.0], [0.6, 0.0, 0.8], [0.0, -1.0, 0.0]])
+    np.testing.assert_array_equal(turned.radiance(directions, disc=False),
+                                  plain.radiance(directions, disc=False))
+
+
+_SCENE = """
+[camera]
+position = [0.0, 0.0, 0.0]
+look_at = [0.0, 0.0, 1.0]
+fov_deg = 90.0
+
+[environment]
+type = "exr"
+path = "{path}"
+rotate_deg = {rotate}
+
+[materials.grey]
+type = "lambertian"
+albedo = 0.5
+
+[[objects]]
+shape = "sphere"
+material = "grey"
+scale = 0.001
+translate = [300.0, -200.0, 450.0]
+"""
+
+
+def _scene(tmp_path, name, rotate=0.0):
+    path = tmp_path / f"{name}-{rotate:g}.toml"
+    path.write_text(_SCENE.format(path=name, rotate=rotate), encoding="utf-8")
+    return load_scene(path)
+
+
+def test_scene_reads_rotate_deg_and_hdr_paths(tmp_path):
+    (tmp_path / "p.hdr").write_bytes(b"#?RGBE\n\n-Y 1 +X 1\n" + bytes([128, 128, 128, 129]))
+    scene = _scene(tmp_path, "p.hdr", 45.0)
+    assert scene.environment.rotate_deg == 45.0
+    assert scene.environment.path.suffix == ".hdr"
+    np.testing.assert_allclose(read_panorama(scene.environment.path, 45.0), [[[1.0039062] * 3]])
+    with pytest.raises(ValueError, match=r"environment\.rotate_deg: must be a finite number in "
+                                         r"\[-360, 360\]"):
+        _scene(tmp_path, "p.hdr", 400.0)
+
+
+@pytest.mark.gpu
+def test_an_hdr_environment_renders_as_its_exr_twin(tmp_path):
+    from wgbragg.render import Renderer
+
+    image = np.random.default_rng(1).uniform(0.0, 2.0, (16, 32, 3)).astype(np.float32)
+    mi = _mitsuba()
+    mi.Bitmap(image).write(str(tmp_path / "p.hdr"))
+    write_exr(tmp_path / "p.exr", read_hdr(tmp_path / "p.hdr"))
+    images = [Renderer(_scene(tmp_path, name, 30.0), size=(12, 12), seed=2).render(2)
+              for name in ("p.hdr", "p.exr")]
+    np.testing.assert_array_equal(images[0], images[1])
+    assert images[0].mean() > 0.1
+    shutil.rmtree(tmp_path)
+
+
+def test_look_metrics():
+    pixels = np.zeros((20, 4, 3), np.uint8)
+    pixels[:10] = (200, 40, 40)    # red, saturated
+    pixels[10:] = (40, 40, 200)    # blue, saturated
+    pixels[12, 1] = (90, 90, 90)
+    assert look.saturated_fraction(pixels) == pytest.approx(79 / 80)
+    assert look.hue_range_deg(pixels) == pytest.approx(130.0)
+    assert look.flat_bands(pixels) == [(0, 12)]  # each row one colour, red or blue
+    assert look.flat_bands(pixels, rows=13) == []
+    assert look.saturation_histogram(pixels).sum() == 80
+    miss = np.zeros((20, 4), bool)
+    assert look.dark_background(pixels, miss) == 0.0
+    pixels[0, 0] = 0
+    miss[0, 0] = True
+    assert look.dark_background(pixels, miss) == pytest.approx(1 / 80)
+
+
+_STUDIO = """
+[camera]
+position = [0.0, 0.0, 0.0]
+look_at = {look_at}
+fov_deg = 0.2
+
+[environment]
+type = "studio"
+intensity = 1.5
+rotate_deg = {rotate}
+
+[materials.grey]
+type = "lambertian"
+albedo = 0.5
+
+[[objects]]
+shape = "sphere"
+material = "grey"
+scale = 0.001
+translate = [300.0, -200.0, 450.0]
+"""
+
+
+@pytest.mark.gpu
+@pytest.mark.parametrize("rotate", [0.0, 30.0])
+def test_studio_softboxes_render_as_their_numpy_twin(tmp_path, rotate):
+    """Looking at each softbox's centre and at its soft edge through a 0.2 degree view, the
+    path tracer's pixels (WGSL) are the numpy twin's radiance there, the boxes turned by
+    ``rotate_deg``."""
+    from wgbragg.lighting.procedural_environment import SOFTBOX_EDGE, STUDIO_SOFTBOXES
+    from wgbragg.render import Renderer
+
+    renderer = None
+    for radiance, radius, elevation, azimuth in STUDIO_SOFTBOXES:
+        for off in (0.0, (1.0 - SOFTBOX_EDGE / 2.0) * radius):
+            e, a = math.radians(elevation + off), math.radians(azimuth + rotate)
+            d = [math.cos(e) * math.sin(a), math.sin(e), math.cos(e) * math.cos(a)]
+            path = tmp_path / "studio.toml"
+            path.write_text(_STUDIO.format(look_at=d, rotate=rotate), encoding="utf-8")
+            scene = load_scene(path)
+            if renderer is None:
+                renderer = Renderer(scene, size=(3, 3), seed=1)
+            else:
+                renderer.update(scene)
+            pixel = renderer.render(16)[1, 1]
+            expected = environment_radiance(scene.environment, np.array(d))
+            assert expected[0] > 1.5 * radiance * (0.4 if off else 1.0)
+            np.testing.assert_allclose(pixel, expected, rtol=0.03)
