@@ -40,10 +40,11 @@ SIZE = (128, 128)
 # in lavapipe (a path that turns elsewhere moves one pixel, not the mean) and font rasterisation.
 SCREENSHOT_TOLERANCE = 2.0
 # A rasterized frame against the path tracer's at HANDOVER_SPP raw samples, the teapot at 128 x
-# 128, in 8-bit levels: the mean |difference| (8.0 measured: mostly the 4-spp noise) and the
-# difference of the channel means (<= 1.8 measured; filtered lighting has no interreflection).
-RASTER_PATH_MEAN_ABS = 12.0
-RASTER_PATH_CHANNEL_MEANS = 4.0
+# 128, in 8-bit levels: the mean |difference| (14.0 measured, of which the 4-spp noise is 9.6:
+# 4 spp against 64) and the difference of the channel means (<= 5.9 measured, blue; 4.1
+# against 64 spp: filtered lighting has no interreflection and shadow maps for shadow rays).
+RASTER_PATH_MEAN_ABS = 18.0
+RASTER_PATH_CHANNEL_MEANS = 8.0
 
 
 def saturation(pixels: np.ndarray) -> np.ndarray:
@@ -211,19 +212,25 @@ def test_interaction_is_rasterized_at_full_size_and_the_path_tracer_takes_over_a
 
 
 def test_scenes_the_rasterizer_cannot_shade_are_previewed_by_paths():
-    """A smooth coating or spectral mode: interaction falls back to the path-traced preview at
-    a reduced resolution, and at rest the path tracer shows from its first sample."""
-    coated = Viewer("fig11", size=(16, 16), mode="rgb", preview_scale=2)
-    assert "coating" in coated.raster_refusal
-    coated.interacting = True
-    preview = coated.frame()
-    assert coated.source == "preview" and preview.shape == (16, 16, 3)
+    """Spectral mode: interaction falls back to the path-traced preview at a reduced
+    resolution, and at rest the path tracer shows from its first sample. A smooth coating is
+    rasterized (filtered lighting shades it)."""
+    spectral = Viewer("fig11", size=(16, 16), preview_scale=2)
+    assert spectral.mode == "spectral" and spectral.raster_refusal.startswith("spectral mode")
+    spectral.interacting = True
+    preview = spectral.frame()
+    assert spectral.source == "preview" and preview.shape == (16, 16, 3)
     blocks = preview.reshape(8, 2, 8, 2, 3)
     assert (blocks == blocks[:, :1, :, :1]).all()  # each pixel of the preview shown 2 x 2
-    assert coated.budgets.preview_scale == 2 and coated.budgets.preview_fps > 0
-    coated.interacting = False
-    coated.frame()
-    assert (coated.source, coated.passes) == ("path-traced", 1)
+    assert spectral.budgets.preview_scale == 2 and spectral.budgets.preview_fps > 0
+    spectral.interacting = False
+    spectral.frame()
+    assert (spectral.source, spectral.passes) == ("path-traced", 1)
+    spectral.edit(mode="rgb")  # the coated layers
+    assert spectral.raster_refusal is None
+    spectral.interacting = True
+    spectral.frame()
+    assert spectral.source == "rasterized"
     viewer = Viewer("teapot", size=(16, 16))
     assert viewer.raster_refusal is None and viewer.preview_scale() == 2  # not measured yet
     viewer.edit(mode="spectral")
@@ -520,6 +527,7 @@ def test_dragging_the_picture_orbits_with_rasterized_frames(window):
     window.draw()  # lays the picture out
     x, y, width, height = window.image_rect
     yaw = window.viewer.yaw_deg
+    distance = window.viewer.distance
     window.on_pointer({"event_type": "pointer_down", "x": x + width / 2, "y": y + height / 2,
                        "button": 1})
     window.on_pointer({"event_type": "pointer_move", "x": x + width / 2 + 50,
@@ -533,7 +541,7 @@ def test_dragging_the_picture_orbits_with_rasterized_frames(window):
     assert window.raster_fps > 0
     window.on_pointer({"event_type": "pointer_up", "x": x, "y": y, "button": 1})
     window.on_wheel({"event_type": "wheel", "dx": 0.0, "dy": 400.0})
-    assert window.viewer.distance == pytest.approx(2.0 * np.hypot(2.0, 0.6))
+    assert window.viewer.distance == pytest.approx(min(2.0 * distance, 20.0))  # 400: 2x
 
 
 def test_screenshots_match_the_references(window, request, tmp_path):

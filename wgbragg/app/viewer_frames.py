@@ -9,7 +9,7 @@ frames, each updated to the current scene when it next draws:
 - at rest, the progressive path tracer (:class:`wgbragg.render.Renderer`, one sample per pixel
   a frame), whose picture replaces the rasterized one once it holds :data:`HANDOVER_SPP`
   samples (switched, not blended: docs/design.md, "The demo");
-- where the rasterizer cannot shade the scene (spectral mode, a smooth coating), interaction
+- where the rasterizer cannot shade the scene (spectral mode, or a scene it refuses), interaction
   falls back to a path-traced preview at a reduced resolution (:data:`PREVIEW_SCALES`).
 
 Rasterized frames go through the display transform on the device
