@@ -339,8 +339,11 @@ class _Importer:
         return self._cached(data, ".glb"), vertices
 
     def _cached(self, data: bytes, suffix: str) -> Path:
+        """The cache file named by ``data``'s hash, (re)written unless it holds exactly
+        ``data``: a cached file is checked, never trusted."""
         path = self.folder / f"{hashlib.sha256(data).hexdigest()[:32]}{suffix}"
-        if not (path.is_file() and path.stat().st_size == len(data)):
+        if not (path.is_file() and path.stat().st_size == len(data)
+                and path.read_bytes() == data):
             with atomic_path(path) as temporary:
                 temporary.write_bytes(data)
         return path
@@ -434,6 +437,8 @@ class _Importer:
             table["radiance"] = list(environment.radiance)
         else:
             table["intensity"] = environment.intensity
+        if environment.rotate_deg:
+            table["rotate_deg"] = environment.rotate_deg
         if environment.type == "exr":
             table["path"] = str(Path(environment.path).absolute())
         return table
