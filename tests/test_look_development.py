@@ -176,7 +176,7 @@ look_at = {look_at}
 fov_deg = 0.2
 
 [environment]
-type = "studio"
+type = "softbox-studio"
 intensity = 1.5
 rotate_deg = {rotate}
 
@@ -217,3 +217,22 @@ def test_studio_softboxes_render_as_their_numpy_twin(tmp_path, rotate):
             expected = environment_radiance(scene.environment, np.array(d))
             assert expected[0] > 1.5 * radiance * (0.4 if off else 1.0)
             np.testing.assert_allclose(pixel, expected, rtol=0.03)
+
+
+def test_filmic_view():
+    from wgbragg.render.display import display_transform, filmic_curve
+
+    y = np.array([0.0, 0.01, 0.18, 1.0, 4.0, 100.0])
+    curve = filmic_curve(y)
+    assert curve[0] == 0.0 and curve[-1] == 1.0 and np.all(np.diff(curve) > 0.0)
+    image = np.array([[[0.05, 0.02, 0.01], [0.3, 0.1, 0.6], [50.0, 5.0, 1.0], [0.0, 0.0, 0.0]]])
+    standard, filmic = display_transform(image), display_transform(image, view="filmic")
+    # Deeper shadows; a very bright saturated colour goes towards white; black stays black.
+    assert filmic[0, 0].sum() < standard[0, 0].sum()
+    assert filmic[0, 2].min() > standard[0, 2].min()
+    np.testing.assert_array_equal(filmic[0, 3], 0)
+    # Mid-tones keep their hue.
+    hue = look.hsv(np.stack([standard[0, 1], filmic[0, 1]]))[0]
+    assert abs(hue[0] - hue[1]) < 3.0
+    with pytest.raises(ValueError, match="view must be one of"):
+        display_transform(image, view="agx")

@@ -216,7 +216,7 @@ def test_a_roughness_edit_prefilters_only_the_new_roughness(device, tmp_path, mo
     monkeypatch.setattr(prefilter_module, "prefilter_environment", recording)
     two = load_preset("teapot")
     renderer = Renderer(two, size=(16, 16), ibl="split-sum", mode="rgb", seed=1)
-    assert asked == [[0.05, 0.3, "cosine"]]
+    assert asked == [[0.025, 0.4, "cosine"]]
     material = two.materials["two_layers"]
     edited = dataclasses.replace(material, layers=(
         material.layers[0], dataclasses.replace(material.layers[1], alpha=0.2)))

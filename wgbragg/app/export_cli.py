@@ -18,12 +18,13 @@ __all__ = ["EXPORT_SUFFIXES", "add_export_command", "add_gltf_options", "environ
 EXPORT_SUFFIXES = (".glb", ".gltf", ".mtlx")
 """What ``wgbragg export`` and ``--export`` write: glTF 2.0 (binary or JSON) or MaterialX."""
 
-ENVIRONMENTS = ("uniform", "sky", "studio")
+ENVIRONMENTS = ("uniform", "sky", "studio", "softbox-studio")
 
 
 def environment_option(text: str | None):
     """``--environment``: ``uniform[:RADIANCE]``, ``sky[:INTENSITY]``, ``studio[:INTENSITY]`` or
-    an ``.exr`` file, as an :class:`~wgbragg.scene.model.Environment` (None for None)."""
+    an ``.exr`` or ``.hdr`` file, as an :class:`~wgbragg.scene.model.Environment` (None for
+    None)."""
     from wgbragg.scene.model import Environment
 
     if text is None:
@@ -41,9 +42,10 @@ def environment_option(text: str | None):
             return Environment("uniform", radiance=(value,) * 3)
         return Environment(kind, intensity=value)
     path = Path(text)
-    if path.suffix.lower() != ".exr" or not path.is_file():
+    if path.suffix.lower() not in (".exr", ".hdr") or not path.is_file():
         raise ValueError(f"--environment must be one of {', '.join(ENVIRONMENTS)} (with "
-                         f"':AMOUNT' optionally) or an existing .exr file, got {text!r}")
+                         f"':AMOUNT' optionally) or an existing .exr or .hdr file, got "
+                         f"{text!r}")
     return Environment("exr", path=path.absolute())
 
 
@@ -54,7 +56,7 @@ def add_gltf_options(parser) -> None:
                              "first perspective camera)")
     parser.add_argument("--environment", default=None, metavar="ENV",
                         help="glTF files: uniform[:RADIANCE], sky[:INTENSITY], "
-                             "studio[:INTENSITY] or an .exr file (default: the file's "
+                             "studio[:INTENSITY] or an .exr or .hdr file (default: the file's "
                              "extras.wgbragg, else uniform:1)")
 
 

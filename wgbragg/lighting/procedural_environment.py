@@ -2,9 +2,10 @@
 ``environment_radiance`` in ``wgsl/lighting/procedural_environment.wgsl`` (its float32 twin,
 included by ``wgsl/render/renderer.wgsl``), for references and tests.
 
-``"uniform"``, ``"sky"`` and ``"studio"`` (:data:`PROCEDURAL_TYPES`): a constant, or a gradient
-from horizon to zenith over a ground colour with a disc source (the sun, a key light), and for
-the studio three softboxes of different sizes (:data:`STUDIO_SOFTBOXES`), in the scene's
+``"uniform"``, ``"sky"``, ``"studio"`` and ``"softbox-studio"`` (:data:`PROCEDURAL_TYPES`): a
+constant, or a gradient from horizon to zenith over a ground colour with a disc source (the
+sun, a key light), and for the softbox studio (the studio and) three softboxes of different
+sizes (:data:`STUDIO_SOFTBOXES`), in the scene's
 relative radiance units (+y up). ``rotate_deg`` turns the disc and the softboxes about +y.
 The renderer uploads the same parameters (:meth:`ProceduralEnvironment.from_scene`).
 Details: ``docs/physics.md``, "Environment maps".
@@ -24,6 +25,7 @@ PALETTES = {
     "sky": ((0.25, 0.45, 0.9), (0.9, 0.95, 1.0), (0.1, 0.1, 0.1), 80.0, 2.5, 50.0, 30.0),
     "studio": ((0.6, 0.6, 0.6), (0.35, 0.35, 0.35), (0.03, 0.03, 0.03), 6.0, 15.0, 45.0, -45.0),
 }
+PALETTES["softbox-studio"] = PALETTES["studio"]
 """Per type: zenith, horizon and ground colours, disc radiance, disc radius (deg), disc
 elevation (deg) and azimuth (deg, from +z towards +x)."""
 
@@ -32,7 +34,8 @@ STUDIO_SOFTBOXES = (
     (4.0, 12.0, 15.0, 95.0),
     (12.0, 4.0, 25.0, -140.0),
 )
-"""The studio's softboxes besides its key light, as in the WGSL file's ``STUDIO_SOFTBOXES``:
+"""The softbox studio's softboxes besides its key light, as in the WGSL file's
+``STUDIO_SOFTBOXES``:
 per box its radiance (times ``intensity``), angular radius (deg), elevation and azimuth (deg,
 from +z towards +x, before ``rotate_deg``). A large overhead box behind the subject, a
 medium one low at the side and a small bright one: iridescent objects reflect three
@@ -41,7 +44,7 @@ SOFTBOX_EDGE = 0.2
 """A softbox's edge falls off smoothly (``smoothstep`` of the cosine) over this fraction of
 its radius, inwards from the rim: no sharp edge to alias or to prefilter."""
 
-PROCEDURAL_TYPES = ("uniform", "sky", "studio")
+PROCEDURAL_TYPES = ("uniform", "sky", "studio", "softbox-studio")
 """``Environment.type`` values this module evaluates."""
 
 
@@ -63,7 +66,8 @@ class ProceduralEnvironment:
     disc_direction : numpy.ndarray, shape (3,)
         Unit direction towards the disc's centre, zeros without a disc.
     softbox_scale : float
-        Scale of the :data:`STUDIO_SOFTBOXES` (the studio's ``intensity``; 0 elsewhere).
+        Scale of the :data:`STUDIO_SOFTBOXES` (the softbox studio's ``intensity``; 0
+        elsewhere).
     turn_cos, turn_sin : float
         Cosine and sine of ``rotate_deg``, by which the softboxes turn about +y.
     """
@@ -85,7 +89,7 @@ class ProceduralEnvironment:
         Parameters
         ----------
         environment : wgbragg.scene.model.Environment
-            Of type ``"uniform"``, ``"sky"`` or ``"studio"``.
+            Of a type in :data:`PROCEDURAL_TYPES`.
 
         Returns
         -------
@@ -121,7 +125,7 @@ class ProceduralEnvironment:
         return cls(np.multiply(zenith, scale), np.multiply(horizon, scale),
                    np.multiply(ground, scale), np.full(3, disc * scale),
                    math.cos(math.radians(radius_deg)), direction,
-                   scale if environment.type == "studio" else 0.0, math.cos(turn),
+                   scale if environment.type == "softbox-studio" else 0.0, math.cos(turn),
                    math.sin(turn))
 
     @property
@@ -197,7 +201,7 @@ def environment_radiance(environment, directions) -> np.ndarray:
     Parameters
     ----------
     environment : wgbragg.scene.model.Environment
-        Of type ``"uniform"``, ``"sky"`` or ``"studio"``.
+        Of a type in :data:`PROCEDURAL_TYPES`.
     directions : array_like, shape (..., 3)
         Unit directions towards the environment, in the scene's axes (+y up).
 

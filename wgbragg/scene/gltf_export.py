@@ -230,6 +230,8 @@ class _Exporter:
             environment["radiance"] = list(env.radiance)
         else:
             environment["intensity"] = env.intensity
+        if env.rotate_deg:
+            environment["rotate_deg"] = env.rotate_deg
         if env.type == "exr":
             path = Path(env.path).absolute()
             if self.folder is not None and path.is_relative_to(self.folder.absolute()):

@@ -72,7 +72,7 @@ MAX_MAP_SCALE = 2.0**24
 """Largest ``scale`` of a procedural map a scene file takes, as the GPU does: it keeps the noise
 lattice within u32, and float32 resolves no phase within a tile beyond it anyway."""
 
-ENVIRONMENT_TYPES = ("uniform", "sky", "studio", "exr")
+ENVIRONMENT_TYPES = ("uniform", "sky", "studio", "softbox-studio", "exr")
 """``type`` of the environment."""
 
 MODES = ("rgb", "spectral")
@@ -426,7 +426,7 @@ class Environment:
 
     Parameters
     ----------
-    type : {"uniform", "sky", "studio", "exr"}
+    type : {"uniform", "sky", "studio", "softbox-studio", "exr"}
         A constant radiance; a procedural sky (blue zenith, bright horizon, a sun) or studio
         (soft boxes over a dark floor); or an equirectangular EXR image (+y up).
     radiance : tuple of 3 floats

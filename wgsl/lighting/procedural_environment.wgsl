@@ -1,5 +1,5 @@
-// The procedural environments of the path tracer in float32 ("uniform", "sky", "studio" with its
-// softboxes): their radiance environment_radiance and the sampling pair environment_sample / environment_pdf.
+// The procedural environments of the path tracer in float32 ("uniform", "sky", "studio", and
+// "softbox-studio" with its softboxes): their radiance environment_radiance and the sampling pair environment_sample / environment_pdf.
 // The float32 twin of wgbragg/lighting/procedural_environment.py (ProceduralEnvironment packs
 // the Environment record below).
 //
@@ -16,7 +16,7 @@ struct Environment {
     horizon: vec3<f32>,
     disc_probability: f32,  // share of environment samples aimed at the disc
     ground: vec3<f32>,
-    softbox_scale: f32,   // the studio's intensity; 0: no softboxes
+    softbox_scale: f32,   // the softbox studio's intensity; 0: no softboxes
     disc_radiance: vec3<f32>,
     turn_cos: f32,        // cosine and sine of rotate_deg, by which the softboxes turn
     disc_direction: vec3<f32>,
