@@ -236,3 +236,19 @@ def test_filmic_view():
     assert abs(hue[0] - hue[1]) < 3.0
     with pytest.raises(ValueError, match="view must be one of"):
         display_transform(image, view="agx")
+
+
+@pytest.mark.gpu
+def test_render_writes_the_filmic_view(tmp_path):
+    from PIL import Image
+
+    from wgbragg.app.cli import main
+    from wgbragg.common.exr import read_exr
+    from wgbragg.render.display import display_transform
+
+    png, exr = tmp_path / "f.png", tmp_path / "f.exr"
+    status = main(["render", "--scene", "fig11", "--size", "16x8", "--spp", "1", "--view",
+                   "filmic", "-o", str(png), "--exr", str(exr), "--no-progress"])
+    assert status in (0, None)
+    np.testing.assert_array_equal(np.asarray(Image.open(png)),
+                                  display_transform(read_exr(exr), view="filmic"))

@@ -35,6 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
+from wgbragg.common.exr import read_exr
+from wgbragg.common.hdr import read_hdr
 from wgbragg.common.validation import as_float, as_float_array, check_directions
 
 __all__ = ["FLOOR_FRACTION", "LUMINANCE_WEIGHTS", "PANORAMA_SUFFIXES", "EnvironmentMap",
@@ -65,10 +67,8 @@ def read_panorama(path, rotate_deg: float = 0.0) -> np.ndarray:
     """
     suffix = Path(path).suffix.lower()
     if suffix == ".exr":
-        from wgbragg.common.exr import read_exr
         image = read_exr(path)
     elif suffix == ".hdr":
-        from wgbragg.common.hdr import read_hdr
         image = read_hdr(path)
     else:
         raise ValueError(f"{path}: an environment panorama must be one of {PANORAMA_SUFFIXES}")
