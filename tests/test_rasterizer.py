@@ -148,7 +148,7 @@ def test_visibility_is_the_path_tracers_primary_hits(device, preset):
 # antialiasing; and against its converged Monte Carlo image (128 spp, 64 x 48), where the
 # filtered lighting's own error dominates. Measured values with a margin (docs/benchmarks.md,
 # "Rasterizer: frame rates and accuracy", at a larger size).
-_SMAPE = {"teapot": (0.06, 0.10), "fig1": (0.03, 0.10), "fig7": (0.03, 0.055),
+_SMAPE = {"teapot": (0.06, 0.12), "fig1": (0.03, 0.10), "fig7": (0.03, 0.055),
           "fig10": (0.03, 0.09), "fig11": (0.03, 0.06), "fig12": (0.03, 0.065),
           "thin_film": (0.03, 0.08), "furnace": (0.03, 0.01)}
 
