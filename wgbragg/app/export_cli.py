@@ -56,7 +56,8 @@ def add_gltf_options(parser) -> None:
                              "first perspective camera)")
     parser.add_argument("--environment", default=None, metavar="ENV",
                         help="glTF files: uniform[:RADIANCE], sky[:INTENSITY], "
-                             "studio[:INTENSITY] or an .exr or .hdr file (default: the file's "
+                             "studio[:INTENSITY], softbox-studio[:INTENSITY] or an .exr or .hdr "
+                             "file (default: the file's "
                              "extras.wgbragg, else uniform:1)")
 
 

@@ -27,8 +27,8 @@ Example::
     fov_deg = 40.0           # vertical field of view
 
     [environment]
-    type = "sky"             # "uniform" (radiance), "sky" | "studio" (intensity), "exr" (path)
-    intensity = 1.0
+    type = "sky"             # "uniform" (radiance), "sky" | "studio" | "softbox-studio"
+    intensity = 1.0          # (intensity), "exr" (path: .exr or .hdr); rotate_deg for all
 
     [materials.blue]
     type = "layered-bragg"
