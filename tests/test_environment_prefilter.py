@@ -292,6 +292,8 @@ def test_narrow_lobes_approach_the_box_filtered_source():
 SOURCES = {
     "map": lambda: structured_map(),
     "sky": lambda: procedural("sky", intensity=0.5),
+    # Softboxes (smooth, in the rasterized part) turned with rotate_deg.
+    "softbox-studio": lambda: procedural("softbox-studio", rotate_deg=30.0),
 }
 
 
