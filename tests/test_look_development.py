@@ -278,3 +278,21 @@ def test_softbox_studio_prefilters_to_its_irradiance():
                       -math.sin(theta) * math.cos(azimuth)])
         expected = 4.0 * np.mean(radiance * np.maximum(d @ n, 0.0))  # (4 pi / count) sum / pi
         assert level[y, x, 0] == pytest.approx(expected, rel=0.02)
+
+
+def test_every_environment_takes_intensity_and_rotate_deg(tmp_path):
+    for kind in ("uniform", "sky", "studio", "softbox-studio"):
+        path = tmp_path / f"{kind}.toml"
+        path.write_text(_STUDIO.replace('"softbox-studio"', f'"{kind}"')
+                        .format(look_at=[0.0, 0.0, 1.0], rotate=-20.0), encoding="utf-8")
+        environment = load_scene(path).environment
+        assert environment.rotate_deg == -20.0
+        if kind == "uniform":
+            assert environment.radiance == (1.5, 1.5, 1.5)
+        else:
+            assert environment.intensity == 1.5
+    path.write_text(_STUDIO.replace('"softbox-studio"', '"uniform"\nradiance = 1e5')
+                    .replace("intensity = 1.5", "intensity = 1e5")
+                    .format(look_at=[0.0, 0.0, 1.0], rotate=0.0), encoding="utf-8")
+    with pytest.raises(ValueError, match=r"environment\.intensity: times the largest radiance"):
+        load_scene(path)

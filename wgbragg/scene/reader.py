@@ -471,9 +471,16 @@ def _environment(ctx: _Context, value) -> Environment:
     table = _table(ctx, value, "environment")
     kind = _choice(ctx, table.get("type"), "environment.type", ENVIRONMENT_TYPES)
     if kind == "uniform":
-        _keys(ctx, table, "environment", ("type",), ("radiance", "rotate_deg"))
-        return Environment(kind, radiance=_radiometric(ctx, table.get("radiance", 1.0),
-                                                       "environment.radiance"),
+        _keys(ctx, table, "environment", ("type",), ("radiance", "intensity", "rotate_deg"))
+        radiance = _radiometric(ctx, table.get("radiance", 1.0), "environment.radiance")
+        # An intensity scales the radiance, which keeps the product.
+        scale = _real(ctx, table.get("intensity", 1.0), "environment.intensity", 0.0,
+                      MAX_RADIANCE)
+        if max(radiance) * scale > MAX_RADIANCE:
+            raise ctx.error("environment.intensity", f"times the largest radiance must be at "
+                                                     f"most {MAX_RADIANCE:g}, got "
+                                                     f"{max(radiance) * scale:g}")
+        return Environment(kind, radiance=tuple(r * scale for r in radiance),
                            rotate_deg=_rotation(ctx, table))
     required = ("type", "path") if kind == "exr" else ("type",)
     _keys(ctx, table, "environment", required, ("intensity", "rotate_deg"))
