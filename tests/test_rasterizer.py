@@ -190,6 +190,21 @@ def test_temporal_frames_converge_and_reset_on_update(device, sphere_scene):
     np.testing.assert_allclose(raster.frame(), 2.0 * first, rtol=2e-3, atol=1e-4)
 
 
+def test_an_orbit_moves_only_the_camera(device):
+    """A camera-only update (orbit, zoom) rewrites the view and keeps everything else: its
+    frame is a fresh rasterizer's of the moved scene."""
+    scene = load_preset("teapot")
+    raster = Rasterizer(scene, size=(48, 36), temporal_frames=1)
+    raster.frame()
+    moved = dataclasses.replace(scene, camera=dataclasses.replace(
+        scene.camera, position=(1.5, 1.2, 1.6)))
+    raster.update(moved)
+    assert raster.frames == 0
+    np.testing.assert_allclose(raster.frame(),
+                               Rasterizer(moved, size=(48, 36), temporal_frames=1).frame(),
+                               rtol=1e-6, atol=1e-7)
+
+
 def test_shadow_maps_darken_what_the_path_tracer_shadows(device, tmp_path):
     """A sphere over a floor under a point light: the floor's shadow is where the path
     tracer's shadow rays find it."""

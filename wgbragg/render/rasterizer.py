@@ -24,6 +24,7 @@ RGB mode only (the filtered lighting has no spectral form).
 
 from __future__ import annotations
 
+import dataclasses
 import numbers
 
 import numpy as np
@@ -169,6 +170,10 @@ class Rasterizer:
         ValueError
             As the constructor; the rasterizer is then left as it was.
         """
+        if getattr(self, "scene", None) is not None and (
+                dataclasses.replace(scene, camera=self.scene.camera) == self.scene):
+            self._move_camera(scene)
+            return
         resources = self._resources
         resources.update(scene, self.mode, self.colour_method, self.ibl)
         self.scene = scene
@@ -192,6 +197,17 @@ class Rasterizer:
         self._view_buffer = self._uniform(self._main_view)
         self._groups = (self._scene_group(kernel),
                         self._view_group(kernel, self._view_buffer, self._shadows))
+        self.reset()
+
+    def _move_camera(self, scene: Scene) -> None:
+        """An orbit or a zoom: the camera's uniforms rewritten, nothing re-packed."""
+        params = scene_params(scene, self.width, self.height, self._resources.packed, 0)
+        self._device.queue.write_buffer(self._params, 0, np.atleast_1d(params).tobytes())
+        jitter = self._main_view["jitter"].copy()
+        self._main_view = self._view(params, self._near, self._shadow_lights)
+        self._main_view["jitter"] = jitter
+        self._device.queue.write_buffer(self._view_buffer, 0, self._main_view.tobytes())
+        self.scene = scene
         self.reset()
 
     def reset(self) -> None:
