@@ -104,7 +104,7 @@ def test_node_texels_hold_boxes_outward_and_references_exactly():
     """What bvh_root and bvh_node (render/renderer_scene.wgsl) read: the centre, the root's
     reference, and each wide node's four slots: boxes around the binary tree's (relative to
     the centre) and references to wide nodes or leaves' faces."""
-    from wgbragg.render import packing
+    from wgbragg.render import packing_geometry as packing
     from wgbragg.render.bvh import build_bvh, collapse_wide
     from wgbragg.scene.meshes import sphere_mesh
 
@@ -153,7 +153,7 @@ def test_wide_nodes_reach_every_leaf_once():
 
 
 def test_a_bvh_too_large_for_the_node_texture_is_refused():
-    from wgbragg.render import packing
+    from wgbragg.render import packing_geometry as packing
     from wgbragg.render.bvh import build_bvh, collapse_wide
     from wgbragg.scene.meshes import sphere_mesh
 

@@ -23,7 +23,7 @@ from wgbragg.colour import colorimetry, grid_gpu, landmark_methods, landmark_met
 from wgbragg.colour import thin_film_gpu as colour_thin_film_gpu
 from wgbragg.lighting import environment_map, environment_prefilter, ibl
 from wgbragg.optics import landmarks, thin_film_gpu, yeh_gpu
-from wgbragg.render import packing
+from wgbragg.render import packing_geometry
 
 ENVIRONMENT_MAP = str(Path(__file__).parent / "kernels" / "environment_map_eval.wgsl")
 """A kernel that includes ``lighting/environment_map.wgsl`` (the library has no entry point)."""
@@ -201,9 +201,9 @@ CONSTANTS = [
     ("bsdf/layered/model_eval.wgsl", "SUBDIVISIONS", _subdivided_default()),
     ("bsdf/layered/simulation.wgsl", "FIRST_NM", colorimetry.WAVELENGTH_RANGE_NM[0]),
     # The BVH traversal: its stack and the node texture's rows.
-    ("render/renderer_scene.wgsl", "STACK_SIZE", packing._STACK_SIZE),
-    ("render/renderer_scene.wgsl", "NODE_TEXTURE_WIDTH", packing.NODE_TEXTURE_WIDTH),
-    ("render/renderer_scene.wgsl", "SHAPE_TEXTURE_WIDTH", packing.SHAPE_TEXTURE_WIDTH),
+    ("render/renderer_scene.wgsl", "STACK_SIZE", packing_geometry._STACK_SIZE),
+    ("render/renderer_scene.wgsl", "NODE_TEXTURE_WIDTH", packing_geometry.NODE_TEXTURE_WIDTH),
+    ("render/renderer_scene.wgsl", "SHAPE_TEXTURE_WIDTH", packing_geometry.SHAPE_TEXTURE_WIDTH),
     # Filtered image-based lighting: the microfacet albedo table.
     ("lighting/ibl.wgsl", "IBL_ALBEDO_NODES", ibl.ALBEDO_TABLE_NODES),
     # Environment maps.

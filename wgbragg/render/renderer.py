@@ -1,11 +1,11 @@
 """The progressive GPU path tracer of scene files, RGB or spectral (``wgsl/render/renderer.wgsl``).
 
 :class:`Renderer` packs a :class:`wgbragg.scene.model.Scene` into GPU buffers
-(:mod:`wgbragg.render.packing`: world-space triangles, one BVH, exact spheres and planes,
-materials, lights), uploads them
-once, compiles the pipeline specialised for the scene, and accumulates paths per pixel in a
-float32 buffer on the device. :mod:`wgbragg.render.display` turns the image into a PNG.
-Scenes are +y up (the built-in shapes' placement: :mod:`wgbragg.render.packing`);
+(:mod:`wgbragg.render.scene_resources`: world-space triangles, one BVH, exact spheres and
+planes, materials, lights), uploads them once, compiles the pipeline specialised for the
+scene, and accumulates paths per pixel in a float32 buffer on the device.
+:mod:`wgbragg.render.display` turns the image into a PNG.
+Scenes are +y up (the built-in shapes' placement: :mod:`wgbragg.render.packing_geometry`);
 :meth:`Renderer.world_geometry` returns the world-space triangles, spheres and planes it
 traces.
 

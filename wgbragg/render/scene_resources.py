@@ -21,7 +21,6 @@ import numpy as np
 from wgbragg import gpu
 from wgbragg.bsdf.layered.model_gpu import FACTORED_COLOUR_METHODS
 from wgbragg.render.packing import (
-    PackedGeometry,
     PackedMaterials,
     exr_environment,
     film_buffers,
@@ -33,12 +32,12 @@ from wgbragg.render.packing import (
     no_films,
     no_layered,
     no_prefiltered,
-    pack_geometry,
     pack_materials,
     prefilter_levels,
     prefiltered_arrays,
     spectra,
 )
+from wgbragg.render.packing_geometry import PackedGeometry, pack_geometry
 from wgbragg.scene.model import Scene
 
 __all__ = ["SceneResources", "WorldGeometry"]
@@ -119,7 +118,7 @@ class SceneResources:
         Override constants of the shading: ``LAYERED``, ``SPECTRAL``, ``ENVIRONMENT_MAP``,
         ``THIN_FILMS``, ``FILM_MAPS``, ``FILM_PREFILTERED``, ``IBL``, ``MESHES`` and the
         layered materials' own.
-    packed : wgbragg.render.packing.PackedGeometry
+    packed : wgbragg.render.packing_geometry.PackedGeometry
         The geometry as uploaded (BVH order), with its ``bvh`` and ``triangles``.
     environment_map : wgbragg.lighting.environment_map.EnvironmentMap or None
     table_seconds : float
@@ -182,9 +181,9 @@ class SceneResources:
         their materials.
 
         What a comparison with another renderer needs to set up the same scene: the built-in
-        shapes tessellated and placed (:mod:`wgbragg.render.packing`), mesh files transformed,
-        exactly as uploaded for the current scene (:meth:`update` replaces them when the
-        objects or material names change).
+        shapes tessellated and placed (:mod:`wgbragg.render.packing_geometry`), mesh files
+        transformed, exactly as uploaded for the current scene (:meth:`update` replaces them
+        when the objects or material names change).
 
         Returns
         -------

@@ -230,7 +230,8 @@ fn shade(d: vec3<f32>, hit: Hit) -> vec3<f32> {
         let distance = length(to_light);
         let l = to_light / distance;
         let local = to_local(frame, l);
-        if (!(dot(l, surface.geometric) > 0.0 && local.z > 0.0 && any(intensity > vec3<f32>(0.0)))) {
+        let lit = any(intensity > vec3<f32>(0.0));
+        if (!(dot(l, surface.geometric) > 0.0 && local.z > 0.0 && lit)) {
             continue;
         }
         let seen = light_visibility(k, position, surface.position, surface.geometric);

@@ -69,8 +69,9 @@ struct Params {
 @group(0) @binding(18) var film_table: texture_2d<f32>;
 @group(0) @binding(19) var<storage, read> film_base: array<vec4<f32>>;
 // Filtered image-based lighting (IBL != IBL_MONTE_CARLO): the prefiltered environment
-// (wgbragg.lighting.environment_prefilter, read by lighting/environment_prefilter_lookup.wgsl) and, per level, the
-// microfacet albedo E(cos_v) at IBL_ALBEDO_NODES cosines (wgbragg.lighting.ibl.microfacet_albedo_table).
+// (wgbragg.lighting.environment_prefilter, read by lighting/environment_prefilter_lookup.wgsl)
+// and, per level, the microfacet albedo E(cos_v) at IBL_ALBEDO_NODES cosines
+// (wgbragg.lighting.ibl.microfacet_albedo_table).
 @group(0) @binding(20) var<storage, read> prefiltered_levels: array<PrefilteredLevel>;
 @group(0) @binding(21) var<storage, read> prefiltered_texels: array<vec4<f32>>;
 @group(0) @binding(22) var<storage, read> ibl_albedo: array<f32>;

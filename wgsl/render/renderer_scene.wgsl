@@ -27,23 +27,26 @@
 // Primitives are numbered as Renderer.primary_hits reports them: the triangles (in BVH order
 // here), then the spheres, then the planes (parallelograms), then the area lights.
 
-// Slots of bvh_trace_deep's stack: bvh.BVH.depth + 1 suffice; packing.py refuses deeper trees.
+// Slots of bvh_trace_deep's stack: bvh.BVH.depth + 1 suffice; packing_geometry.py refuses
+// deeper trees.
 // A binned-SAH tree of 1.3 million triangles is 21 deep.
 const STACK_SIZE: u32 = 48u;
 // Entries of bvh_trace_registers' stack (at most its eight registers); a pipeline constant so
 // that tests can make the deep traversal run.
 override REGISTER_STACK: u32 = 8u;
-// A node's reference word (wgbragg/render/packing.py _node_texels): for an interior node this
-// bit and its number as a wide node (of four children, bvh.collapse_wide); for a leaf its
-// first face << 7 | its number of faces.
+// A node's reference word (wgbragg/render/packing_geometry.py _node_texels): for an interior
+// node this bit and its number as a wide node (of four children, bvh.collapse_wide); for a
+// leaf its first face << 7 | its number of faces.
 const NODE_INTERIOR: u32 = 0x80000000u;
-// Texels a row of node_texels (packing._node_texels), row-major: texel 0 the root box's centre
-// and the root's reference, texels 4 k + 4 .. 4 k + 7 wide node k's four children, each its
-// box relative to that centre as six float16 (rounded outward) and its reference, 32-bit
-// words read with bitcast: a box in one texel (docs/performance.md, "Traversal").
+// Texels a row of node_texels (packing_geometry._node_texels), row-major: texel 0 the root
+// box's centre and the root's reference, texels 4 k + 4 .. 4 k + 7 wide node k's four
+// children, each its box relative to that centre as six float16 (rounded outward) and its
+// reference, 32-bit words read with bitcast: a box in one texel (docs/performance.md,
+// "Traversal").
 const NODE_TEXTURE_WIDTH: u32 = 4096u;
 
-// Texels a row of shape_texels (wgbragg/render/packing.py SHAPE_TEXTURE_WIDTH), row-major.
+// Texels a row of shape_texels (wgbragg/render/packing_geometry.py SHAPE_TEXTURE_WIDTH),
+// row-major.
 const SHAPE_TEXTURE_WIDTH: u32 = 4096u;
 
 // Row i of the shapes (textureLoad costs llvmpipe less than a storage load, as for nodes).
@@ -356,9 +359,9 @@ fn bvh_trace_registers(origin: vec3<f32>, direction: vec3<f32>, local: vec3<f32>
     return true;
 }
 
-// The same traversal with a stack in memory, as deep as any tree packing.py accepts: for the
-// rare query that overflows bvh_trace_registers' eight entries, from the root again with the
-// hits found so far pruning it.
+// The same traversal with a stack in memory, as deep as any tree packing_geometry.py accepts:
+// for the rare query that overflows bvh_trace_registers' eight entries, from the root again
+// with the hits found so far pruning it.
 fn bvh_trace_deep(origin: vec3<f32>, direction: vec3<f32>, local: vec3<f32>,
                   inverse: vec3<f32>, root: u32, best: ptr<function, Hit>, any_hit: bool) {
     var stack: array<u32, STACK_SIZE>;
