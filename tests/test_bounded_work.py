@@ -20,8 +20,9 @@ from wgbragg.common import blocks as blocks_module
 from wgbragg.common.blocks import DEFAULT_BLOCK, block_ranges, blockwise, flat_block
 from wgbragg.gpu import streams
 from wgbragg.optics import stacks
-from wgbragg.render import renderer as renderer_module
-from wgbragg.render.renderer import PassPlan, Renderer, TimeBudget
+from wgbragg.render import time_budget
+from wgbragg.render.renderer import Renderer
+from wgbragg.render.time_budget import PassPlan, TimeBudget
 from wgbragg.scene.reader import load_preset
 
 KERNELS = Path(__file__).resolve().parent / "kernels"
@@ -310,7 +311,7 @@ BIG_PATH_SECONDS = 93.0 / BIG  # the issue's 2896^2 teapot: 93 s a pass
 def test_a_tiny_budget_on_a_huge_image_runs_only_the_probe():
     budget = TimeBudget(0.01, BIG, batch=1)
     end, plans = simulate(budget, lambda p: p.paths * BIG_PATH_SECONDS)
-    assert plans == [PassPlan(0, renderer_module.PROBE_PATHS, 1)]
+    assert plans == [PassPlan(0, time_budget.PROBE_PATHS, 1)]
     assert end == pytest.approx(1e-3 + 1024 * BIG_PATH_SECONDS)  # 12 ms, not 93 s
     assert budget.cursor == 1024
 
@@ -325,7 +326,7 @@ def test_a_pass_over_a_huge_image_is_split_into_ranges_that_end_in_time():
     assert all(p.samples == 1 for p in plans)
     assert [p.first for p in plans] == list(np.cumsum([0] + [p.count for p in plans[:-1]]))
     assert [p.count for p in plans[:3]] == [1024, 4096, 16384]
-    slice_paths = int(renderer_module.SLICE_SECONDS / BIG_PATH_SECONDS)
+    slice_paths = int(time_budget.SLICE_SECONDS / BIG_PATH_SECONDS)
     assert max(p.count for p in plans) <= slice_paths + 1
     assert min(p.count for p in plans) >= TimeBudget.MIN_PATHS
     assert budget.cursor == sum(p.count for p in plans)
@@ -369,7 +370,7 @@ def test_costs_that_vary_by_up_to_twice_per_pixel_still_end_in_time():
 @pytest.mark.gpu
 def test_render_for_seconds_splits_passes_and_divides_each_pixel_by_its_count(monkeypatch):
     # A budget far below one dispatch runs exactly the probe: here 100 pixels of 256.
-    monkeypatch.setattr(renderer_module, "PROBE_PATHS", 100)
+    monkeypatch.setattr(time_budget, "PROBE_PATHS", 100)
     scene = load_preset("fig7")
     split = Renderer(scene, size=(16, 16), seed=5)
     image = split.render(seconds=1e-9)
