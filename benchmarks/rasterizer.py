@@ -44,7 +44,7 @@ __all__ = ["BEGIN_MARKER", "END_MARKER", "FULL", "PRESETS", "QUICK", "Config", "
 
 MODULE = "benchmarks.rasterizer"
 BEGIN_MARKER, END_MARKER = report.markers("bench_rasterizer")
-PRESETS = ("teapot", "fig7", "fig10", "fig11", "fig12", "thin_film", "furnace")
+PRESETS = ("teapot", "fig1", "fig7", "fig10", "fig11", "fig12", "thin_film", "furnace")
 TARGETS = {256: 60.0, 512: 30.0}
 """Frames per second the rasterized teapot must reach at each side (lavapipe, 2 cores)."""
 
