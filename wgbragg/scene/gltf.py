@@ -34,6 +34,7 @@ import numpy as np
 from wgbragg.colour.colorimetry import delta_e_2000
 from wgbragg.common.atomic import atomic_path
 from wgbragg.common.luts import cache_dir
+from wgbragg.common.toml_values import toml_key, toml_value
 from wgbragg.scene import reader  # reader.load_scene dispatches here: a module import
 from wgbragg.scene.gltf_fallback import BRAGG_EXTENSION, metal_colours
 from wgbragg.scene.gltf_io import GltfBuilder, decode_image, read_gltf
@@ -698,33 +699,13 @@ def toml_text(document: dict) -> str:
     for name in ("settings", "camera", "environment"):
         if name in document and document[name] is not None:
             lines.append(f"[{name}]")
-            lines += [f"{_key(k)} = {_value(v)}" for k, v in document[name].items()]
+            lines += [f"{toml_key(k)} = {toml_value(v)}" for k, v in document[name].items()]
     for name, table in document.get("materials", {}).items():
-        lines.append(f"[materials.{_key(name)}]")
-        lines += [f"{_key(k)} = {_value(v)}" for k, v in table.items()]
+        lines.append(f"[materials.{toml_key(name)}]")
+        lines += [f"{toml_key(k)} = {toml_value(v)}" for k, v in table.items()]
     for name in ("objects", "lights"):
         for table in document.get(name, []):
             lines.append(f"[[{name}]]")
-            lines += [f"{_key(k)} = {_value(v)}" for k, v in table.items()]
+            lines += [f"{toml_key(k)} = {toml_value(v)}" for k, v in table.items()]
     return "\n".join(lines) + "\n"
 
-
-def _key(name) -> str:
-    return json.dumps(str(name), ensure_ascii=False).replace("\x7f", "\\u007f")
-
-
-def _value(value) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        return repr(value) if math.isfinite(value) else ("nan" if value != value else
-                                                         ("inf" if value > 0 else "-inf"))
-    if isinstance(value, str):
-        return _key(value)
-    if isinstance(value, list | tuple):
-        return "[" + ", ".join(_value(v) for v in value) + "]"
-    if isinstance(value, dict):
-        return "{" + ", ".join(f"{_key(k)} = {_value(v)}" for k, v in value.items()) + "}"
-    raise ValueError(f"a value of type {type(value).__name__} has no TOML form: {value!r}"[:200])

@@ -31,6 +31,7 @@ import numpy as np
 from PIL import Image
 
 from wgbragg.common.atomic import atomic_path, check_output_path, write_text_atomic
+from wgbragg.common.toml_values import toml_key, toml_value
 from wgbragg.render import Renderer, save_png
 from wgbragg.scene import load_scene, parse_scene
 from wgbragg.scene.model import layer_thicknesses, period_and_delta
@@ -78,23 +79,7 @@ class Frame:
 def toml_text(document: dict) -> str:
     """``document`` (tables, arrays, strings, numbers, booleans) as TOML, each top-level key
     an inline value: what :mod:`tomllib` reads back as the same data."""
-    def value(v) -> str:
-        if isinstance(v, bool):
-            return "true" if v else "false"
-        if isinstance(v, int):
-            return str(v)
-        if isinstance(v, float):
-            return repr(v) if math.isfinite(v) else ("nan" if v != v else
-                                                       ("inf" if v > 0 else "-inf"))
-        if isinstance(v, str):
-            return json.dumps(v, ensure_ascii=False).replace("\x7f", "\\u007f")
-        if isinstance(v, list):
-            return "[" + ", ".join(value(x) for x in v) + "]"
-        if isinstance(v, dict):
-            return "{" + ", ".join(f"{json.dumps(k)} = {value(x)}" for k, x in v.items()) + "}"
-        raise ValueError(f"a scene value of type {type(v).__name__} cannot be varied")
-
-    return "".join(f"{json.dumps(k)} = {value(v)}\n" for k, v in document.items())
+    return "".join(f"{toml_key(k)} = {toml_value(v)}\n" for k, v in document.items())
 
 
 def _name(match: re.Match, quote: str) -> str:
