@@ -20,7 +20,11 @@ lives in the submodule for its job, whose docstring says more:
 - :mod:`~wgbragg.gpu.streams`: block-wise streams of points through kept buffers, for the
   public array calls;
 - :mod:`~wgbragg.gpu.loops`: the device's "Loop budget", measured by a probe kernel, and the
-  iterations kernels plan for.
+  iterations kernels plan for;
+- :mod:`~wgbragg.gpu.bindings`: the bindings a source declares and their layout entries;
+  :mod:`~wgbragg.gpu.rows`: per-invocation inputs made a block at a time (:class:`Rows`);
+- :mod:`~wgbragg.gpu.render_pipelines`: render pipelines (vertex + fragment), cached like
+  compute pipelines, for the rasterizer.
 """
 
 from wgbragg.gpu.device import (
@@ -48,12 +52,12 @@ from wgbragg.gpu.pipelines import (
     DeviceArray,
     Dispatch,
     Kernel,
-    Rows,
     benchmark,
     compute_pipeline,
     pipeline_cache_info,
     submit,
 )
+from wgbragg.gpu.rows import Rows
 from wgbragg.gpu.shaders import ShaderCompileError, ShaderSource, load_shader, shader_dir
 from wgbragg.gpu.timing import PassClock, pass_clock
 

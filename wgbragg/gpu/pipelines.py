@@ -98,7 +98,7 @@ import dataclasses
 import math
 import os
 import re
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -113,9 +113,11 @@ from wgbragg.gpu.arrays import (
     stage_copies,
     submit,
 )
+from wgbragg.gpu.bindings import compute_layout_entries, convention_kinds
 from wgbragg.gpu.buffers import give_buffer, maps_storage, take_buffer
 from wgbragg.gpu.device import adapter_info, get_device
 from wgbragg.gpu.layouts import as_bytes, check_dtype, padded_size
+from wgbragg.gpu.rows import Rows
 from wgbragg.gpu.shaders import ShaderCompileError, ShaderSource, load_shader, shader_error
 from wgbragg.gpu.specialise import BlockError, specialise, strip_comments
 from wgbragg.gpu.timing import (
@@ -138,10 +140,6 @@ MAX_INDEX = 1 << 31
 """Most invocations one dispatch indexes whatever the device: ``global_index`` is a u32, and
 over-dispatched rows must not wrap it."""
 
-_BINDING_RE = re.compile(
-    r"@(group|binding)\s*\(\s*(\d+)\s*\)\s*@(group|binding)\s*\(\s*(\d+)\s*\)\s*"
-    r"var\s*(?:<\s*(\w+)\s*(?:,\s*(\w+)\s*)?>|\w+\s*:\s*(texture_2d\s*<\s*f32\s*>))"
-)
 _OVERRIDE_RE = re.compile(r"(?:@id\s*\(\s*\d+\s*\)\s*)?override\s+(\w+)")
 
 _pipeline_cache: dict[tuple, Kernel] = {}
@@ -149,41 +147,6 @@ _cache_stats = {"hits": 0, "misses": 0}
 
 
 # --------------------------------------------------------------------------- pipelines
-
-
-def _reflect_bindings(source: ShaderSource) -> str:
-    """One letter per binding of ``source``, checked against the convention: ``r`` storage
-    read, ``t`` texture_2d<f32>, ``w`` storage read_write, ``u`` uniform."""
-    code = strip_comments(source.code)
-    found = []
-    for m in _BINDING_RE.finditer(code):
-        attrs = {m.group(1): int(m.group(2)), m.group(3): int(m.group(4))}
-        space, access = m.group(5), m.group(6) or "read"
-        kind = {"storage": access, "uniform": "uniform"}.get(space, space)
-        if m.group(7):
-            kind = "texture"
-        found.append((attrs.get("binding", -1), attrs.get("group", -1), kind))
-    found.sort()
-
-    def fail(detail: str) -> ShaderCompileError:
-        line = code.count("\n", 0, code.find("@binding")) + 1 if "@binding" in code else 1
-        return ShaderCompileError(*source.locate(line), f"binding convention: {detail}")
-
-    if len(found) != len(re.findall(r"@binding\s*\(", code)):
-        raise fail(
-            "only var<storage, read>, var<storage, read_write> and var<uniform> buffers and "
-            "texture_2d<f32> textures"
-        )
-    if [b for b, _, _ in found] != list(range(len(found))) or any(g != 0 for _, g, _ in found):
-        raise fail(f"bindings must be @group(0) @binding(0..n-1), got {found}")
-    letters = {"read": "r", "texture": "t", "read_write": "w", "uniform": "u"}
-    kinds = "".join(letters.get(k, "?") for *_, k in found)
-    if re.fullmatch(r"[rt]*w*u?", kinds) is None:
-        raise fail(
-            "order must be inputs (read, texture_2d<f32>), outputs (read_write), "
-            f"params (uniform); got {found}"
-        )
-    return kinds
 
 
 def compute_pipeline(
@@ -250,22 +213,6 @@ def pipeline_cache_info() -> dict[str, int]:
 # --------------------------------------------------------------------------- kernels
 
 
-def _layout_entries(kinds: str) -> list[dict[str, Any]]:
-    """Bind group layout entries for bindings of ``kinds``, one letter each as
-    :func:`_reflect_bindings` gives them."""
-    buffer_type = {
-        "r": wgpu.BufferBindingType.read_only_storage,
-        "w": wgpu.BufferBindingType.storage,
-        "u": wgpu.BufferBindingType.uniform,
-    }
-    texture = {"sample_type": wgpu.TextureSampleType.unfilterable_float, "view_dimension": "2d"}
-    return [
-        {"binding": i, "visibility": wgpu.ShaderStage.COMPUTE}
-        | ({"texture": texture} if k == "t" else {"buffer": {"type": buffer_type[k]}})
-        for i, k in enumerate(kinds)
-    ]
-
-
 class Kernel:
     """A compiled compute pipeline following the harness binding convention.
 
@@ -294,7 +241,7 @@ class Kernel:
         self.entry = entry
         self.constants = dict(constants)
         self.workgroup_size = int(self.constants["WORKGROUP_SIZE"])
-        kinds = _reflect_bindings(source)
+        kinds = convention_kinds(source)
         self.n_inputs = sum(k in "rt" for k in kinds)
         self.n_outputs = kinds.count("w")
         self.has_params = "u" in kinds
@@ -307,7 +254,7 @@ class Kernel:
         """Create the bind group layout of ``kinds`` and the pipeline, as ``_layout`` and
         ``pipeline``."""
         device, source, entry = self._device, self.source, self.entry
-        entries = _layout_entries(kinds)
+        entries = compute_layout_entries(kinds)
         try:
             module = device.create_shader_module(label=source.name, code=source.code)
             self._layout = device.create_bind_group_layout(entries=entries)
@@ -789,59 +736,3 @@ def _zero_outputs(
 
 
 # --------------------------------------------------------------------------- streamed inputs
-
-
-@dataclasses.dataclass(frozen=True)
-class Rows:
-    """A per-invocation input of a pointwise :meth:`Kernel.run`, made a block of rows at a
-    time.
-
-    Row ``i`` is what invocation ``i`` reads (``array<T>`` element ``i``; a trailing
-    ``row_shape`` for vector or struct elements, e.g. ``(8,)`` float32 for two ``vec4``).
-    :meth:`Kernel.run` calls ``make(start, stop)`` for the rows of each block, in order, and
-    uploads them; the rows of the whole count never exist at once (see "Any element count:
-    pointwise kernels" in the module docstring).
-
-    Attributes
-    ----------
-    make : callable
-        ``make(start, stop)`` returns rows ``start .. stop - 1``: shape
-        ``(stop - start, *row_shape)``, dtype ``dtype`` (not cast: convert explicitly).
-    row_shape : tuple of int
-        Shape of one row beyond the first axis.
-    dtype : numpy.dtype
-        One the harness allows (see the module docstring).
-    """
-
-    make: Callable[[int, int], np.ndarray]
-    row_shape: tuple[int, ...] = ()
-    dtype: Any = np.float32
-
-    def __post_init__(self):
-        object.__setattr__(self, "row_shape", tuple(int(n) for n in self.row_shape))
-        object.__setattr__(self, "dtype", check_dtype(self.dtype, "Rows"))
-
-    @classmethod
-    def of(cls, array: np.ndarray) -> Rows:
-        """The rows of an array already on the host (its first axis)."""
-        array = np.asarray(array)
-        if array.ndim == 0:
-            raise ValueError("Rows.of takes an array with a first axis (one row an invocation)")
-        return cls(lambda start, stop: array[start:stop], array.shape[1:], array.dtype)
-
-    @property
-    def row_bytes(self) -> int:
-        """Bytes of one row."""
-        return math.prod(self.row_shape) * self.dtype.itemsize
-
-    def block(self, start: int, stop: int, what: str = "Rows") -> np.ndarray:
-        """Rows ``start .. stop - 1`` from :attr:`make`, checked."""
-        data = np.asarray(self.make(start, stop))
-        want = (stop - start, *self.row_shape)
-        if data.shape != want:
-            raise ValueError(f"{what}: make({start}, {stop}) returned shape {data.shape}, "
-                             f"expected {want}")
-        if data.dtype.newbyteorder("=") != self.dtype.newbyteorder("="):
-            raise TypeError(f"{what}: make({start}, {stop}) returned dtype {data.dtype}, "
-                            f"expected {self.dtype}; convert explicitly")
-        return data

@@ -17,57 +17,34 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 import wgpu
 
+from wgbragg.gpu.bindings import declared_bindings, layout_entry
 from wgbragg.gpu.device import get_device
 from wgbragg.gpu.shaders import ShaderCompileError, load_shader, shader_error
-from wgbragg.gpu.specialise import BlockError, specialise, strip_comments
+from wgbragg.gpu.specialise import BlockError, specialise
 
 __all__ = ["RenderKernel", "render_pipeline"]
-
-_DECLARATION_RE = re.compile(
-    r"@group\s*\(\s*(\d+)\s*\)\s*@binding\s*\(\s*(\d+)\s*\)\s*var\s*"
-    r"(?:<\s*(storage|uniform)\s*(?:,\s*(\w+)\s*)?>\s*\w+\s*:|\w+\s*:\s*(\w+))")
 
 _STAGES = wgpu.ShaderStage.VERTEX | wgpu.ShaderStage.FRAGMENT
 
 _cache: dict[tuple, RenderKernel] = {}
 
 
-def _layout_entry(binding: int, space: str | None, access: str | None,
-                  handle: str | None) -> dict[str, Any]:
-    entry = {"binding": binding, "visibility": _STAGES}
-    if space == "uniform":
-        return entry | {"buffer": {"type": wgpu.BufferBindingType.uniform}}
-    if space == "storage":
-        if access not in (None, "read"):
-            raise ValueError("render pipelines read storage buffers only (var<storage, read>)")
-        return entry | {"buffer": {"type": wgpu.BufferBindingType.read_only_storage}}
-    if handle == "texture_2d":
-        return entry | {"texture": {"sample_type": wgpu.TextureSampleType.unfilterable_float,
-                                    "view_dimension": "2d"}}
-    if handle == "texture_depth_2d_array":
-        return entry | {"texture": {"sample_type": wgpu.TextureSampleType.depth,
-                                    "view_dimension": "2d-array"}}
-    if handle == "sampler_comparison":
-        return entry | {"sampler": {"type": wgpu.SamplerBindingType.comparison}}
-    raise ValueError(f"binding {binding}: unsupported declaration {handle!r}")
-
-
 def _layouts(code: str) -> list[list[dict[str, Any]]]:
     """Layout entries of each bind group the source declares, in group order."""
     groups: dict[int, list] = {}
-    for m in _DECLARATION_RE.finditer(strip_comments(code)):
-        group, binding = int(m.group(1)), int(m.group(2))
-        groups.setdefault(group, []).append(_layout_entry(binding, m.group(3), m.group(4),
-                                                          m.group(5)))
+    for declared in declared_bindings(code):
+        if declared.kind == "read_write":
+            raise ValueError("render pipelines read storage buffers only (var<storage, read>)")
+        groups.setdefault(declared.group, []).append(
+            layout_entry(declared.binding, declared.kind, _STAGES))
     if sorted(groups) != list(range(len(groups))):
         raise ValueError(f"bind groups must be numbered 0..n-1, got {sorted(groups)}")
-    return [sorted(groups[g], key=lambda e: e["binding"]) for g in sorted(groups)]
+    return [groups[g] for g in sorted(groups)]
 
 
 @dataclasses.dataclass(frozen=True)

@@ -1,6 +1,6 @@
 """Streams of blocks through a pointwise kernel, formed by the caller in place.
 
-:meth:`~wgbragg.gpu.pipelines.Kernel.run` with :class:`~wgbragg.gpu.pipelines.Rows` asks a
+:meth:`~wgbragg.gpu.pipelines.Kernel.run` with :class:`~wgbragg.gpu.rows.Rows` asks a
 function for each block's rows and returns new host outputs. A :class:`Stream` is the
 lower-level loop under a fast public call: the caller writes each block's rows into host
 arrays the stream keeps (:meth:`Stream.inputs`), hands them over with the host arrays that
